@@ -1,0 +1,1 @@
+"""Benchmarks against the peers named in the issues (``make bench``)."""

@@ -1,0 +1,40 @@
+"""The ``contactlab`` command line: one module per verb, each a thin layer
+over the library (import name ``contactlab.cli``)."""
+
+from __future__ import annotations
+
+import click
+
+from contactlab import __version__
+from contactlab.cli.common import ContactlabGroup, not_available
+from contactlab.cli.import_ import import_cmd
+from contactlab.cli.info import info
+from contactlab.cli.report import report
+from contactlab.cli.reproduce import reproduce
+from contactlab.cli.validate import validate
+
+
+@click.group(cls=ContactlabGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--debug", is_flag=True, help="Show tracebacks instead of one-line errors.")
+@click.version_option(__version__, prog_name="contactlab")
+def main(debug: bool) -> None:
+    """Statistical contact sensing over HDF5 trace archives (Eberman 1995).
+
+    \b
+    Stages: acquire, segment, label, estimate, recognize, train, report,
+    plus validate, import, info and reproduce. Example:
+      contactlab reproduce ph-demo --out reports
+    """
+
+
+main.add_command(validate)
+main.add_command(info)
+main.add_command(import_cmd)
+main.add_command(report)
+main.add_command(reproduce)
+main.add_command(not_available("acquire", "Simulator and acquire"))
+main.add_command(not_available("segment", "Temporal features"))
+main.add_command(not_available("train", "Temporal features"))
+main.add_command(not_available("label", "Temporal features"))
+main.add_command(not_available("estimate", "Constraint estimation"))
+main.add_command(not_available("recognize", "Feature graphs and observer"))

@@ -1,0 +1,38 @@
+"""contactlab report: a figure report (HTML + PDF) of what an archive holds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+
+
+@click.command()
+@archive_argument
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory [default: reports/ARCHIVE-STEM].")
+@click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@json_option
+@quiet_option
+def report(archive, out, trials, as_json, quiet):
+    """Write a thesis-style figure report of ARCHIVE: signals, truth and results.
+
+    Each trial's position, velocity, force, strains, high-frequency
+    log-energy and ground truth, plus whatever later stages wrote in its
+    results part, as OUT/index.html with PNG figures and OUT/report.pdf.
+
+    \b
+    Examples:
+      contactlab report runs.h5
+      contactlab report runs.h5 --out reports/runs --trial t001
+    """
+    from contactlab.report.archive_report import report_archive
+
+    out = out if out is not None else Path("reports") / archive.stem
+    summary = report_archive(archive, out_dir=out, trials=list(trials) or None, quiet=quiet)
+    if as_json:
+        echo_json(summary)
+    else:
+        click.echo(f"{archive}: {len(summary['trials'])} trials -> {summary['html']}, {summary['pdf']}")

@@ -1,0 +1,60 @@
+"""contactlab reproduce: run thesis experiments and write their reports."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from contactlab.cli.common import echo_json, json_option, quiet_option, seed_option
+from contactlab.experiments import EXPERIMENTS
+from contactlab.experiments.runner import reproduce as run_experiments
+from contactlab.experiments.runner import resolve
+
+
+@click.command()
+@click.argument("names", nargs=-1)
+@click.option("--all", "run_all", is_flag=True, help="Run every implemented experiment.")
+@click.option("--list", "list_only", is_flag=True, help="List the experiments and their status.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("reports"),
+              show_default=True, help="Directory the reports are written under (out/NAME/).")
+@seed_option
+@json_option
+@quiet_option
+def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
+    """Run thesis experiments end to end; write figures and tables beside the thesis's.
+
+    Each experiment writes OUT/NAME/index.html, report.pdf, results.json and
+    its PNG figures; OUT/index.html lists them all. With --json and one
+    experiment, the object is that experiment's summary; with several, it is
+    {"experiments": {NAME: summary}}.
+
+    \b
+    Examples:
+      contactlab reproduce --list
+      contactlab reproduce ph-demo --out reports --seed 1
+      contactlab reproduce ph-demo --json
+      contactlab reproduce --all
+    """
+    if list_only:
+        rows = [{"name": e.name, "title": e.title, "thesis": e.thesis, "status": e.status}
+                for e in EXPERIMENTS.values()]
+        if as_json:
+            echo_json({"experiments": rows})
+        else:
+            width = max(len(r["name"]) for r in rows)
+            for r in rows:
+                click.echo(f"{r['name']:<{width}}  {r['status']:<40}  {r['thesis']}")
+        return
+    experiments = resolve(list(names), run_all=run_all)
+    summaries = run_experiments(experiments, out=out, seed=seed, quiet=quiet)
+    if as_json:
+        if len(summaries) == 1:
+            (name, summary), = summaries.items()
+            echo_json({"name": name, "out_dir": str(out / name), "seed": seed, **summary})
+        else:
+            echo_json({"out_dir": str(out), "seed": seed, "experiments": summaries})
+        return
+    for name, summary in summaries.items():
+        click.echo(f"{name}: {out / name / 'index.html'} ({summary.get('wall_time_s', 0):.1f} s)")
+    click.echo(f"index: {out / 'index.html'}")

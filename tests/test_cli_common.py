@@ -1,0 +1,71 @@
+"""The CLI's shared behaviour: help with examples, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from contactlab.cli import main
+from contactlab.experiments import EXPERIMENTS
+
+VERBS = ["acquire", "validate", "import", "info", "segment", "label", "estimate", "train",
+         "recognize", "report", "reproduce"]
+
+
+@pytest.mark.parametrize("verb", VERBS)
+def test_every_verb_has_help_with_an_example(verb):
+    result = CliRunner().invoke(main, [verb, "--help"])
+    assert result.exit_code == 0
+    assert "Example" in result.output
+    assert f"contactlab {verb}" in result.output
+
+
+@pytest.mark.parametrize("verb", ["acquire", "segment", "label", "estimate", "train", "recognize"])
+def test_unavailable_verbs_say_so_in_one_line(verb):
+    result = CliRunner().invoke(main, [verb, "x.h5"])
+    assert result.exit_code == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert "not available yet" in result.stderr
+
+
+def test_reproduce_list_json_names_every_experiment():
+    result = CliRunner().invoke(main, ["reproduce", "--list", "--json"])
+    assert result.exit_code == 0
+    listed = {e["name"]: e["status"] for e in json.loads(result.stdout)["experiments"]}
+    assert set(listed) == set(EXPERIMENTS)
+    assert listed["ph-demo"] == "implemented"
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["reproduce", "no-such-experiment"], "unknown experiment"),
+    (["reproduce", "maze"], "not implemented yet"),
+    (["reproduce"], "--all"),
+])
+def test_reproduce_usage_errors_exit_2_in_one_line(args, fragment):
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0]
+
+
+def test_missing_archive_is_a_one_line_data_error_without_traceback(tmp_path):
+    missing = tmp_path / "nope.h5"
+    proc = subprocess.run([sys.executable, "-m", "contactlab", "report", str(missing)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "nope.h5" in lines[0]
+    assert "Traceback" not in proc.stderr
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    missing = tmp_path / "nope.h5"
+    proc = subprocess.run([sys.executable, "-m", "contactlab", "--debug", "report", str(missing)],
+                          capture_output=True, text=True)
+    assert proc.returncode != 0
+    assert "Traceback" in proc.stderr
