@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
-from contactlab.conditioning import difference, log_energy  # noqa: E402
+from contactlab.conditioning import condition_strains  # noqa: E402
 from contactlab.errors import DataError  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -103,10 +103,9 @@ def _plot_measurements(trial):
     if trial.strain is not None:
         panels.append(("strain", t, trial.strain, None))
     if hf_source is not None and len(t) > 16:
-        hf = log_energy(difference(hf_source), block=8, factor=4)
-        th = t[:: 4][: len(hf)] if len(hf) else t[:0]
-        th = np.linspace(t[0], t[-1], len(hf)) if len(th) != len(hf) else th
-        panels.append(("log-energy y_h", th, hf, None))
+        cond = condition_strains(hf_source, fs=trial.rate_hz)
+        # plotted at the newest input sample of each block (causal, as on line)
+        panels.append(("log-energy y_h", cond.hf_times(t[0]), cond.hf, None))
     has_labels = trial.labels is not None
     n = len(panels) + (1 if has_labels else 0)
     fig, axes = plt.subplots(max(n, 1), 1, figsize=(10, 1.9 * max(n, 1) + 0.6), sharex=True,

@@ -1,0 +1,52 @@
+"""contactlab validate: check an archive against datasets_spec/archive.schema.json."""
+
+from __future__ import annotations
+
+import click
+
+from contactlab.archive import open_archive, summarize, validate_archive
+from contactlab.cli.common import PROG, archive_argument, echo_json, json_option
+from contactlab.errors import DataError
+
+
+@click.command()
+@archive_argument
+@json_option
+def validate(archive, as_json):
+    """Check that ARCHIVE follows the archive format (datasets_spec/ARCHIVE.md).
+
+    Exit status 0 and a one-line summary when it conforms; otherwise one
+    line per problem on stdout, "HDF5-PATH: what is wrong", and exit status 1.
+    --json prints {"file", "ok", "problems": [{"path", "message"}], "trials"}
+    ("trials" is null when the file cannot be read as an archive).
+
+    \b
+    Examples:
+      contactlab validate runs.h5
+      contactlab validate runs.h5 --json
+    """
+    problems = validate_archive(archive)
+    summary = summarize(archive) if not problems else None
+    if as_json:
+        echo_json({"file": str(archive), "ok": not problems,
+                   "problems": [{"path": p.path, "message": p.message} for p in problems],
+                   "trials": summary["n_trials"] if summary else _count_trials(archive)})
+    elif summary:
+        click.echo(f"{archive}: ok, {summary['n_trials']} trials, {summary['n_samples']} "
+                   f"samples ({summary['duration_s']:.3g} s), format "
+                   f"{summary['format_version']}")
+    else:
+        for problem in problems:
+            click.echo(str(problem))
+        click.echo(f"{PROG}: {archive}: does not conform ({len(problems)} "
+                   f"problem{'s' if len(problems) != 1 else ''})", err=True)
+    if problems:
+        click.get_current_context().exit(1)
+
+
+def _count_trials(path) -> int | None:
+    try:
+        with open_archive(path) as archive:
+            return len(archive)
+    except DataError:  # not readable as an archive at all: the problems say why
+        return None

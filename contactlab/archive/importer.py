@@ -1,0 +1,252 @@
+"""CSV import: one trial per CSV file, columns mapped onto archive fields.
+
+A column map says which CSV columns hold which archive field::
+
+    {"time": "t", "wrench": "fx,fy,fz,tx,ty,tz", "position": ["x", "y", "z"],
+     "strain": "s*", "labels": "state"}
+
+Vector fields take a list of names, a comma-separated string, or glob patterns
+(``s*``, ``s[0-7]``) matched against the header in file order. As text (the
+CLI's ``--columns``) the same map reads ``time=t;wrench=fx,fy,fz,tx,ty,tz;strain=s*``.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from contactlab.archive import spec
+from contactlab.archive.writer import create_archive
+from contactlab.errors import DataError, UsageError
+from contactlab.progress import progress
+
+#: Fields that take exactly one column.
+SCALAR_FIELDS = ("time", "labels", "action")
+#: Fields that take several columns; the width is fixed by the schema where it says so.
+VECTOR_FIELDS = ("strain", "wrench", "position", "velocity")
+FIELDS = SCALAR_FIELDS + VECTOR_FIELDS
+
+
+def parse_column_map(text: str) -> dict[str, list[str]]:
+    """``"time=t;wrench=fx,fy,fz,tx,ty,tz"`` (or a path to a JSON file) -> a column map.
+
+    Raises UsageError saying what is wrong with the text.
+    """
+    text = text.strip()
+    path = Path(text)
+    if text.endswith(".json") or (path.is_file() and "=" not in text):
+        try:
+            raw = json.loads(path.read_text(encoding="utf-8"))
+        except OSError as err:
+            raise UsageError(f"cannot read column map file {text}: {err.strerror}") from None
+        except ValueError as err:
+            raise UsageError(f"column map file {text} is not valid JSON: {err}") from None
+        if not isinstance(raw, dict):
+            raise UsageError(f"column map file {text} must hold one JSON object")
+        return normalize_column_map(raw)
+    mapping: dict[str, str] = {}
+    for part in filter(None, (p.strip() for p in text.split(";"))):
+        field, eq, cols = part.partition("=")
+        field = field.strip()
+        if not eq or not field or not cols.strip():
+            raise UsageError(f"column map entry {part!r} is not FIELD=COLUMN[,COLUMN...]")
+        if field in mapping:
+            raise UsageError(f"column map names field {field!r} twice")
+        mapping[field] = cols
+    if not mapping:
+        raise UsageError("column map is empty")
+    return normalize_column_map(mapping)
+
+
+def normalize_column_map(columns: dict) -> dict[str, list[str]]:
+    """Check field names and turn every value into a list of column names/patterns."""
+    out: dict[str, list[str]] = {}
+    for field, value in columns.items():
+        if field not in FIELDS:
+            raise UsageError(f"unknown field {field!r} in the column map (fields: "
+                             f"{', '.join(FIELDS)})")
+        names = value.split(",") if isinstance(value, str) else list(value)
+        names = [str(n).strip() for n in names if str(n).strip()]
+        if not names:
+            raise UsageError(f"field {field!r} maps to no column")
+        if field in SCALAR_FIELDS and (len(names) > 1 or _is_pattern(names[0])):
+            raise UsageError(f"field {field!r} takes exactly one column, not {value!r}")
+        out[field] = names
+    if "strain" not in out and "wrench" not in out:
+        raise UsageError("the column map needs strain or wrench")
+    return out
+
+
+def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike,
+               columns: dict, rate_hz: float | None = None, force: bool = False,
+               label_names: Sequence[str] | None = None, controller: str = "",
+               environment: str = "", quiet: bool = False) -> Path:
+    """Write one archive trial per CSV file (trial id = file stem); return ``out``.
+
+    ``rate_hz`` defaults to 1 / the median time step of each file; with no time
+    column it is required and times are i / rate_hz. Label columns may hold
+    names (collected over all files in order of appearance, or checked against
+    ``label_names``) or integer codes; empty cells are unlabelled (-1).
+    """
+    mapping = normalize_column_map(columns)
+    paths = [Path(p) for p in csv_paths]
+    if not paths:
+        raise UsageError("no CSV files given")
+    if "time" not in mapping and rate_hz is None:
+        raise UsageError("without a time column the rate must be given")
+    stems = [p.stem for p in paths]
+    dup = next((s for s in stems if stems.count(s) > 1), None)
+    if dup is not None:
+        raise UsageError(f"two CSV files give the same trial id {dup!r}")
+    tables = [_read_table(p, mapping, rate_hz)
+              for p in progress(paths, total=len(paths), desc="import", quiet=quiet, unit="file")]
+    names = _label_names(tables, paths, mapping, label_names)
+    out = Path(out)
+    with create_archive(out, force=force) as archive:
+        for path, table in zip(paths, tables):
+            trial = archive.add_trial(path.stem, rate_hz=table.pop("rate_hz"),
+                                      controller=controller, environment=environment,
+                                      source="import", description=f"imported from {path.name}")
+            labels = table.pop("labels", None)
+            trial.append(**table)
+            if labels is not None:
+                trial.set_ground_truth(labels=_label_codes(labels, names, path, mapping),
+                                       names=names)
+            trial.close()
+    return out
+
+
+def _is_pattern(name: str) -> bool:
+    return any(c in name for c in "*?[")
+
+
+def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None) -> dict:
+    try:
+        frame = pd.read_csv(path, skipinitialspace=True)
+    except (OSError, ValueError, UnicodeDecodeError, pd.errors.ParserError) as err:
+        first = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise DataError(f"cannot be read as CSV ({first})", file=str(path)) from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    if frame.empty:
+        raise DataError("no data rows", file=str(path))
+    table: dict = {}
+    named = {n for names in mapping.values() for n in names if not _is_pattern(n)}
+    for field, names in mapping.items():
+        cols = _resolve(path, frame, field, names, exclude=named)
+        if field == "labels":
+            table[field] = frame[cols[0]]
+            continue
+        values = np.column_stack([_numeric(path, frame, c) for c in cols])
+        rule = spec.trailing_shape(spec.MEASUREMENTS, field)
+        if field in VECTOR_FIELDS and isinstance(rule[0], int) and values.shape[1] != rule[0]:
+            raise DataError(f"field {field} needs {rule[0]} columns, the map gives "
+                            f"{values.shape[1]} ({', '.join(cols)})", file=str(path),
+                            field=field)
+        if field == "action":
+            if not np.all(values == np.round(values)):
+                raise DataError("action codes must be integers", file=str(path), field=cols[0])
+            values = values.astype(np.int64)
+        table[field] = values[:, 0] if field in SCALAR_FIELDS else values
+    n = len(frame)
+    if "time" in table:
+        t = table["time"]
+        step = np.diff(t)
+        if np.any(step <= 0):
+            i = int(np.flatnonzero(step <= 0)[0]) + 1
+            raise DataError(f"time is not strictly increasing (data row {i + 1})",
+                            file=str(path), field=mapping["time"][0])
+        if len(t) < 2 and rate_hz is None:
+            raise DataError("cannot infer the rate from fewer than 2 samples; give the rate",
+                            file=str(path), field=mapping["time"][0])
+        if len(t) >= 2:
+            dt = float(np.median(step))
+            if rate_hz is None:
+                table["rate_hz"] = 1.0 / dt
+            elif abs(dt * rate_hz - 1.0) > spec.RATE_TOLERANCE:
+                raise DataError(f"median time step {dt:.6g} s disagrees with the given rate "
+                                f"{rate_hz:g} Hz", file=str(path), field=mapping["time"][0])
+    else:
+        table["time"] = np.arange(n) / rate_hz
+    table.setdefault("rate_hz", rate_hz)
+    return table
+
+
+def _resolve(path: Path, frame: pd.DataFrame, field: str, names: list[str], *,
+             exclude: set[str]) -> list[str]:
+    """CSV columns of one field; patterns skip columns that the map names explicitly."""
+    header = list(frame.columns)
+    cols: list[str] = []
+    for name in names:
+        if _is_pattern(name):
+            found = [c for c in fnmatch.filter(header, name) if c not in exclude]
+        else:
+            found = [name] if name in header else []
+        if not found:
+            raise DataError(f"no such column (field {field}; columns are "
+                            f"{', '.join(header[:12])}{', ...' if len(header) > 12 else ''})",
+                            file=str(path), field=name)
+        cols.extend(c for c in found if c not in cols)
+    return cols
+
+
+def _numeric(path: Path, frame: pd.DataFrame, col: str) -> np.ndarray:
+    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=np.float64,
+                                                                  na_value=np.nan)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise DataError(f"{int(bad.sum())} empty or non-numeric cells (first: data row {i + 1}, "
+                        f"{frame[col].iloc[i]!r})", file=str(path), field=col)
+    return values
+
+
+def _label_names(tables: list[dict], paths: list[Path], mapping: dict,
+                 given: Sequence[str] | None) -> list[str]:
+    if "labels" not in mapping:
+        return []
+    if given is not None:
+        return [str(n) for n in given]
+    found: dict[str, None] = {}
+    top = -1
+    for table, path in zip(tables, paths):
+        column = table["labels"]
+        if pd.api.types.is_numeric_dtype(column):
+            codes = _label_codes(column, None, path, mapping)
+            top = max(top, int(codes.max(initial=-1)))
+        else:
+            found.update(dict.fromkeys(str(v).strip() for v in column.dropna()))
+    if found and top >= 0:
+        raise DataError("label columns mix names and integer codes across files",
+                        file=str(paths[0]), field=mapping["labels"][0])
+    return list(found) if found else [str(i) for i in range(top + 1)]
+
+
+def _label_codes(column: pd.Series, names: list[str] | None, path: Path,
+                 mapping: dict) -> np.ndarray:
+    col = mapping["labels"][0]
+    if pd.api.types.is_numeric_dtype(column):
+        values = column.to_numpy(dtype=np.float64, na_value=np.nan)
+        values = np.where(np.isnan(values), -1.0, values)
+        if not np.all(values == np.round(values)) or values.min(initial=-1) < -1:
+            raise DataError("integer label codes must be whole numbers >= -1", file=str(path),
+                            field=col)
+        codes = values.astype(np.int64)
+        if names is not None and codes.max(initial=-1) >= len(names):
+            raise DataError(f"label code {int(codes.max())} has no name ({len(names)} names)",
+                            file=str(path), field=col)
+        return codes
+    index = {name: i for i, name in enumerate(names or [])}
+    text = column.astype("string").str.strip()
+    codes = text.map(index)
+    unknown = text.notna().to_numpy() & codes.isna().to_numpy()
+    if unknown.any():
+        label = text.iloc[int(np.flatnonzero(unknown)[0])]
+        raise DataError(f"label {label!r} is not one of the label names "
+                        f"({', '.join(index)})", file=str(path), field=col)
+    return codes.fillna(-1).to_numpy(dtype=np.int64)

@@ -1,0 +1,341 @@
+"""Check a file against ``archive.schema.json`` and name every offending HDF5 path.
+
+:func:`validate_archive` never raises for bad input: it returns a list of
+:class:`Problem` (empty when the file conforms). The walk is driven by the
+schema (see ``datasets_spec/ARCHIVE.md``); the value checks the schema names
+(``finite``, ``matches_rate``, ...) are the functions in :data:`CHECKS`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import jsonschema
+import numpy as np
+
+from contactlab.archive import spec
+from contactlab.archive.reader import archive_version_problem, h5_reason
+
+@dataclass(frozen=True)
+class Problem:
+    """One way a file does not conform: where (HDF5 path or file name) and what."""
+
+    path: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.message}"
+
+
+def validate_archive(path: str | os.PathLike) -> list[Problem]:
+    """Every way the file at ``path`` departs from the archive format ([] = conforms)."""
+    name = str(path)
+    path = Path(path)
+    if not path.exists():
+        return [Problem(name, "no such file")]
+    if not path.is_file():
+        return [Problem(name, "not a file")]
+    if not h5py.is_hdf5(path):
+        return [Problem(name, "not an HDF5 file")]
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as err:
+        return [Problem(name, h5_reason(err))]
+    with h5:
+        try:
+            problem = archive_version_problem(h5)
+        except Exception as err:  # noqa: BLE001 - a corrupt root is a problem, not a crash
+            return [Problem(name, h5_reason(err))]
+        if problem:
+            return [Problem(name, problem)]
+        walker = _Walker()
+        walker.group(h5, spec.schema()["root"], scope=None)
+        return walker.problems
+
+
+# -- value checks named by the schema -------------------------------------------------
+
+@dataclass
+class _Scope:
+    """The group that binds 'n' (a trial) and its time base."""
+
+    group: h5py.Group
+    time_path: str
+    n: int | None = None
+
+    def time(self) -> np.ndarray | None:
+        ds = self.group.get(self.time_path)
+        if isinstance(ds, h5py.Dataset) and ds.ndim == 1 and ds.dtype.kind == "f":
+            return ds[()]
+        return None
+
+    def rate_hz(self) -> float | None:
+        rate = spec.to_plain(self.group.attrs.get("rate_hz"))
+        if isinstance(rate, (int, float)) and not isinstance(rate, bool) and rate > 0 \
+                and np.isfinite(rate):
+            return float(rate)
+        return None
+
+
+def _first(mask: np.ndarray) -> int:
+    return int(np.flatnonzero(mask)[0])
+
+
+def _check_finite(ds: h5py.Dataset, data: np.ndarray, scope: _Scope | None) -> list[str]:
+    fields = ([f for f in data.dtype.names if data.dtype[f].kind == "f"]
+              if data.dtype.names else [None])
+    out = []
+    for f in fields:
+        values = data if f is None else data[f]
+        bad = ~np.isfinite(values)
+        if bad.any():
+            where = np.argwhere(bad)[0]
+            out.append(f"{int(bad.sum())} non-finite values (NaN or Inf)"
+                       f"{'' if f is None else f' in field {f}'}, first at index "
+                       f"{tuple(int(i) for i in where) if len(where) > 1 else int(where[0])}")
+    return out
+
+
+def _check_strictly_increasing(ds, data, scope) -> list[str]:
+    step = np.diff(data)
+    bad = step <= 0
+    if not bad.any():
+        return []
+    i = _first(bad)
+    return [f"not strictly increasing: sample {i + 1} ({data[i + 1]:.9g} s) does not follow "
+            f"sample {i} ({data[i]:.9g} s); {int(bad.sum())} such steps"]
+
+
+def _check_matches_rate(ds, data, scope) -> list[str]:
+    rate = scope.rate_hz() if scope else None
+    if rate is None or len(data) < 2:
+        return []
+    dt = float(np.median(np.diff(data)))
+    if abs(dt * rate - 1.0) <= spec.RATE_TOLERANCE:
+        return []
+    implied = f"{1.0 / dt:.6g} Hz" if dt > 0 else "no rate"
+    return [f"median time step {dt:.6g} s implies {implied}, but the trial's rate_hz is "
+            f"{rate:g} (tolerance {spec.RATE_TOLERANCE:.0%})"]
+
+
+def _names(ds: h5py.Dataset) -> list[str] | None:
+    names = spec.to_plain(ds.attrs.get("names"))
+    return names if isinstance(names, list) else None
+
+
+def _check_label_codes(ds, data, scope) -> list[str]:
+    names = _names(ds)
+    if names is None:
+        return []
+    bad = (data < -1) | (data >= len(names))
+    if not bad.any():
+        return []
+    i = _first(bad)
+    return [f"{int(bad.sum())} samples with an unknown label code (first: code {int(data[i])} "
+            f"at sample {i}; names has {len(names)} entries, -1 = unlabelled)"]
+
+
+def _check_segments(ds, data, scope) -> list[str]:
+    out = []
+    start, end, label = data["start_s"], data["end_s"], data["label"]
+    backwards = end < start
+    if backwards.any():
+        i = _first(backwards)
+        out.append(f"{int(backwards.sum())} segments end before they start (first: row {i}, "
+                   f"start_s {start[i]:.9g}, end_s {end[i]:.9g})")
+    time = scope.time() if scope else None
+    if time is not None and len(time):
+        rate = scope.rate_hz()
+        period = 1.0 / rate if rate else 0.0
+        lo, hi = time[0] - 1e-9, time[-1] + period * (1 + 1e-6) + 1e-9
+        outside = (start < lo) | (end > hi) | (start > hi) | (end < lo)
+        if outside.any():
+            i = _first(outside)
+            out.append(f"{int(outside.sum())} segments outside the time base "
+                       f"[{time[0]:g}, {time[-1] + period:g}] s (first: row {i}, "
+                       f"{start[i]:g}-{end[i]:g} s)")
+    names = _names(ds)
+    if names is not None:
+        unknown = (label < -1) | (label >= len(names))
+        if unknown.any():
+            i = _first(unknown)
+            out.append(f"{int(unknown.sum())} segments with an unknown label code (first: row "
+                       f"{i}, code {int(label[i])}; names has {len(names)} entries)")
+    return out
+
+
+#: check name (as used in the schema) -> function(dataset, data, scope) -> messages.
+CHECKS: dict[str, Callable] = {
+    "finite": _check_finite,
+    "strictly_increasing": _check_strictly_increasing,
+    "matches_rate": _check_matches_rate,
+    "label_codes": _check_label_codes,
+    "segments": _check_segments,
+}
+
+
+def _check_json_attr(value) -> str | None:
+    try:
+        json.loads(value)
+    except (TypeError, ValueError) as err:
+        return f"is not valid JSON ({err})"
+    return None
+
+
+#: attribute check name -> function(value) -> message or None.
+ATTRIBUTE_CHECKS: dict[str, Callable] = {"json": _check_json_attr}
+
+
+# -- the schema walk ------------------------------------------------------------------
+
+class _Walker:
+    """Walks an HDF5 tree beside the schema, collecting problems."""
+
+    def __init__(self):
+        self.problems: list[Problem] = []
+
+    def report(self, path: str, message: str) -> None:
+        self.problems.append(Problem(path, message))
+
+    def group(self, group: h5py.Group, node: dict, scope: _Scope | None) -> None:
+        path = group.name
+        if "symbols" in node:
+            scope = self._bind(group, node["symbols"])
+        self.attributes(group, node.get("attributes", {}), symbols={})
+        members = node.get("members", {})
+        for name, child in members.items():
+            self.member(group, name, child, scope)
+        if "require_any" in node and not any(n in group for n in node["require_any"]):
+            self.report(path, f"needs at least one of {', '.join(node['require_any'])}")
+        each = node.get("each")
+        if each is not None:
+            for name in sorted(group.keys()):
+                if name not in members:
+                    self.member(group, name, each, scope)
+
+    def member(self, parent: h5py.Group, name: str, node: dict, scope: _Scope | None) -> None:
+        path = f"{parent.name.rstrip('/')}/{name}"
+        kind = node["kind"]
+        try:
+            obj = parent.get(name)
+            if obj is None:
+                if node.get("required"):
+                    self.report(path, f"missing {kind}")
+                return
+            expected = h5py.Group if kind == "group" else h5py.Dataset
+            if not isinstance(obj, expected):
+                self.report(path, f"is a {type(obj).__name__.lower()}, expected a {kind}")
+                return
+            if kind == "group":
+                self.group(obj, node, scope)
+            else:
+                self.dataset(obj, node, scope)
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as err:
+            self.report(path, f"cannot be read: {h5_reason(err)}")
+
+    def _bind(self, group: h5py.Group, symbols: dict) -> _Scope:
+        time_path = symbols["n"]
+        scope = _Scope(group, time_path)
+        ds = group.get(time_path)
+        if isinstance(ds, h5py.Dataset) and ds.ndim == 1:
+            scope.n = int(ds.shape[0])
+        return scope
+
+    def dataset(self, ds: h5py.Dataset, node: dict, scope: _Scope | None) -> None:
+        path = ds.name
+        ok = self._dtype(ds, node)
+        symbols: dict[str, int] = {}
+        ok = self._shape(path, ds.shape, node["shape"], symbols, scope, what="shape") and ok
+        self.attributes(ds, node.get("attributes", {}), symbols)
+        if ok and node.get("checks"):
+            data = ds[()]
+            for check in node["checks"]:
+                for message in CHECKS[check](ds, data, scope):
+                    self.report(path, message)
+
+    def _dtype(self, ds: h5py.Dataset, node: dict) -> bool:
+        kind = node["dtype"]
+        dtype = ds.dtype
+        if kind == "compound":
+            fields = node.get("fields", {})
+            if dtype.names is None:
+                self.report(ds.name, f"dtype {dtype}, expected a compound of "
+                                     f"{', '.join(fields)}")
+                return False
+            ok = True
+            for field, fkind in fields.items():
+                if field not in dtype.names:
+                    self.report(ds.name, f"compound dtype has no field '{field}'")
+                    ok = False
+                elif dtype[field].kind not in spec.DTYPE_KINDS[fkind]:
+                    self.report(ds.name, f"field '{field}' has dtype {dtype[field]}, "
+                                         f"expected {fkind}")
+                    ok = False
+            return ok
+        if dtype.kind not in spec.DTYPE_KINDS[kind] or (
+                kind == "string" and not h5py.check_string_dtype(dtype)):
+            self.report(ds.name, f"dtype {dtype}, expected {kind}")
+            return False
+        if "itemsize" in node and dtype.itemsize != node["itemsize"]:
+            self.report(ds.name, f"dtype {dtype}, expected {kind}{8 * node['itemsize']}")
+            return False
+        return True
+
+    def _shape(self, path: str, shape: tuple, rule: list, symbols: dict,
+               scope: _Scope | None, *, what: str) -> bool:
+        if len(shape) != len(rule):
+            self.report(path, f"{what} {shape} has {len(shape)} dimensions, expected "
+                              f"{spec.shape_text(rule)}")
+            return False
+        for axis, (size, want) in enumerate(zip(shape, rule)):
+            if isinstance(want, int):
+                if size != want:
+                    self.report(path, f"{what} {shape}, expected {spec.shape_text(rule)}")
+                    return False
+            elif want == "n" and scope is not None:
+                if scope.n is not None and size != scope.n:
+                    self.report(path, f"{what} {shape}: {size} along axis {axis}, but "
+                                      f"{scope.time_path} has {scope.n} samples")
+                    return False
+            elif symbols.setdefault(want, size) != size:
+                self.report(path, f"{what} {shape}, expected {spec.shape_text(rule)} with "
+                                  f"{want} = {symbols[want]}")
+                return False
+        return True
+
+    def attributes(self, obj, specs: dict, symbols: dict) -> None:
+        path = obj.name
+        for name, aspec in specs.items():
+            if name not in obj.attrs:
+                if aspec.get("required"):
+                    self.report(path, f"missing attribute '{name}'")
+                continue
+            raw = obj.attrs[name]
+            value = spec.to_plain(raw)
+            if "schema" in aspec:
+                err = jsonschema.exceptions.best_match(
+                    jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
+                if err is not None:
+                    message = (f"{err.instance!r}, expected {err.validator_value!r}"
+                               if err.validator == "const" else err.message)
+                    self.report(path, f"attribute '{name}': {aspec.get('message', message)}")
+                    continue
+            if "shape" in aspec:
+                arr = np.asarray(raw)
+                kind = aspec.get("dtype")
+                if kind and arr.dtype.kind not in spec.DTYPE_KINDS[kind]:
+                    self.report(path, f"attribute '{name}' has dtype {arr.dtype}, expected {kind}")
+                    continue
+                if not self._shape(path, arr.shape, aspec["shape"], symbols, None,
+                                   what=f"attribute '{name}' shape"):
+                    continue
+            for check in aspec.get("checks", []):
+                message = ATTRIBUTE_CHECKS[check](value)
+                if message:
+                    self.report(path, f"attribute '{name}' {message}")
+

@@ -1,0 +1,416 @@
+"""Writing archives: atomic by default, incremental for acquisition.
+
+::
+
+    with create_archive("runs.h5", title="strokes") as archive:
+        with archive.add_trial("t01", rate_hz=1000.0, source="simulator", seed=3) as trial:
+            for block in blocks:                      # append as the data arrive
+                trial.append(time=block.t, strain=block.strain, wrench=block.w)
+            trial.set_ground_truth(labels=codes, names=["free", "contact"])
+
+Everything goes to a temporary file beside the target (``.runs.h5.XXXX.tmp``)
+that is renamed into place when the ``with`` block ends cleanly. An exception
+removes the temporary file, so no half-written archive ever carries the
+final name. With ``incremental=True`` an exception (Ctrl-C included) instead
+keeps every trial that was closed: unfinished trials are deleted and the file
+is renamed into place before the exception propagates.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+from datetime import datetime, timezone
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from contactlab import __version__
+from contactlab.archive import spec
+from contactlab.errors import DataError, UsageError
+from contactlab.fileio import atomic_path
+
+#: Rows per HDF5 chunk of the per-sample datasets.
+CHUNK_ROWS = 1024
+#: gzip (deflate) is readable by every HDF5 tool, unlike lzf.
+COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+
+SEGMENT_DTYPE = np.dtype([("start_s", "<f8"), ("end_s", "<f8"), ("label", "<i2")])
+
+
+def utc_now() -> str:
+    """The current UTC time as ISO-8601 with a Z suffix."""
+    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def check_name(name: str, what: str) -> str:
+    """An HDF5 member name: non-empty, no '/', not '.'."""
+    if not isinstance(name, str) or not name or "/" in name or name == ".":
+        raise UsageError(f"{what} {name!r} is not a valid name (non-empty, no '/')")
+    return name
+
+
+def create_dataset(group: h5py.Group, name: str, data: np.ndarray, *,
+                   chunk_rows: int | None = CHUNK_ROWS) -> h5py.Dataset:
+    """A chunked, compressed dataset appendable along axis 0, holding ``data``.
+
+    ``chunk_rows=None`` lets h5py choose the chunk shape; 0-d data is stored
+    contiguous (it cannot be chunked).
+    """
+    if data.ndim == 0:
+        return group.create_dataset(name, data=data)
+    chunks = True if chunk_rows is None else (chunk_rows,) + data.shape[1:]
+    return group.create_dataset(name, data=data, maxshape=(None,) + data.shape[1:],
+                                chunks=chunks, **COMPRESSION)
+
+
+def create_archive(path: str | os.PathLike, *, force: bool = False, title: str = "",
+                   incremental: bool = False) -> ArchiveWriter:
+    """Start writing the archive ``path``; use the result as a context manager.
+
+    ``force`` allows replacing an existing file; ``incremental`` keeps closed
+    trials when the writing is interrupted (see the module docstring).
+    """
+    return ArchiveWriter(path, force=force, title=title, incremental=incremental)
+
+
+class ArchiveWriter:
+    """An archive being written (see :func:`create_archive`).
+
+    ``path`` is the final name, ``tmp_path`` the file being written. Close it
+    with :meth:`close` (commit) or use it as a context manager.
+    """
+
+    def __init__(self, path: str | os.PathLike, *, force: bool = False, title: str = "",
+                 incremental: bool = False):
+        self.path = Path(path)
+        self.incremental = incremental
+        self._stack = contextlib.ExitStack()
+        self.tmp_path: Path = self._stack.enter_context(atomic_path(self.path, force=force))
+        try:
+            self._file = h5py.File(self.tmp_path, "w")
+            self._file.attrs["format"] = spec.FORMAT
+            self._file.attrs["format_version"] = spec.FORMAT_VERSION
+            self._file.attrs["software_version"] = __version__
+            self._file.attrs["created"] = utc_now()
+            if title:
+                self._file.attrs["title"] = title
+            self._trials_group = self._file.create_group("trials")
+        except BaseException as err:
+            self._stack.__exit__(type(err), err, err.__traceback__)
+            raise
+        self._trials: dict[str, TrialWriter] = {}
+        self._closed = False
+
+    # -- trials -----------------------------------------------------------------
+    def add_trial(self, trial_id: str, *, rate_hz: float, controller: str = "",
+                  environment: str = "", seed: int = -1, source: str = "", description: str = "",
+                  strain_channels: int | None = None, calibration=None,
+                  command_columns: list[str] | None = None, action_names: list[str] | None = None,
+                  strain_units: str | None = None, command_units: str | None = None
+                  ) -> TrialWriter:
+        """Start trial ``trial_id``; returns its :class:`TrialWriter`.
+
+        ``strain_channels`` fixes the strain width (else the first append or
+        ``calibration``, a 6 x c matrix with wrench = calibration @ strain, does).
+        ``command_columns`` names the command columns; ``command_units`` is
+        required when commands are appended. ``strain_units`` defaults to the
+        schema's default (V).
+        """
+        self._check_open()
+        check_name(trial_id, "trial id")
+        if trial_id in self._trials:
+            raise UsageError(f"trial {trial_id!r} added twice")
+        if not (isinstance(rate_hz, (int, float, np.number)) and math.isfinite(rate_hz)
+                and rate_hz > 0):
+            raise UsageError(f"trial {trial_id!r}: rate_hz must be a positive number, "
+                             f"not {rate_hz!r}")
+        group = self._trials_group.create_group(trial_id)
+        group.attrs["rate_hz"] = float(rate_hz)
+        group.attrs["controller"] = str(controller)
+        group.attrs["environment"] = str(environment)
+        group.attrs["seed"] = int(seed)
+        group.attrs["source"] = str(source)
+        if description:
+            group.attrs["description"] = str(description)
+        group.attrs["complete"] = False
+        try:
+            trial = TrialWriter(self, group, strain_channels=strain_channels,
+                                calibration=calibration, command_columns=command_columns,
+                                action_names=action_names, strain_units=strain_units,
+                                command_units=command_units)
+        except BaseException:
+            del self._trials_group[trial_id]
+            raise
+        self._trials[trial_id] = trial
+        return trial
+
+    @property
+    def trial_ids(self) -> list[str]:
+        """Ids of the trials added so far, in order."""
+        return list(self._trials)
+
+    def flush(self) -> None:
+        """Push everything written so far to the temporary file on disk."""
+        self._check_open()
+        self._file.flush()
+
+    # -- ending -----------------------------------------------------------------
+    def close(self) -> Path:
+        """Close every open trial and rename the file into place; return its path."""
+        self._check_open()
+        try:
+            for trial in self._trials.values():
+                if not trial.complete:
+                    trial.close()
+        except BaseException as err:
+            self.abort(err)
+            raise
+        self._closed = True
+        self._file.close()
+        self._stack.close()  # renames tmp_path over path
+        return self.path
+
+    def abort(self, error: BaseException | None = None) -> Path | None:
+        """End after a failure.
+
+        Normal mode: remove the temporary file and return None. Incremental
+        mode: delete unfinished trials and rename the file into place when at
+        least one trial was closed (return its path), else remove it.
+        """
+        if self._closed:
+            return None
+        self._closed = True
+        error = error or RuntimeError("archive writing aborted")
+        keep = self.incremental and any(t.complete for t in self._trials.values())
+        if keep:
+            for tid, trial in self._trials.items():
+                if not trial.complete:
+                    # should deleting fail, the trial stays marked complete=False
+                    with contextlib.suppress(Exception):
+                        del self._trials_group[tid]
+        with contextlib.suppress(Exception):
+            self._file.close()
+        if keep:
+            self._stack.close()
+            return self.path
+        self._stack.__exit__(type(error), error, error.__traceback__)
+        return None
+
+    def __enter__(self) -> ArchiveWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is None:
+            self.close()
+        else:
+            self.abort(exc)
+        return False
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise UsageError(f"archive {self.path} is already closed")
+
+
+class TrialWriter:
+    """One trial being written: :meth:`append` rows, then :meth:`close`.
+
+    Use it as a context manager to close it on a clean exit.
+    """
+
+    def __init__(self, archive: ArchiveWriter, group: h5py.Group, *, strain_channels=None,
+                 calibration=None, command_columns=None, action_names=None, strain_units=None,
+                 command_units=None):
+        self._archive = archive
+        self._group = group
+        self.id = group.name.rsplit("/", 1)[-1]
+        self._widths: dict[str, int] = {}
+        if calibration is not None:
+            calibration = np.asarray(calibration, dtype=np.float64)
+            if calibration.ndim != 2 or calibration.shape[0] != 6:
+                raise self._error(f"calibration has shape {calibration.shape}, expected (6, c)",
+                                  "strain")
+            if strain_channels is not None and calibration.shape[1] != strain_channels:
+                raise self._error(f"calibration has {calibration.shape[1]} columns but "
+                                  f"strain_channels={strain_channels}", "strain")
+            strain_channels = calibration.shape[1]
+        if strain_channels is not None:
+            self._widths["strain"] = int(strain_channels)
+        if command_columns is not None:
+            self._widths["command"] = len(command_columns)
+        self._calibration = calibration
+        self._command_columns = None if command_columns is None else list(command_columns)
+        self._action_names = None if action_names is None else list(action_names)
+        self._strain_units = strain_units or spec.default_attr(spec.MEASUREMENTS, "strain", "units")
+        self._command_units = command_units
+        self._fields: tuple[str, ...] | None = None
+        self._last_time: float | None = None
+        self.n_samples = 0
+        self.complete = False
+        self._meas = group.create_group(spec.MEASUREMENTS)
+
+    def append(self, *, time, strain=None, wrench=None, position=None, velocity=None,
+               action=None, command=None) -> None:
+        """Append rows to each given dataset; every call must give the same datasets.
+
+        ``time`` is (r,) seconds, strictly after the previous rows; the others
+        have r rows: strain (r, c), wrench (r, 6), position and velocity
+        (r, 3), action (r,) integer codes, command (r, k).
+        """
+        self._check_writable()
+        given = {"time": time, "strain": strain, "wrench": wrench, "position": position,
+                 "velocity": velocity, "action": action, "command": command}
+        given = {k: v for k, v in given.items() if v is not None}
+        fields = tuple(k for k in spec.MEASUREMENT_FIELDS if k in given)
+        if self._fields is None:
+            if "strain" not in given and "wrench" not in given:
+                raise self._error("the first append needs strain or wrench", "strain")
+        elif fields != self._fields:
+            missing = sorted(set(self._fields) - set(fields))
+            extra = sorted(set(fields) - set(self._fields))
+            what = (f"missing {', '.join(missing)}" if missing else
+                    f"{', '.join(extra)} not given in the first append")
+            raise self._error(f"every append must give the same datasets ({what})",
+                              (missing or extra)[0])
+        arrays = {k: self._coerce(k, v) for k, v in given.items()}
+        rows = len(arrays["time"])
+        for name, arr in arrays.items():
+            if len(arr) != rows:
+                raise self._error(f"{len(arr)} rows, but time has {rows}", name)
+        t = arrays["time"]
+        if rows and (np.any(np.diff(t) <= 0) or
+                     (self._last_time is not None and t[0] <= self._last_time)):
+            raise self._error("time must be strictly increasing across appends", "time")
+        for name, arr in arrays.items():
+            if self._fields is None:
+                self._create(name, arr)
+            else:
+                ds = self._meas[name]
+                ds.resize(self.n_samples + rows, axis=0)
+                ds[self.n_samples:] = arr
+        self._fields = fields
+        self.n_samples += rows
+        if rows:
+            self._last_time = float(t[-1])
+
+    def set_ground_truth(self, *, labels, names, segments=None) -> None:
+        """Store per-sample label codes (``names[code]``, -1 unlabelled) and segments.
+
+        ``segments`` is a table of (start_s, end_s, label) rows -- a DataFrame,
+        a structured array or a list of tuples -- whose label is a name or code.
+        """
+        self._check_writable()
+        if spec.GROUND_TRUTH in self._group:
+            raise self._error("ground truth already set", "labels", spec.GROUND_TRUTH)
+        names = [str(n) for n in names]
+        codes = np.asarray(labels)
+        if codes.ndim != 1 or (codes.size and (not np.issubdtype(codes.dtype, np.integer) or
+                                               codes.min() < -1 or codes.max() >= len(names))):
+            raise self._error(f"labels must be a 1-D array of integer codes in [-1, {len(names)})",
+                              "labels", spec.GROUND_TRUTH)
+        table = None if segments is None else self._segment_table(segments, names)
+        gt = self._group.create_group(spec.GROUND_TRUTH)
+        for name, data in (("labels", codes.astype(np.int16)), ("segments", table)):
+            if data is not None:
+                create_dataset(gt, name, data).attrs["names"] = spec.string_array(names)
+
+    def close(self) -> None:
+        """Check the trial is whole, mark it complete (and flush when incremental)."""
+        self._check_writable()
+        if self._fields is None:
+            raise self._error("no samples appended", "time")
+        if self._calibration is not None and "strain" not in self._fields:
+            raise self._error("calibration given but no strain appended", "strain")
+        if "command" in self._fields and not self._command_units:
+            raise self._error("command_units is required when commands are appended", "command")
+        gt = self._group.get(spec.GROUND_TRUTH)
+        if gt is not None and len(gt["labels"]) != self.n_samples:
+            raise self._error(f"{len(gt['labels'])} labels, but time has {self.n_samples} "
+                              "samples", "labels", spec.GROUND_TRUTH)
+        if "command" in self._meas:
+            self._meas["command"].attrs["units"] = self._command_units
+        self._group.attrs["complete"] = True
+        self.complete = True
+        if self._archive.incremental:
+            self._archive.flush()
+
+    def __enter__(self) -> TrialWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is None and not self.complete:
+            self.close()
+        return False
+
+    # -- helpers ----------------------------------------------------------------
+    def _coerce(self, name: str, value) -> np.ndarray:
+        dtype = np.int16 if name == "action" else np.float64
+        arr = np.asarray(value)
+        if name == "action":
+            if arr.size and (not np.issubdtype(arr.dtype, np.integer) or
+                             arr.min() < np.iinfo(np.int16).min or
+                             arr.max() > np.iinfo(np.int16).max):
+                raise self._error("action codes must be integers that fit in int16", name)
+        else:
+            try:
+                arr = arr.astype(np.float64)
+            except (TypeError, ValueError):
+                raise self._error(f"cannot be converted to float64 ({arr.dtype})", name) from None
+        rule = spec.dataset_spec(spec.MEASUREMENTS, name)["shape"]
+        expected = [None] + [self._widths.get(name) if isinstance(d, str) else d
+                             for d in rule[1:]]
+        if arr.ndim != len(rule) or any(e is not None and e != s
+                                        for e, s in zip(expected[1:], arr.shape[1:])):
+            shown = spec.shape_text(["rows"] + [e if e is not None else d
+                                                for e, d in zip(expected[1:], rule[1:])])
+            raise self._error(f"shape {arr.shape}, expected {shown}", name)
+        return arr.astype(dtype, copy=False)
+
+    def _create(self, name: str, arr: np.ndarray) -> None:
+        ds = create_dataset(self._meas, name, arr)
+        units = (spec.fixed_units(spec.MEASUREMENTS, name) or
+                 {"strain": self._strain_units}.get(name))
+        if units:
+            ds.attrs["units"] = units
+        columns = spec.default_attr(spec.MEASUREMENTS, name, "columns")
+        if name == "command":
+            columns = self._command_columns or [f"c{i}" for i in range(arr.shape[1])]
+        if columns is not None:
+            ds.attrs["columns"] = spec.string_array(columns)
+        if name == "strain" and self._calibration is not None:
+            ds.attrs["calibration"] = self._calibration
+        if name == "action" and self._action_names is not None:
+            ds.attrs["names"] = spec.string_array(self._action_names)
+        if arr.ndim == 2:
+            self._widths[name] = arr.shape[1]
+
+    def _segment_table(self, segments, names: list[str]) -> np.ndarray:
+        if hasattr(segments, "to_records"):  # a DataFrame
+            rows = list(segments[["start_s", "end_s", "label"]].itertuples(index=False))
+        elif isinstance(segments, np.ndarray) and segments.dtype.names:
+            rows = [tuple(r) for r in segments[["start_s", "end_s", "label"]]]
+        else:
+            rows = [tuple(r) for r in segments]
+        table = np.zeros(len(rows), dtype=SEGMENT_DTYPE)
+        for i, (start, end, label) in enumerate(rows):
+            if isinstance(label, str):
+                if label not in names:
+                    raise self._error(f"segment label {label!r} is not one of the names",
+                                      "segments", spec.GROUND_TRUTH)
+                label = names.index(label)
+            if not -1 <= int(label) < len(names):
+                raise self._error(f"segment label code {label} is not in [-1, {len(names)})",
+                                  "segments", spec.GROUND_TRUTH)
+            table[i] = (float(start), float(end), int(label))
+        return table
+
+    def _error(self, message: str, dataset: str, group: str = spec.MEASUREMENTS) -> DataError:
+        return DataError(message, file=str(self._archive.path),
+                         field=f"{self._group.name}/{group}/{dataset}")
+
+    def _check_writable(self) -> None:
+        self._archive._check_open()
+        if self.complete:
+            raise UsageError(f"trial {self.id!r} is already closed")

@@ -1,0 +1,77 @@
+"""Shared fixtures: small synthetic archives written with the archive writer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactlab.archive import create_archive
+
+RATE_HZ = 1000.0
+LABEL_NAMES = ["free", "contact", "sliding"]
+
+
+def synthetic_measurements(n: int, *, rate_hz: float = RATE_HZ, seed: int = 0,
+                           t0: float = 0.0) -> dict:
+    """Plausible per-sample data: 8 strains, their wrench, position, velocity, action, command."""
+    rng = np.random.default_rng(seed)
+    time = t0 + np.arange(n) / rate_hz
+    calibration = rng.normal(size=(6, 8))
+    strain = rng.normal(scale=1e-3, size=(n, 8)) + np.sin(time)[:, None]
+    position = np.column_stack([0.1 * time, np.zeros(n), -0.01 * np.ones(n)])
+    return {
+        "time": time,
+        "strain": strain,
+        "wrench": strain @ calibration.T,
+        "position": position,
+        "velocity": np.gradient(position, time, axis=0) if n > 1 else np.zeros((n, 3)),
+        "action": (time > time[n // 2]).astype(np.int16) if n else np.zeros(0, np.int16),
+        "command": position + 0.001,
+        "calibration": calibration,
+    }
+
+
+def synthetic_labels(time: np.ndarray) -> tuple[np.ndarray, list]:
+    """Three labelled phases and one unlabelled sample; the matching segment rows."""
+    n = len(time)
+    labels = np.zeros(n, dtype=np.int16)
+    labels[n // 3:] = 1
+    labels[2 * n // 3:] = 2
+    labels[0] = -1
+    edges = [time[0], time[n // 3], time[2 * n // 3], time[-1]]
+    segments = [(edges[i], edges[i + 1], LABEL_NAMES[i]) for i in range(3)]
+    return labels, segments
+
+
+def write_archive(path, *, trials=("t01", "t02"), n: int = 1500, chunks: int = 3,
+                  ground_truth: bool = True, incremental: bool = False, force: bool = False):
+    """Write a valid archive with every dataset of the format; returns the data written."""
+    written = {}
+    with create_archive(path, title="fixture", force=force, incremental=incremental) as archive:
+        for i, tid in enumerate(trials):
+            data = synthetic_measurements(n, seed=i)
+            trial = archive.add_trial(tid, rate_hz=RATE_HZ, controller="position",
+                                      environment="plane", seed=i, source="simulator",
+                                      description=f"fixture trial {i}",
+                                      calibration=data["calibration"],
+                                      command_columns=["x", "y", "z"], command_units="m",
+                                      action_names=["approach", "press"])
+            for rows in np.array_split(np.arange(n), chunks):
+                trial.append(**{k: data[k][rows] for k in
+                                ("time", "strain", "wrench", "position", "velocity", "action",
+                                 "command")})
+            if ground_truth:
+                labels, segments = synthetic_labels(data["time"])
+                trial.set_ground_truth(labels=labels, names=LABEL_NAMES, segments=segments)
+                data["labels"], data["segments"] = labels, segments
+            trial.close()
+            written[tid] = data
+    return written
+
+
+@pytest.fixture
+def archive_path(tmp_path):
+    """A valid two-trial archive with measurements, ground truth and no results."""
+    path = tmp_path / "runs.h5"
+    write_archive(path)
+    return path

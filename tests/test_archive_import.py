@@ -1,0 +1,173 @@
+"""CSV import: round trips, label handling, one-line errors naming file and column."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import synthetic_measurements
+
+from contactlab.archive import import_csv, open_archive, parse_column_map, validate_archive
+from contactlab.errors import DataError, UsageError
+
+WRENCH = ["fx", "fy", "fz", "tx", "ty", "tz"]
+MAP = "time=t; wrench=fx,fy,fz,tx,ty,tz; position=x,y,z; strain=s*; labels=state; action=act"
+
+
+def write_csv(path, n=400, *, rate_hz=500.0, seed=0, states=("rest", "press", "slide")):
+    data = synthetic_measurements(n, rate_hz=rate_hz, seed=seed)
+    frame = pd.DataFrame({"t": data["time"]})
+    frame[WRENCH] = data["wrench"]
+    frame[["x", "y", "z"]] = data["position"]
+    for i in range(8):
+        frame[f"s{i}"] = data["strain"][:, i]
+    frame["act"] = data["action"]
+    labels = np.array([states[min(i * len(states) // n, len(states) - 1)] for i in range(n)],
+                      dtype=object)
+    labels[:5] = None  # unlabelled rows
+    frame["state"] = labels
+    frame["note"] = "x"
+    frame.to_csv(path, index=False)
+    return data, labels
+
+
+def test_round_trip_with_string_labels(tmp_path):
+    a, labels_a = write_csv(tmp_path / "run-a.csv", seed=1, states=("rest", "press"))
+    b, labels_b = write_csv(tmp_path / "run-b.csv", seed=2, states=("slide", "press", "rest"))
+    out = import_csv([tmp_path / "run-a.csv", tmp_path / "run-b.csv"], out=tmp_path / "o.h5",
+                     columns=parse_column_map(MAP), controller="phantom-force",
+                     environment="plane", quiet=True)
+    assert out == tmp_path / "o.h5"
+    assert validate_archive(out) == []
+    with open_archive(out) as archive:
+        assert archive.trial_ids == ["run-a", "run-b"]
+        for tid, data, labels in (("run-a", a, labels_a), ("run-b", b, labels_b)):
+            trial = archive.trial(tid)
+            assert trial.label_names == ["rest", "press", "slide"]  # order of first appearance
+            assert trial.rate_hz == pytest.approx(500.0, rel=1e-9)
+            assert trial.attrs["source"] == "import"
+            assert trial.attrs["controller"] == "phantom-force"
+            assert trial.attrs["environment"] == "plane"
+            for field in ("time", "wrench", "position", "strain"):
+                np.testing.assert_allclose(getattr(trial, field), data[field], rtol=1e-15,
+                                           atol=0)
+            np.testing.assert_array_equal(trial.action, data["action"])
+            names = trial.label_names
+            decoded = [None if c < 0 else names[c] for c in trial.labels]
+            assert decoded == list(labels)
+
+
+def test_integer_labels_without_time_column(tmp_path):
+    csv = tmp_path / "r.csv"
+    pd.DataFrame({"w" + str(i): np.arange(6.0) * i for i in range(6)} |
+                 {"lab": [0, 0, 1, 2, np.nan, 1]}).to_csv(csv, index=False)
+    out = import_csv([csv], out=tmp_path / "o.h5", rate_hz=250.0, quiet=True,
+                     columns={"wrench": ["w*"], "labels": "lab"},
+                     label_names=["free", "touch", "slide"])
+    assert validate_archive(out) == []
+    with open_archive(out) as archive:
+        trial = archive.trial("r")
+        np.testing.assert_allclose(trial.time, np.arange(6) / 250.0)
+        np.testing.assert_array_equal(trial.labels, [0, 0, 1, 2, -1, 1])
+        assert trial.label_names == ["free", "touch", "slide"]
+        np.testing.assert_array_equal(trial.wrench[:, 2], np.arange(6.0) * 2)
+
+
+def test_integer_labels_get_numeric_names(tmp_path):
+    csv = tmp_path / "r.csv"
+    pd.DataFrame({"t": np.arange(4) / 100, "fx": 1.0, "fy": 2.0, "fz": 3.0, "tx": 0.0,
+                  "ty": 0.0, "tz": 0.0, "lab": [2, 0, 0, 1]}).to_csv(csv, index=False)
+    out = import_csv([csv], out=tmp_path / "o.h5", quiet=True,
+                     columns={"time": "t", "wrench": "fx,fy,fz,tx,ty,tz", "labels": "lab"})
+    with open_archive(out) as archive:
+        assert archive.trial("r").label_names == ["0", "1", "2"]
+        np.testing.assert_array_equal(archive.trial("r").labels, [2, 0, 0, 1])
+
+
+def _csv(tmp_path, text, name="r.csv"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+HEADER = "t,fx,fy,fz,tx,ty,tz\n"
+
+
+@pytest.mark.parametrize("text, columns, kwargs, field, fragment", [
+    (HEADER.replace(",fz", "") + "0,1,2,3,4,5\n", "time=t;wrench=fx,fy,fz,tx,ty,tz", {}, "fz",
+     "no such column"),
+    (HEADER + "0,1,2,3,4,5,6\n", "time=t;wrench=fx,fy,fz,tx,ty,tz;strain=g*", {}, "g*",
+     "no such column"),
+    (HEADER + "0,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=fx,fy,fz,tx,ty", {}, "wrench",
+     "needs 6 columns"),
+    (HEADER + "0,1,2,3,4,5,6\n0.1,1,oops,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
+     "1 empty or non-numeric cells (first: data row 2, 'oops')"),
+    (HEADER + "0,1,2,3,4,5,6\n0.1,1,,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
+     "empty or non-numeric"),
+    (HEADER + "0.1,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "t",
+     "time is not strictly increasing (data row 2)"),
+    (HEADER + "0,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]",
+     {"rate_hz": 100.0}, "t", "disagrees with the given rate 100 Hz"),
+    ("t,fx,fy,fz,tx,ty,tz,lab\n0,1,2,3,4,5,6,0\n0.1,1,2,3,4,5,6,1\n",
+     "time=t;wrench=f*,t*;labels=lab", {"label_names": ["a"]}, "lab", "label code 1 has no name"),
+    ("t,fx,fy,fz,tx,ty,tz,s\n0,1,2,3,4,5,6,down\n1,1,2,3,4,5,6,up\n",
+     "time=t;wrench=f*,t[xyz];labels=s",
+     {"label_names": ["down"]}, "s", "label 'up' is not one of the label names"),
+])
+def test_bad_csv_is_one_data_error_naming_file_and_column(tmp_path, text, columns, kwargs,
+                                                          field, fragment):
+    csv = _csv(tmp_path, text)
+    out = tmp_path / "o.h5"
+    with pytest.raises(DataError) as err:
+        import_csv([csv], out=out, columns=parse_column_map(columns), quiet=True, **kwargs)
+    assert err.value.file == str(csv) and err.value.field == field
+    assert fragment in err.value.message
+    assert str(err.value) == f"{csv}: {field}: {err.value.message}"
+    assert "\n" not in str(err.value)
+    assert not out.exists()
+
+
+def test_a_failure_in_a_later_file_leaves_no_archive(tmp_path):
+    write_csv(tmp_path / "good.csv", n=50)
+    bad = _csv(tmp_path, HEADER + "0,1,2,3,4,5,6\n", "bad.csv")
+    out = tmp_path / "o.h5"
+    with pytest.raises(DataError, match="no such column"):
+        import_csv([tmp_path / "good.csv", bad], out=out, quiet=True,
+                   columns=parse_column_map(MAP))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv", "good.csv"]
+
+
+def test_import_refuses_to_overwrite_unless_forced(tmp_path):
+    write_csv(tmp_path / "r.csv", n=30)
+    out = tmp_path / "o.h5"
+    out.write_text("keep me")
+    with pytest.raises(DataError, match="exists"):
+        import_csv([tmp_path / "r.csv"], out=out, columns=parse_column_map(MAP), quiet=True)
+    assert out.read_text() == "keep me"
+    import_csv([tmp_path / "r.csv"], out=out, columns=parse_column_map(MAP), quiet=True,
+               force=True)
+    assert validate_archive(out) == []
+
+
+def test_parse_column_map_text_and_json_file(tmp_path):
+    assert parse_column_map(" time = t ; wrench=fx, fy,fz,tx,ty,tz;strain=s* ") == {
+        "time": ["t"], "wrench": WRENCH, "strain": ["s*"]}
+    spec_file = tmp_path / "cols.json"
+    spec_file.write_text(json.dumps({"time": "t", "wrench": WRENCH}))
+    assert parse_column_map(str(spec_file)) == {"time": ["t"], "wrench": WRENCH}
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("time=t", "needs strain or wrench"),
+    ("time=t;force=fx", "unknown field 'force'"),
+    ("time;wrench=fx", "is not FIELD=COLUMN"),
+    ("time=t,u;wrench=fx", "takes exactly one column"),
+    ("wrench=a;wrench=b", "names field 'wrench' twice"),
+    ("", "column map is empty"),
+    ("missing.json", "cannot read column map file"),
+])
+def test_parse_column_map_rejects_bad_maps(text, fragment):
+    with pytest.raises(UsageError, match=fragment):
+        parse_column_map(text)
