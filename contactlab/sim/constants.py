@@ -1,0 +1,173 @@
+"""Physical constants of the simulated apparatus, each with where it comes from.
+
+Sources are of three kinds, marked in the comment:
+
+- ``thesis X.Y``  a statement in Eberman (1995), section X.Y;
+- ``datasheet``   a datasheet-level value for the PHANToM 1.0 (SensAble
+  Technologies) or for a generic 1990s strain-gauge acquisition chain;
+- ``physics``     a physical argument (handbook material value, geometry).
+
+Nothing here is tuned to reproduce a number the thesis reports.  Units are SI
+(m, kg, s, N) throughout.
+"""
+
+from __future__ import annotations
+
+import math
+
+# --------------------------------------------------------------------------
+# World
+# --------------------------------------------------------------------------
+GRAVITY = 9.81
+"""physics: standard gravity, m/s^2, acting along -z."""
+
+# --------------------------------------------------------------------------
+# PHANToM (the 3-DOF Cartesian robot of 3.4, 9.1)
+# --------------------------------------------------------------------------
+ROBOT_MASS = 0.075
+"""datasheet: PHANToM 1.0 apparent mass at the tip "< 75 g" (kg), isotropic."""
+
+SERVO_RATE_HZ = 1000.0
+"""datasheet: PHANToM servo loop runs at 1 kHz; the controller output is held
+between servo ticks (zero-order hold)."""
+
+PHANTOM_CONTINUOUS_FORCE = 1.4
+"""datasheet: PHANToM 1.0 continuous exertable force, N."""
+
+PHANTOM_MAX_FORCE = 8.5
+"""datasheet: PHANToM 1.0 peak exertable force, N."""
+
+PHANTOM_MAX_STIFFNESS = 3500.0
+"""datasheet: PHANToM 1.0 closed-loop stiffness, 3.5 N/mm; controller gains
+are chosen as fractions of this."""
+
+FORCE_DYNAMIC_RANGE = 100.0
+"""thesis 3.4: "high force dynamic range (around 100:1)"."""
+
+CONTROL_ERROR_STD = PHANTOM_CONTINUOUS_FORCE / FORCE_DYNAMIC_RANGE
+"""thesis 3.4 + datasheet: the random control wrench w of (4.12), N per axis,
+one independent draw per servo tick: the smallest force the PHANToM resolves
+out of its continuous range at 100:1 (= 14 mN)."""
+
+ENCODER_RESOLUTION = 0.03e-3
+"""datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,
+applied per Cartesian axis to the robot-side position (encoders are on the
+motors, thesis 1.2/7.2)."""
+
+VELOCITY_LOWPASS_HZ = 20.0
+"""physics: the thesis differences encoder positions and lowpasses them (1.2)
+without giving the cutoff.  At 1 kHz a 0.03 mm step is a 30 mm/s velocity
+step; a 2nd-order 20 Hz lowpass brings that to about the 1-10 mm/s scale of
+the thesis's moving/fixed velocity models (9.1.1) while passing the few-Hz
+motions of the tasks."""
+
+POSITION_DAMPING_RATIO = 0.2
+"""physics: the PD position loop's derivative gain is limited by the velocity it
+differentiates from 0.03 mm encoder steps (about 12 mm/s rms at 1 kHz): a gain of
+~1 N s/m already injects motor-force noise the size of CONTROL_ERROR_STD.  On
+the low-stiffness (100 N/m) controller of 9.1.2 and the 85 g moving mass that is
+a damping ratio of about 0.2, a lightly damped loop."""
+
+# --------------------------------------------------------------------------
+# Fingertip sensor (Bicchi's 6-axis fingertip sensor, 3.3/3.4)
+# --------------------------------------------------------------------------
+SHELL_MODE_HZ = 690.0
+"""thesis 3.3: "The shell has a lightly damped natural frequency of
+approximately 690 Hz when the base is fixed and the shell free"."""
+
+SHELL_DAMPING_RATIO = 0.02
+"""physics: "lightly damped" (thesis 3.3); bolted metal structures have
+modal damping ratios of 1-5 %, we take 2 %."""
+
+FINGERTIP_RADIUS = 0.010
+"""physics: the sensor is "shaped like a fingertip" (thesis 1.2): a 20 mm
+diameter hemispherical shell, the width of a human fingertip."""
+
+SHELL_MASS = 0.010
+"""physics: a 20 mm hemispherical metal shell 1-2 mm thick plus its fixing
+ring, about 10 g.  This is the end-effector inertia H of (4.8)."""
+
+SENSOR_STIFFNESS = SHELL_MASS * (2.0 * math.pi * SHELL_MODE_HZ) ** 2
+"""derived: the sensor spring K of (4.6) is the one that, with the shell mass,
+puts the fixed-base shell mode at SHELL_MODE_HZ (about 1.9e5 N/m)."""
+
+SENSOR_DAMPING = 2.0 * SHELL_DAMPING_RATIO * math.sqrt(SENSOR_STIFFNESS * SHELL_MASS)
+"""derived: the sensor damper B of (4.6) from SHELL_DAMPING_RATIO."""
+
+SENSOR_ORIGIN_OFFSET = 0.010
+"""physics: the Maltese cross (sensor origin, where torques are referred) sits
+at the base of the shell, one radius above the sphere centre; the fingertip
+points down (-z), as on the PHANToM in the thesis's figure 1.2."""
+
+SENSOR_ARM_LENGTH = 0.006
+"""physics: length of the Maltese-cross arms from the hub to the shell fixing,
+a bit more than half the shell radius (thesis 3.3: cross with 8 half-bridges)."""
+
+SHELL_YOUNGS_MODULUS = 200e9
+"""physics: the shell is taken to be steel (handbook E = 200 GPa).  The thesis
+does not say; steel and aluminium give contact stiffnesses within 2x."""
+
+SHELL_POISSON_RATIO = 0.30
+"""physics: handbook value for steel."""
+
+TANGENTIAL_STIFFNESS_RATIO = 0.8
+"""physics: Mindlin: tangential/normal contact stiffness = 2(1-nu)/(2-nu),
+about 0.8 for nu near 0.3."""
+
+# --------------------------------------------------------------------------
+# Strain-gauge acquisition (7.1)
+# --------------------------------------------------------------------------
+OUTPUT_RATE_HZ = 1000.0
+"""thesis 7.1: strains sampled at 1000 Hz."""
+
+IMPACT_OUTPUT_RATE_HZ = 2700.0
+"""thesis 7.1 (fig 7.1): the impact spectrogram was sampled at 2700 Hz."""
+
+SENSOR_FORCE_RANGE = 10.0
+"""physics: full-scale force, N; covers the PHANToM's 8.5 N peak force."""
+
+SENSOR_TORQUE_RANGE = SENSOR_FORCE_RANGE * (FINGERTIP_RADIUS + SENSOR_ORIGIN_OFFSET)
+"""physics: full-scale torque, N m: full-scale force at the farthest contact
+point from the sensor origin (radius + offset)."""
+
+ADC_BITS = 12
+"""datasheet: 12-bit converters were standard on 1990s data-acquisition boards
+(the thesis ran on a 68040 VME system, 7.3.1)."""
+
+ADC_RANGE_V = 10.0
+"""datasheet: bipolar +/-10 V converter input."""
+
+ADC_HEADROOM = 0.8
+"""physics: amplifier gains set so that a worst-case full-scale wrench uses 80 %
+of the converter range."""
+
+GAUGE_NOISE_LSB = 0.5
+"""datasheet: bridge-amplifier noise of order half an LSB at 12 bits (an
+amplifier much noisier than that would waste the converter)."""
+
+# --------------------------------------------------------------------------
+# Simulation and ground-truth labelling
+# --------------------------------------------------------------------------
+INTERNAL_RATE_MIN_HZ = 20000.0
+"""numerics: internal integration rate, at least 29x the 690 Hz mode (omega dt
+= 0.22) and with the contact springs integrated linearly implicitly."""
+
+MOVING_SPEED_THRESHOLD = 1.0e-3
+"""labelling: fingertip speed above which the ground truth says "moving",
+m/s; a tenth of the thesis's moving velocity model range (9.1.1: 0.01 m/s)."""
+
+IMPACT_MIN_APPROACH_SPEED = 1.0e-3
+"""labelling: a new contact made at a normal approach speed above this (m/s)
+is labelled an impact."""
+
+RING_LOWPASS_HZ = 30.0
+"""labelling: the ringing envelope is the sensor force minus its 30 Hz
+lowpass (motions of the tasks are below a few Hz, the shell mode is 690 Hz)."""
+
+IMPACT_MAX_DURATION_S = 8.0 / (SHELL_DAMPING_RATIO * 2.0 * math.pi * SHELL_MODE_HZ)
+"""labelling: an impact interval is closed after at most 8 decay time
+constants of the shell mode (an amplitude ratio of e^8 ~ 3000)."""
+
+CONTACT_MARGIN = 1.0e-4
+"""numerics: planes farther than radius + 0.1 mm from the fingertip centre are
+not examined (textures are microns high)."""

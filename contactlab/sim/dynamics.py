@@ -1,0 +1,340 @@
+"""The apparatus: robot mass, sensor spring, fingertip shell, contacts.
+
+Model (thesis 4.6-4.8, 4.12).  Two point masses in R^3:
+
+- the robot (PHANToM endpoint), mass ``robot_mass``, position x_r, driven by the
+  controller wrench w_r of (4.12) (gravity-compensated, with a random error w);
+- the fingertip shell, mass ``shell_mass``, position x (the sphere centre),
+  joined to the robot by the sensor's spring K and damper B.  The sensor
+  measures w_m = K (x - x_r) + B (xdot - xdot_r)  (4.6).
+
+  p_r' = w_r + w_m + m_r g                  (4.7, gravity written explicitly)
+  p'   = f_contact + m g - w_m              (4.8, contacts replace C_x lambda + w_d)
+
+The shell mode.  K is chosen so that the shell on a fixed base rings at the
+thesis's 690 Hz (3.3), lightly damped; so this same spring is the sensor
+structure mode: every impact, every bounce, every loss of contact rings it, and
+the ringing dies away with the 2 % modal damping.  While the shell is pressed on
+a stiff surface its normal motion is stiffened by the contact (the in-contact
+mode is higher); impacts, which are trains of short bounces (4.51), ring at the
+free-shell frequency in between.
+
+Contacts: stiff, damped penalty (Hertz + Hunt-Crossley), not complementarity.
+The quantities the thesis cares about (impact ringing, bounce trains, stored
+spring energy released at loss of contact, 4.51-4.52) are compliant-contact
+phenomena; complementarity would make the contact rigid and the impact
+instantaneous and then need a separate restitution model.  The normal force
+is F_n = k_h delta^1.5 (1 + 1.5 alpha delta') with k_h from Hertz theory for the
+steel shell on the material and alpha from its restitution, so the stiffness
+is physical, not a numerical choice.  Any number of planes can be active
+together (plane, line = 2, corner = 3).
+
+Friction: a stick/slip state machine with a tangential (Mindlin) contact spring,
+not a regularised (tanh) Coulomb law.  A regularised law creeps under any
+tangential load, so a finger could never truly stick and there would be no
+static > kinetic breakaway, hence no stick-slip.  Here each contact carries an
+elastic tangential displacement xi: sticking, F_t = -k_t xi - c_t v_t must stay
+inside the static cone mu_s F_n; once it leaves it the contact slips with
+|F_t| = mu_k F_n opposing the slip, and it re-sticks when the trial force falls
+back inside the kinetic cone (the slip has stopped or reversed).  mu and the
+height vary along the surface (texture), which is what makes sliding vibrate.
+
+Integrator: fixed step, semi-implicit (symplectic) Euler at >= 20 kHz, with the
+stiff contact springs (normal, and tangential while sticking) treated linearly
+implicitly along their directions, so the step is stable for any contact
+stiffness while the 690 Hz mode (omega dt ~ 0.2) is resolved.  Output is point
+sampled (like an ADC without anti-alias filter) every ``n_sub`` steps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from contactlab.sim import constants as C
+
+
+@dataclass(frozen=True)
+class Apparatus:
+    """Mechanical parameters of the robot + sensor + fingertip (defaults from :mod:`constants`)."""
+
+    robot_mass: float = C.ROBOT_MASS
+    shell_mass: float = C.SHELL_MASS
+    sensor_stiffness: float = C.SENSOR_STIFFNESS
+    sensor_damping: float = C.SENSOR_DAMPING
+    radius: float = C.FINGERTIP_RADIUS
+    origin_offset: float = C.SENSOR_ORIGIN_OFFSET
+    gravity: float = C.GRAVITY
+    control_error_std: float = C.CONTROL_ERROR_STD
+    servo_rate_hz: float = C.SERVO_RATE_HZ
+
+    @property
+    def total_mass(self) -> float:
+        return self.robot_mass + self.shell_mass
+
+    @property
+    def shell_mode_hz(self) -> float:
+        return math.sqrt(self.sensor_stiffness / self.shell_mass) / (2.0 * math.pi)
+
+
+@numba.njit(cache=True)
+def _texture_at(mid, s1, s2, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph):
+    h = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    for j in range(hk1.shape[1]):
+        a = hk1[mid, j] * s1 + hk2[mid, j] * s2 + hph[mid, j]
+        ca = math.cos(a)
+        h += hamp[mid, j] * math.sin(a)
+        g1 += hamp[mid, j] * hk1[mid, j] * ca
+        g2 += hamp[mid, j] * hk2[mid, j] * ca
+    m = 0.0
+    for j in range(mk1.shape[1]):
+        m += mamp[mid, j] * math.sin(mk1[mid, j] * s1 + mk2[mid, j] * s2 + mph[mid, j])
+    return h, g1, g2, m
+
+
+@numba.njit(cache=True)
+def integrate(n_out, n_sub, dt,
+              # apparatus
+              mr, mf, ks, bs, radius, offset, grav, servo_rate,
+              # environment
+              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph,
+              # controller (per servo tick)
+              kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
+              # initial state
+              xr0, vr0, x0, v0,
+              # labelling
+              tau_ring, v_impact, f_loss, ts_ratio, margin):
+    """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
+
+    Returns per output sample: states, sensor wrench, controller output and
+    ground truth.  See :func:`contactlab.sim.simulate.simulate` for meanings.
+    """
+    npl = max(n_planes, 1)
+    nk = xd_arr.shape[0]
+    # outputs
+    o_xr = np.zeros((n_out, 3)); o_vr = np.zeros((n_out, 3))
+    o_x = np.zeros((n_out, 3)); o_v = np.zeros((n_out, 3))
+    o_w = np.zeros((n_out, 6))
+    o_wr = np.zeros((n_out, 3)); o_xd = np.zeros((n_out, 3))
+    o_act = np.zeros((n_out, npl), np.bool_)
+    o_slip = np.zeros((n_out, npl), np.bool_)
+    o_mat = -np.ones((n_out, npl), np.int64)
+    o_fc = np.zeros((n_out, npl, 3))
+    o_event = np.zeros(n_out, np.int64)
+    o_ring = np.zeros(n_out)
+
+    xr = xr0.copy(); vr = vr0.copy(); x = x0.copy(); v = v0.copy()
+    gvec = np.array([0.0, 0.0, -grav])
+    gcomp = -(mr + mf) * gvec
+    wr = np.zeros(3)
+    xi_int = xr0.copy()          # integral force controller state (desired position)
+    x_hold = xr0.copy()
+    holding = False
+    last_k = -1
+    xd_now = xr0.copy()
+    active = np.zeros(npl, np.bool_)
+    stick = np.ones(npl, np.bool_)
+    tdisp = np.zeros((npl, 3))
+    last_fn = np.zeros(npl)
+    kn_imp = np.zeros(npl); cn_imp = np.zeros(npl); kt_imp = np.zeros(npl); ct_imp = np.zeros(npl)
+    nrm = np.zeros((npl, 3))
+    fs = ks * (x - xr) + bs * (v - vr)
+    f_lp = fs.copy()
+    a_lp = dt / (tau_ring + dt)
+    fc_tot = np.zeros(3)
+    ft_torque = np.zeros(3)
+    r_os = np.array([0.0, 0.0, -offset])
+
+    n_steps = n_out * n_sub
+    for i in range(n_steps):
+        t = i * dt
+        j = i // n_sub
+        first = (i % n_sub) == 0
+        # ---------------- controller at the servo rate -----------------
+        k = int(t * servo_rate + 1e-9)
+        if k > nk - 1:
+            k = nk - 1
+        if k != last_k:
+            last_k = k
+            fs_now = ks * (x - xr) + bs * (v - vr)
+            if hold_arr[k] != 0:
+                if not holding:
+                    holding = True
+                    x_hold[:] = xr
+                for a in range(3):
+                    xd_now[a] = x_hold[a]
+                vdk = np.zeros(3)
+            else:
+                holding = False
+                vdk = vd_arr[k].copy()
+                if kind == 1:
+                    f_app = -fs_now + mf * gvec
+                    for a in range(3):
+                        xi_int[a] += ki[a] * (fd_arr[k, a] - f_app[a]) / servo_rate
+                        xd_now[a] = xi_int[a] + xd_arr[k, a]
+                else:
+                    for a in range(3):
+                        xd_now[a] = xd_arr[k, a]
+            for a in range(3):
+                wr[a] = kp[a] * (xd_now[a] - xr[a]) + bp[a] * (vdk[a] - vr[a]) + fff_arr[k, a] + gcomp[a] + noise[k, a]
+
+        # ---------------- contacts ---------------------------------------
+        fc_tot[:] = 0.0
+        ft_torque[:] = 0.0
+        event = 0
+        for p in range(n_planes):
+            kn_imp[p] = 0.0; cn_imp[p] = 0.0; kt_imp[p] = 0.0; ct_imp[p] = 0.0
+            n0 = geo[p, 0]; n1 = geo[p, 1]; n2 = geo[p, 2]
+            dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, 3]
+            was = active[p]
+            fn = 0.0
+            ok = dist < radius + margin
+            pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
+            if ok:
+                if (pc0 < geo[p, 10] or pc1 < geo[p, 11] or pc2 < geo[p, 12]
+                        or pc0 > geo[p, 13] or pc1 > geo[p, 14] or pc2 > geo[p, 15]):
+                    ok = False
+            delta = 0.0
+            if ok:
+                s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
+                s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
+                mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
+                h, g1, g2, mu_f = _texture_at(mid, s1, s2, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph)
+                delta = radius + h - dist
+                if delta <= 0.0:
+                    ok = False
+            if not ok:
+                if was:
+                    active[p] = False
+                    if last_fn[p] > f_loss:
+                        event = 2
+                last_fn[p] = 0.0
+                continue
+            vn = n0 * v[0] + n1 * v[1] + n2 * v[2]
+            if not was:
+                active[p] = True
+                stick[p] = True
+                tdisp[p, :] = 0.0
+                if -vn > v_impact:
+                    event = 1
+            nrm[p, 0] = n0; nrm[p, 1] = n1; nrm[p, 2] = n2
+            vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
+            hdot = (g1 * (geo[p, 4] * vt0 + geo[p, 5] * vt1 + geo[p, 6] * vt2)
+                    + g2 * (geo[p, 7] * vt0 + geo[p, 8] * vt1 + geo[p, 9] * vt2))
+            ddot = -vn + hdot
+            sq = math.sqrt(delta)
+            kh = props[mid, 0]
+            alpha = props[mid, 1]
+            kloc = 1.5 * kh * sq
+            cn = 1.5 * alpha * kh * delta * sq
+            fn = kh * delta * sq + cn * ddot
+            if fn < 0.0:
+                fn = 0.0
+                cn = 0.0
+            kn_imp[p] = kloc
+            cn_imp[p] = cn
+            # friction
+            fac = 1.0 + mu_f
+            if fac < 0.0:
+                fac = 0.0
+            mus = props[mid, 2] * fac
+            muk = props[mid, 3] * fac
+            # keep the tangential spring in the current tangent plane
+            dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
+            tdisp[p, 0] += (vt0 * dt - dn * n0)
+            tdisp[p, 1] += (vt1 * dt - dn * n1)
+            tdisp[p, 2] += (vt2 * dt - dn * n2)
+            kt = ts_ratio * kloc
+            ct = ts_ratio * cn
+            ft0 = -kt * tdisp[p, 0] - ct * vt0
+            ft1 = -kt * tdisp[p, 1] - ct * vt1
+            ft2 = -kt * tdisp[p, 2] - ct * vt2
+            mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+            lim = (mus if stick[p] else muk) * fn
+            if mag > lim:
+                stick[p] = False
+                sc = muk * fn / mag
+                ft0 *= sc; ft1 *= sc; ft2 *= sc
+                if kt > 0.0:
+                    tdisp[p, 0] = -ft0 / kt; tdisp[p, 1] = -ft1 / kt; tdisp[p, 2] = -ft2 / kt
+            else:
+                stick[p] = True
+                kt_imp[p] = kt
+                ct_imp[p] = ct
+            last_fn[p] = fn
+            f0 = fn * n0 + ft0; f1 = fn * n1 + ft1; f2 = fn * n2 + ft2
+            fc_tot[0] += f0; fc_tot[1] += f1; fc_tot[2] += f2
+            # torque of friction about the sphere centre: (-R n) x F_t
+            ft_torque[0] += -radius * (n1 * ft2 - n2 * ft1)
+            ft_torque[1] += -radius * (n2 * ft0 - n0 * ft2)
+            ft_torque[2] += -radius * (n0 * ft1 - n1 * ft0)
+            o_fc[j, p, 0] += f0 / n_sub; o_fc[j, p, 1] += f1 / n_sub; o_fc[j, p, 2] += f2 / n_sub
+
+        # ---------------- sensor ----------------------------------------
+        for a in range(3):
+            fs[a] = ks * (x[a] - xr[a]) + bs * (v[a] - vr[a])
+            f_lp[a] += a_lp * (fs[a] - f_lp[a])
+        ring = math.sqrt((fs[0] - f_lp[0]) ** 2 + (fs[1] - f_lp[1]) ** 2 + (fs[2] - f_lp[2]) ** 2)
+        if ring > o_ring[j]:
+            o_ring[j] = ring
+        if event > o_event[j]:
+            o_event[j] = event
+        if first:
+            for a in range(3):
+                o_xr[j, a] = xr[a]; o_vr[j, a] = vr[a]; o_x[j, a] = x[a]; o_v[j, a] = v[a]
+                o_w[j, a] = fs[a]
+                o_wr[j, a] = wr[a]; o_xd[j, a] = xd_now[a]
+            # torque at the sensor origin: r_os x w_m + friction torque about the centre
+            o_w[j, 3] = r_os[1] * fs[2] - r_os[2] * fs[1] + ft_torque[0]
+            o_w[j, 4] = r_os[2] * fs[0] - r_os[0] * fs[2] + ft_torque[1]
+            o_w[j, 5] = r_os[0] * fs[1] - r_os[1] * fs[0] + ft_torque[2]
+            for p in range(n_planes):
+                o_act[j, p] = active[p]
+                o_slip[j, p] = active[p] and not stick[p]
+        # material under the finger, per plane (recorded for the whole interval's first step)
+        # ---------------- integrate --------------------------------------
+        vn_old = np.empty(npl)
+        vt_old = np.empty((npl, 3))
+        for p in range(n_planes):
+            if active[p]:
+                d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
+                vn_old[p] = d
+                for a in range(3):
+                    vt_old[p, a] = v[a] - d * nrm[p, a]
+        for a in range(3):
+            vr[a] += dt * ((wr[a] + fs[a]) / mr + gvec[a])
+            v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
+        # linearly implicit correction of the stiff contact springs
+        for p in range(n_planes):
+            if not active[p]:
+                continue
+            if kn_imp[p] > 0.0:
+                d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
+                dnew = (mf * d + dt * cn_imp[p] * vn_old[p]) / (mf + dt * dt * kn_imp[p] + dt * cn_imp[p])
+                for a in range(3):
+                    v[a] += (dnew - d) * nrm[p, a]
+                    # the implicit part of the contact force, so recorded impulses are exact
+                    o_fc[j, p, a] += (dnew - d) * nrm[p, a] * mf / dt / n_sub
+            if kt_imp[p] > 0.0:
+                d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
+                den = mf + dt * dt * kt_imp[p] + dt * ct_imp[p]
+                for a in range(3):
+                    vt = v[a] - d * nrm[p, a]
+                    vtn = (mf * vt + dt * ct_imp[p] * vt_old[p, a]) / den
+                    v[a] += vtn - vt
+                    o_fc[j, p, a] += (vtn - vt) * mf / dt / n_sub
+        for a in range(3):
+            xr[a] += dt * vr[a]
+            x[a] += dt * v[a]
+        if first:
+            for p in range(n_planes):
+                if active[p]:
+                    pc0 = x[0] - radius * geo[p, 0]
+                    s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
+                    o_mat[j, p] = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
+    return (o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)

@@ -1,0 +1,212 @@
+"""Surface materials: Coulomb friction and texture.
+
+A :class:`Material` holds handbook-level mechanical values (elastic modulus,
+friction coefficients against the steel fingertip shell, impact damping) and a
+description of its texture.  The texture is a pair of stationary random fields
+on the surface, in the surface's own coordinates (s1 along the plane's ``u``
+axis, s2 across it):
+
+- the surface height h(s1, s2), m;
+- the relative variation m(s1, s2) of the friction coefficient, so that
+  mu(s) = mu * (1 + m(s)).
+
+Both are synthesised as sums of random sinusoids (spectral synthesis) with
+wavelengths log-spaced between ``wavelength_min`` and ``wavelength_max``, a
+self-affine spectrum (band amplitude proportional to wavelength**hurst) and a
+total rms of ``roughness_rms`` / ``mu_variation``.  Lay: with probability
+``anisotropy`` a component's wavevector points along ``lay_angle`` (the
+direction in which the height varies; for a surface sanded crosswise that is
+across the scratches), otherwise in a uniform direction.  A sliding fingertip
+therefore sees a vibration whose frequencies are speed x wavenumber and whose
+power depends on the direction of travel (thesis 4.40).
+
+The fingertip touches the surface over a Hertz contact patch of radius a
+(about 20-70 um at the 0.2 N of the stroking experiment), which averages the
+height over the patch: components are attenuated by exp(-(k a)^2 / 8), the
+Gaussian-patch average, with a evaluated at a nominal 0.2 N load
+(:func:`texture_modes`).  This is a simplification: the true path of a rigid
+sphere over a rough surface rides on the asperity tops and bridges valleys
+narrower than sqrt(8 R depth); a height field that it follows everywhere
+keeps the right order of magnitude of vibration without computing that
+envelope.
+
+The field is deterministic given its seed: the same physical sample is
+stroked in every trial.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactlab.sim import constants as C
+
+
+@dataclass(frozen=True)
+class Material:
+    """One surface material.
+
+    Parameters
+    ----------
+    name : key in :data:`MATERIALS`
+    youngs_modulus : Pa
+    poisson_ratio : dimensionless
+    mu_static, mu_kinetic : Coulomb coefficients against the steel shell,
+        ``mu_static >= mu_kinetic``
+    mu_variation : rms of the relative friction variation along the surface
+    roughness_rms : rms surface height, m
+    wavelength_min, wavelength_max : band of the texture, m
+    hurst : self-affine exponent (band amplitude ~ wavelength**hurst)
+    anisotropy : fraction of texture components along ``lay_angle`` (0..1)
+    lay_angle : direction (rad, from the plane's u axis) along which the height
+        of the anisotropic part varies
+    restitution : coefficient of restitution of the shell on this material at
+        0.1 m/s; sets the Hunt-Crossley damping (``hunt_crossley_alpha``)
+    """
+
+    name: str
+    youngs_modulus: float
+    poisson_ratio: float
+    mu_static: float
+    mu_kinetic: float
+    mu_variation: float
+    roughness_rms: float
+    wavelength_min: float
+    wavelength_max: float
+    hurst: float = 0.8
+    anisotropy: float = 0.0
+    lay_angle: float = 0.0
+    restitution: float = 0.9
+
+    def __post_init__(self):
+        if not self.mu_static >= self.mu_kinetic >= 0.0:
+            raise ValueError(f"material {self.name!r}: need mu_static >= mu_kinetic >= 0")
+        if not 0.0 < self.restitution <= 1.0:
+            raise ValueError(f"material {self.name!r}: restitution must be in (0, 1]")
+        if not 0.0 <= self.anisotropy <= 1.0:
+            raise ValueError(f"material {self.name!r}: anisotropy must be in [0, 1]")
+        if not 0.0 < self.wavelength_min <= self.wavelength_max:
+            raise ValueError(f"material {self.name!r}: need 0 < wavelength_min <= wavelength_max")
+
+    @property
+    def effective_modulus(self) -> float:
+        """Hertz E* of the steel shell against this material, Pa."""
+        inv = ((1.0 - C.SHELL_POISSON_RATIO**2) / C.SHELL_YOUNGS_MODULUS
+               + (1.0 - self.poisson_ratio**2) / self.youngs_modulus)
+        return 1.0 / inv
+
+    def hertz_constant(self, radius: float = C.FINGERTIP_RADIUS) -> float:
+        """k_h in F = k_h delta^(3/2) for a sphere of ``radius`` on this flat, N/m^1.5."""
+        return 4.0 / 3.0 * self.effective_modulus * math.sqrt(radius)
+
+    @property
+    def hunt_crossley_alpha(self) -> float:
+        """Hunt-Crossley damping alpha (s/m): e = 1 - alpha v at low speed, taken at 0.1 m/s."""
+        return (1.0 - self.restitution) / 0.1
+
+
+# Handbook values.  Friction: dry, clean, against mild steel (engineering
+# tables; static/kinetic).  Roughness: typical Ra/rms of the finish named.
+# Restitution: typical low-speed values for a steel ball on the material.
+MATERIALS: dict[str, Material] = {
+    # Polished aluminium: Al-steel mu_s 0.61 / mu_k 0.47; polished Ra ~ 0.05 um.
+    "polished_aluminium": Material(
+        name="polished_aluminium", youngs_modulus=69e9, poisson_ratio=0.33,
+        mu_static=0.61, mu_kinetic=0.47, mu_variation=0.03,
+        roughness_rms=0.05e-6, wavelength_min=20e-6, wavelength_max=2e-3,
+        restitution=0.9),
+    # 80 grit (~190 um grit) sanded crosswise: scratches run along y, the height
+    # varies along x (lay_angle 0 = plane u axis = x); Ra ~ 1.5-2.5 um.
+    "sanded_aluminium_80": Material(
+        name="sanded_aluminium_80", youngs_modulus=69e9, poisson_ratio=0.33,
+        mu_static=0.61, mu_kinetic=0.47, mu_variation=0.10,
+        roughness_rms=2.5e-6, wavelength_min=50e-6, wavelength_max=1e-3,
+        anisotropy=0.9, lay_angle=0.0, restitution=0.9),
+    # Rough cross-cut (end-grain) wood: E along the grain ~ 10 GPa; wood-metal
+    # mu_s 0.2-0.6 (take 0.4) / mu_k ~ 0.3; fibre/pore relief ~ 10-20 um rms at
+    # 0.1-2 mm; wood is lossy on impact.
+    "rough_wood": Material(
+        name="rough_wood", youngs_modulus=10e9, poisson_ratio=0.30,
+        mu_static=0.40, mu_kinetic=0.30, mu_variation=0.15,
+        roughness_rms=15e-6, wavelength_min=100e-6, wavelength_max=2e-3,
+        anisotropy=0.3, lay_angle=0.0, restitution=0.6),
+    # Hard plastic (ABS-like): E 2.3 GPa; plastic-steel mu_s 0.35 / mu_k 0.30;
+    # moulded Ra ~ 0.3 um.
+    "hard_plastic": Material(
+        name="hard_plastic", youngs_modulus=2.3e9, poisson_ratio=0.35,
+        mu_static=0.35, mu_kinetic=0.30, mu_variation=0.05,
+        roughness_rms=0.3e-6, wavelength_min=30e-6, wavelength_max=2e-3,
+        restitution=0.8),
+    # Lexan (polycarbonate): E 2.4 GPa; PC-steel mu_s 0.31 / mu_k 0.27;
+    # optically smooth sheet, Ra ~ 0.05 um.
+    "lexan": Material(
+        name="lexan", youngs_modulus=2.4e9, poisson_ratio=0.37,
+        mu_static=0.31, mu_kinetic=0.27, mu_variation=0.03,
+        roughness_rms=0.05e-6, wavelength_min=20e-6, wavelength_max=2e-3,
+        restitution=0.8),
+}
+
+
+def get_material(name: str | Material) -> Material:
+    """Return the :class:`Material` called ``name`` (or ``name`` itself if it is one)."""
+    if isinstance(name, Material):
+        return name
+    try:
+        return MATERIALS[name]
+    except KeyError:
+        raise ValueError(f"unknown material {name!r}; choose one of {sorted(MATERIALS)}") from None
+
+
+def _mode_directions(rng: np.random.Generator, n: int, anisotropy: float, lay_angle: float) -> np.ndarray:
+    along = rng.random(n) < anisotropy
+    angle = np.where(along, lay_angle + rng.normal(0.0, math.radians(5.0), n),
+                     rng.uniform(0.0, math.pi, n))
+    return angle
+
+
+def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_friction: int = 16,
+                  radius: float = C.FINGERTIP_RADIUS) -> dict[str, np.ndarray]:
+    """Spectral synthesis of the two texture fields of ``material``.
+
+    Returns arrays ``h_k1, h_k2, h_amp, h_phase`` (height) and ``m_k1, m_k2,
+    m_amp, m_phase`` (relative friction) such that
+    h(s) = sum amp_j sin(k1_j s1 + k2_j s2 + phase_j), and the same for m.
+    Height amplitudes are averaged over the Hertz contact patch (module docstring).
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), _name_key(material.name)]))
+    out = {}
+    for prefix, n, rms in (("h", n_height, material.roughness_rms), ("m", n_friction, material.mu_variation)):
+        lam = np.exp(np.linspace(math.log(material.wavelength_max), math.log(material.wavelength_min), n))
+        lam = lam * np.exp(rng.uniform(-0.5, 0.5, n) * math.log(material.wavelength_max / material.wavelength_min) / max(n - 1, 1))
+        k = 2.0 * math.pi / lam
+        amp = lam ** material.hurst
+        amp = amp * rms / math.sqrt(0.5 * np.sum(amp**2)) if rms > 0 else np.zeros(n)
+        if prefix == "h":
+            amp = amp * np.exp(-(k * contact_radius(material, radius)) ** 2 / 8.0)
+        ang = _mode_directions(rng, n, material.anisotropy, material.lay_angle)
+        out[f"{prefix}_k1"] = k * np.cos(ang)
+        out[f"{prefix}_k2"] = k * np.sin(ang)
+        out[f"{prefix}_amp"] = amp
+        out[f"{prefix}_phase"] = rng.uniform(0.0, 2.0 * math.pi, n)
+    return out
+
+
+def contact_radius(material: Material, radius: float = C.FINGERTIP_RADIUS, load: float = 0.2) -> float:
+    """Hertz contact-patch radius a = (3 F R / (4 E*))^(1/3) at ``load`` N, m."""
+    return (3.0 * load * radius / (4.0 * material.effective_modulus)) ** (1.0 / 3.0)
+
+
+def _name_key(name: str) -> int:
+    # A stable small integer from the name (Python's hash() is salted per process).
+    return int.from_bytes(name.encode()[:8].ljust(8, b"\0"), "little") % (2**31)
+
+
+def evaluate_texture(modes: dict[str, np.ndarray], s1, s2) -> tuple[np.ndarray, np.ndarray]:
+    """Height (m) and relative friction variation at surface coordinates (s1, s2); vectorised."""
+    s1 = np.asarray(s1, dtype=float)[..., None]
+    s2 = np.asarray(s2, dtype=float)[..., None]
+    h = np.sum(modes["h_amp"] * np.sin(modes["h_k1"] * s1 + modes["h_k2"] * s2 + modes["h_phase"]), axis=-1)
+    m = np.sum(modes["m_amp"] * np.sin(modes["m_k1"] * s1 + modes["m_k2"] * s2 + modes["m_phase"]), axis=-1)
+    return h, m

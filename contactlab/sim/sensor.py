@@ -1,0 +1,122 @@
+"""Measurement chain: strain gauges, ADC, encoders, velocity estimate.
+
+Strain gauges.  The fingertip sensor's Maltese cross carries 8 strain-gauge
+half-bridges (thesis 3.3): on each of the four arms (along +x, +y, -x, -y) one
+bridge reads bending in the vertical plane and one bending in the horizontal
+plane.  A beam model of the cross gives the calibration matrix S (8 x 6,
+volts per unit wrench at the sensor origin): for arm i with radial direction
+r_i and tangent t_i = z x r_i, arm length L and gauge lever l,
+
+  vertical   s_v,i = g l ( F_z / 4   + (M . t_i) / (2 L) )
+  horizontal s_h,i = g l ( F . t_i / 2 + M_z / (4 L) )
+
+(a vertical force is shared by four arms, a moment about t_i by the two arms
+along +-r_i as opposite vertical forces, a force along t_i by the two arms
+perpendicular to it, M_z by all four as tangential forces).  Every wrench
+component excites a different pattern of sums and differences, so S has full
+column rank; its condition number after scaling each column by the full-scale
+load is small (see :attr:`StrainGaugeSensor.condition_number`).  The gain g
+puts a worst-case full-scale wrench at ``headroom`` of the ADC range.
+
+ADC: ``adc_bits`` bits over +/- ``adc_range_v`` V, with Gaussian amplifier noise
+of ``noise_lsb`` LSB added before quantisation.  The reported wrench is the
+least-squares inverse of the calibration applied to the quantised strains,
+as the real system computed it.
+
+Encoders: the robot-side position quantised at the PHANToM's resolution;
+velocity is the first difference of the quantised position, lowpassed with a
+2nd-order Butterworth filter (thesis 1.2: "first order differenced and
+lowpass filtered").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from contactlab.sim import constants as C
+
+
+def maltese_cross_matrix(arm_length: float = C.SENSOR_ARM_LENGTH) -> np.ndarray:
+    """Unscaled 8 x 6 beam-model matrix (rows: v0, h0, v1, h1, ..., columns Fx Fy Fz Mx My Mz)."""
+    rows = []
+    for i in range(4):
+        phi = i * np.pi / 2.0
+        t = np.array([-np.sin(phi), np.cos(phi), 0.0])
+        rows.append(np.concatenate([[0.0, 0.0, 0.25], t / (2.0 * arm_length)]))
+        rows.append(np.concatenate([t / 2.0, [0.0, 0.0, 1.0 / (4.0 * arm_length)]]))
+    return np.array(rows)
+
+
+@dataclass(frozen=True)
+class StrainGaugeSensor:
+    """Six-axis fingertip sensor as 8 half-bridges into an ADC (defaults from :mod:`constants`)."""
+
+    force_range: float = C.SENSOR_FORCE_RANGE
+    torque_range: float = C.SENSOR_TORQUE_RANGE
+    arm_length: float = C.SENSOR_ARM_LENGTH
+    adc_bits: int = C.ADC_BITS
+    adc_range_v: float = C.ADC_RANGE_V
+    headroom: float = C.ADC_HEADROOM
+    noise_lsb: float = C.GAUGE_NOISE_LSB
+
+    @property
+    def full_scale(self) -> np.ndarray:
+        return np.array([self.force_range] * 3 + [self.torque_range] * 3)
+
+    @property
+    def calibration(self) -> np.ndarray:
+        """S (8 x 6): strain volts = S @ wrench (N, N m)."""
+        raw = maltese_cross_matrix(self.arm_length)
+        worst = np.max(np.abs(raw) @ self.full_scale)
+        return raw * (self.headroom * self.adc_range_v / worst)
+
+    @property
+    def inverse_calibration(self) -> np.ndarray:
+        """6 x 8 least-squares inverse: wrench = S^+ @ strain."""
+        return np.linalg.pinv(self.calibration)
+
+    @property
+    def condition_number(self) -> float:
+        """Condition number of S with columns scaled by the full-scale load."""
+        return float(np.linalg.cond(self.calibration * self.full_scale))
+
+    @property
+    def lsb_v(self) -> float:
+        return 2.0 * self.adc_range_v / 2**self.adc_bits
+
+    @property
+    def wrench_noise_std(self) -> np.ndarray:
+        """Standard deviation of each wrench component due to noise + quantisation (N, N m)."""
+        var_v = (self.noise_lsb * self.lsb_v) ** 2 + self.lsb_v**2 / 12.0
+        pinv = self.inverse_calibration
+        return np.sqrt(var_v * np.sum(pinv**2, axis=1))
+
+    def measure(self, wrench: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Strains (n, 8, volts, quantised) and the wrench computed from them (n, 6)."""
+        s = wrench @ self.calibration.T
+        s = s + rng.normal(0.0, self.noise_lsb * self.lsb_v, s.shape)
+        lsb = self.lsb_v
+        half = 2 ** (self.adc_bits - 1)
+        codes = np.clip(np.round(s / lsb), -half, half - 1)
+        strain = codes * lsb
+        return strain, strain @ self.inverse_calibration.T
+
+
+@dataclass(frozen=True)
+class Encoders:
+    """PHANToM position encoders and the velocity estimate."""
+
+    resolution: float = C.ENCODER_RESOLUTION
+    velocity_lowpass_hz: float = C.VELOCITY_LOWPASS_HZ
+
+    def measure(self, robot_position: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """Quantised position (n, 3) and lowpassed first-difference velocity (n, 3)."""
+        pos = np.round(robot_position / self.resolution) * self.resolution
+        diff = np.diff(pos, axis=0, prepend=pos[:1]) * rate_hz
+        b, a = signal.butter(2, self.velocity_lowpass_hz, fs=rate_hz)
+        zi = signal.lfilter_zi(b, a)[:, None] * diff[:1]
+        vel, _ = signal.lfilter(b, a, diff, axis=0, zi=zi)
+        return pos, vel
