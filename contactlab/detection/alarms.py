@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,3 +117,18 @@ def alarms_from_table(table: np.ndarray, *, sides: tuple[str, ...], with_change_
     table = np.asarray(table, dtype=np.int64).reshape(-1, 4)
     return Alarms(table[:, 0].copy(), table[:, 1].copy(), table[:, 2].copy(),
                   table[:, 3].copy() if with_change_time else None, sides, trace)
+
+
+@njit(cache=True)
+def push_alarm(out, m, t, d, side, change_time):  # pragma: no cover - compiled
+    """Append the alarm row (t, d, side, change_time) at row ``m`` of the growing
+    table ``out`` (doubling it when full) and return the table; for numba kernels."""
+    if m == out.shape[0]:
+        grown = np.empty((2 * out.shape[0], 4), dtype=np.int64)
+        grown[:m] = out[:m]
+        out = grown
+    out[m, 0] = t
+    out[m, 1] = d
+    out[m, 2] = side
+    out[m, 3] = change_time
+    return out

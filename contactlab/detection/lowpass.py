@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms
+from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms, push_alarm
 
 SIDES_ONE = ("up",)
 SIDES_ABS = ("up", "down")
@@ -146,8 +146,7 @@ class LowpassThreshold:
 def _lowpass_kernel(y, a, thr, absolute, x0, x, t0, trace, keep_trace, stat):  # pragma: no cover
     """The filter over y (n, D) with alarms and restarts; updates x in place."""
     n, n_det = y.shape
-    cap = 64
-    out = np.empty((cap, 4), dtype=np.int64)
+    out = np.empty((64, 4), dtype=np.int64)
     m = 0
     for i in range(n):
         t = t0 + i
@@ -163,15 +162,7 @@ def _lowpass_kernel(y, a, thr, absolute, x0, x, t0, trace, keep_trace, stat):  #
             elif absolute and v < -thr[d]:
                 side = 1
             if side >= 0:
-                if m == cap:
-                    cap *= 2
-                    grown = np.empty((cap, 4), dtype=np.int64)
-                    grown[:m] = out[:m]
-                    out = grown
-                out[m, 0] = t
-                out[m, 1] = d
-                out[m, 2] = side
-                out[m, 3] = -2
+                out = push_alarm(out, m, t, d, side, -2)
                 m += 1
                 v = x0
             x[d] = v

@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
-from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms
+from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms, push_alarm
 from contactlab.detection.increments import (
     MEAN_SIDES,
     VARIANCE_SIDES,
@@ -270,8 +270,7 @@ def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat):  # pragma
     Returns an (N, 4) int64 table of alarms: time, detector, side, change time.
     """
     n, n_det, n_side = x.shape
-    cap = 64
-    out = np.empty((cap, 4), dtype=np.int64)
+    out = np.empty((64, 4), dtype=np.int64)
     m = 0
     for i in range(n):
         t = t0 + i
@@ -293,15 +292,7 @@ def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat):  # pragma
                     best = k
                     best_v = df[d, k]
             if best >= 0:
-                if m == cap:
-                    cap *= 2
-                    grown = np.empty((cap, 4), dtype=np.int64)
-                    grown[:m] = out[:m]
-                    out = grown
-                out[m, 0] = t
-                out[m, 1] = d
-                out[m, 2] = best
-                out[m, 3] = last_zero[d, best]
+                out = push_alarm(out, m, t, d, best, last_zero[d, best])
                 m += 1
                 for k in range(n_side):
                     df[d, k] = 0.0
