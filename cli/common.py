@@ -25,6 +25,23 @@ class ContactlabGroup(click.Group):
     line too, and shows its traceback only under ``contactlab --debug``.
     """
 
+    def main(self, *args, **kwargs):
+        """Run the CLI; usage errors become one line on stderr and exit status 2."""
+        kwargs["standalone_mode"] = False
+        try:
+            rv = super().main(*args, **kwargs)
+        except click.UsageError as err:
+            where = err.ctx.command_path if err.ctx is not None else PROG
+            click.echo(f"{where}: error: {err.format_message()} (see '{where} --help')", err=True)
+            sys.exit(err.exit_code)
+        except click.ClickException as err:
+            click.echo(f"{PROG}: error: {err.format_message()}", err=True)
+            sys.exit(err.exit_code)
+        except click.exceptions.Abort:
+            click.echo(f"{PROG}: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)

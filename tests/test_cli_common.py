@@ -69,3 +69,13 @@ def test_debug_shows_the_traceback(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode != 0
     assert "Traceback" in proc.stderr
+
+
+@pytest.mark.parametrize("args", [["info"], ["reproduce", "--seed", "x"], ["nosuchverb"],
+                                  ["validate", "--nosuchoption", "a.h5"]])
+def test_click_usage_errors_are_one_line_with_exit_2(args):
+    proc = subprocess.run([sys.executable, "-m", "contactlab", *args], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "error" in lines[0], proc.stderr
