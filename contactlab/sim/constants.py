@@ -44,10 +44,18 @@ are chosen as fractions of this."""
 FORCE_DYNAMIC_RANGE = 100.0
 """thesis 3.4: "high force dynamic range (around 100:1)"."""
 
-CONTROL_ERROR_STD = PHANTOM_CONTINUOUS_FORCE / FORCE_DYNAMIC_RANGE
-"""thesis 3.4 + datasheet: the random control wrench w of (4.12), N per axis,
-one independent draw per servo tick: the smallest force the PHANToM resolves
-out of its continuous range at 100:1 (= 14 mN)."""
+FORCE_RESOLUTION = PHANTOM_CONTINUOUS_FORCE / FORCE_DYNAMIC_RANGE
+"""thesis 3.4 + datasheet: the smallest force step the PHANToM resolves, its
+continuous force over the 100:1 dynamic range (= 14 mN)."""
+
+CONTROL_ERROR_STD = FORCE_RESOLUTION / math.sqrt(12.0)
+"""thesis 3.4 + physics: the random control wrench w of (4.12), N per axis, one
+independent draw per servo tick.  An actuator that resolves force in steps of
+FORCE_RESOLUTION makes an error spread uniformly over one step, whose standard
+deviation is step / sqrt(12) (= 4.0 mN).  (Using the whole step as the standard
+deviation, as an earlier version did, overstates the error 3.5x; driven by it
+the robot mass ringing on the sensor spring at ~250 Hz unloaded a resting
+200 mN contact.)"""
 
 ENCODER_RESOLUTION = 0.03e-3
 """datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,
@@ -60,6 +68,15 @@ without giving the cutoff.  At 1 kHz a 0.03 mm step is a 30 mm/s velocity
 step; a 2nd-order 20 Hz lowpass brings that to about the 1-10 mm/s scale of
 the thesis's moving/fixed velocity models (9.1.1) while passing the few-Hz
 motions of the tasks."""
+
+SERVO_VELOCITY_LOWPASS_HZ = 100.0
+"""physics: the servo loop's own velocity estimate (first difference of the
+encoder position, 2nd-order Butterworth lowpass at the 1 kHz servo rate).  The
+20 Hz filter of the recorded velocity cannot be used inside the loop: the
+derivative path of a critically damped 200 N/m loop on the 85 g moving mass
+crosses over near b/m ~ 100 rad/s = 16 Hz, where a 20 Hz filter lags ~70 deg and
+the loop goes unstable.  A filter 5x above the stiffest loop's 15 Hz (800 N/m)
+lags 13 deg there; the price is encoder-step noise passed up to 100 Hz."""
 
 POSITION_DAMPING_RATIO = 0.2
 """physics: the PD position loop's derivative gain is limited by the velocity it
@@ -165,8 +182,31 @@ RING_LOWPASS_HZ = 30.0
 lowpass (motions of the tasks are below a few Hz, the shell mode is 690 Hz)."""
 
 IMPACT_MAX_DURATION_S = 8.0 / (SHELL_DAMPING_RATIO * 2.0 * math.pi * SHELL_MODE_HZ)
-"""labelling: an impact interval is closed after at most 8 decay time
-constants of the shell mode (an amplitude ratio of e^8 ~ 3000)."""
+"""labelling: the decay after the last event of an impact is cut after at most
+8 decay time constants of the shell mode (an amplitude ratio of e^8 ~ 3000)
+even if the ringing is still above the noise (a bounce train as a whole can be
+longer; :func:`contactlab.sim.simulate._impact_intervals`)."""
+
+ENVELOPE_CURVATURE_SIGMAS = 3.0
+"""physics: the fingertip follows the longest-wavelength texture components as long as
+their rms curvature stays below 1/(3 R): a Gaussian field's curvature exceeds 3 sigma
+at ~0.1 % of points, so valleys tighter than the sphere are rare; the rest of the
+roughness is bridged and acts through friction (materials module docstring)."""
+
+TEXTURE_EDGE_MIN_WIDTH = 20e-6
+"""physics: at the boundary between two textures (samples A and B) the fingertip
+rests on both halves while its footprint straddles the split, and rolls over a
+height step on an arc of its own radius rather than dropping off it.  The
+followed heights are blended with a smoothstep over a width w; a step d then has
+peak curvature 6 d / w^2, so w = sqrt(18 R d_max) keeps it at the 1/(3R) budget
+of ENVELOPE_CURVATURE_SIGMAS, with d_max the largest possible step (the summed
+followed amplitudes of both sides; ``Environment.pack``).  This floor, about a
+Hertz contact radius, only keeps the width finite for untextured surfaces."""
+
+IMPACT_QUIET_S = 0.003
+"""labelling: the ringing counts as decayed once it has stayed below the sensor
+noise for 3 ms, two periods of the slowest ringing mode (the ~250 Hz mode of the
+robot mass on the sensor spring while the shell is held by a contact)."""
 
 CONTACT_MARGIN = 1.0e-4
 """numerics: planes farther than radius + 0.1 mm from the fingertip centre are

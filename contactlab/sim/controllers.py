@@ -38,6 +38,24 @@ from contactlab.sim import constants as C
 KIND_POSITION = 0
 KIND_INTEGRAL_FORCE = 1
 
+FEEDBACK = {"encoder": 0, "true": 1}
+"""What the servo loop feeds back (``feedback`` of every controller):
+
+- ``"encoder"``: what the real PHANToM servo sees, the encoder-quantised robot
+  position (``constants.ENCODER_RESOLUTION``) and its first difference lowpassed
+  like the recorded velocity (``Encoders``), both at the 1 kHz servo rate;
+- ``"true"``: the true robot position and velocity sampled at the servo tick,
+  the idealised controller of (4.12) that the chapter-4 analysis assumes
+  (e.g. the free-flight covariance 4.19-4.21).
+"""
+
+
+def _feedback_code(name: str) -> int:
+    try:
+        return FEEDBACK[name]
+    except KeyError:
+        raise ValueError(f"feedback must be one of {sorted(FEEDBACK)}, got {name!r}") from None
+
 
 @dataclass(frozen=True)
 class Move:
@@ -87,6 +105,7 @@ class ServoArrays:
     fff: np.ndarray
     fd: np.ndarray
     hold: np.ndarray
+    feedback: int = 0
 
 
 def _trajectory(moves, t, start):
@@ -120,6 +139,7 @@ class PositionController:
     exploration: Exploration | None = None
     feedforward: tuple[float, float, float] = (0.0, 0.0, 0.0)
     name: str = "position"
+    feedback: str = "encoder"
 
     def servo_arrays(self, start, t: np.ndarray) -> ServoArrays:
         xd, vd = _trajectory(self.moves, t, start)
@@ -132,7 +152,7 @@ class PositionController:
         n = len(t)
         return ServoArrays(KIND_POSITION, np.asarray(self.stiffness, float), np.asarray(damping, float),
                            np.zeros(3), xd, vd, np.tile(np.asarray(self.feedforward, float), (n, 1)),
-                           np.zeros((n, 3)), np.zeros(n, np.int64))
+                           np.zeros((n, 3)), np.zeros(n, np.int64), _feedback_code(self.feedback))
 
     def command(self, start, t):
         """The commanded action per sample: desired position (n, 3)."""
@@ -161,6 +181,7 @@ class StrokeController:
     stiffness: float = 300.0
     damping: float | None = None
     name: str = "stroke"
+    feedback: str = "encoder"
 
     def servo_arrays(self, start, t: np.ndarray) -> ServoArrays:
         d = np.asarray(self.direction, float)
@@ -173,7 +194,8 @@ class StrokeController:
         fff[:, 2] = -self.normal_force
         hold = (t >= self.command_start_s + self.command_s).astype(np.int64)
         return ServoArrays(KIND_POSITION, np.array([self.stiffness, self.stiffness, 0.0]),
-                           np.array([b, b, 0.0]), np.zeros(3), xd, vd, fff, np.zeros((n, 3)), hold)
+                           np.array([b, b, 0.0]), np.zeros(3), xd, vd, fff, np.zeros((n, 3)), hold,
+                           _feedback_code(self.feedback))
 
     def command(self, start, t):
         return self.servo_arrays(start, t).xd
@@ -190,6 +212,13 @@ class IntegralForceController:
     PD loop (``stiffness`` ~ 1/4 of the PHANToM's 3.5 N/mm) tracks x_d.
     ``integral_gain`` Ki (m/(N s)) sets the damper: free-space speed = Ki |f_d|.
     ``damping`` defaults to a damping ratio of 0.7 on the stiff tracking loop.
+
+    ``feedback`` defaults to ``"true"`` (see :data:`FEEDBACK`): with the encoder's
+    differenced, lowpassed velocity the estimate lags the robot by a servo tick or
+    more, the tracking loop's damping no longer reaches the ~250 Hz mode of the
+    robot mass on the sensor spring, and on a stiff contact this controller hops
+    off the surface at ~12 Hz.  A faithful encoder-fed version needs the
+    PHANToM's own structural damping, which the model does not have yet.
     """
 
     forces: tuple[tuple[float, tuple[float, float, float]], ...] = ((0.0, (0.0, 0.0, -0.2)),)
@@ -198,6 +227,7 @@ class IntegralForceController:
     damping: float | None = None
     exploration: Exploration | None = None
     name: str = "integral_force"
+    feedback: str = "true"
 
     def desired_force(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, float)
@@ -218,7 +248,7 @@ class IntegralForceController:
         k = self.stiffness
         return ServoArrays(KIND_INTEGRAL_FORCE, np.array([k, k, k]), np.array([b, b, b]),
                            np.full(3, self.integral_gain), xd, vd, np.zeros((n, 3)),
-                           self.desired_force(t), np.zeros(n, np.int64))
+                           self.desired_force(t), np.zeros(n, np.int64), _feedback_code(self.feedback))
 
     def command(self, start, t):
         """The commanded action per sample: desired force (n, 3)."""

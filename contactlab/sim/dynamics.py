@@ -36,8 +36,19 @@ static > kinetic breakaway, hence no stick-slip.  Here each contact carries an
 elastic tangential displacement xi: sticking, F_t = -k_t xi - c_t v_t must stay
 inside the static cone mu_s F_n; once it leaves it the contact slips with
 |F_t| = mu_k F_n opposing the slip, and it re-sticks when the trial force falls
-back inside the kinetic cone (the slip has stopped or reversed).  mu and the
-height vary along the surface (texture), which is what makes sliding vibrate.
+back inside the kinetic cone (the slip has stopped or reversed).  The height
+the sphere follows is the texture's envelope (the components it can follow);
+the roughness it bridges raises or lowers the friction coefficient with the
+asperity-flank slope along the sliding direction, and mu itself varies along
+the surface (:mod:`contactlab.sim.materials`): that is what makes sliding
+vibrate, without lifting the finger off.  Across a texture boundary the two
+followed heights are blended over the width the sphere needs to roll over the
+step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
+
+Servo.  The controller runs at the 1 kHz servo rate on what the controller
+declares it feeds back (``controllers.FEEDBACK``): by default the encoder-
+quantised robot position and a differenced, lowpassed velocity, as on the real
+PHANToM; or the true state, the idealised controller of (4.12).
 
 Integrator: fixed step, semi-implicit (symplectic) Euler at >= 20 kHz, with the
 stiff contact springs (normal, and tangential while sticking) treated linearly
@@ -81,20 +92,52 @@ class Apparatus:
 
 
 @numba.njit(cache=True)
-def _texture_at(mid, s1, s2, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph):
+def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph):
+    # followed height h and its gradient (g1, g2); gradient (b1, b2) of the bridged part;
+    # relative friction variation m (materials module docstring)
     h = 0.0
     g1 = 0.0
     g2 = 0.0
+    b1 = 0.0
+    b2 = 0.0
     for j in range(hk1.shape[1]):
         a = hk1[mid, j] * s1 + hk2[mid, j] * s2 + hph[mid, j]
         ca = math.cos(a)
         h += hamp[mid, j] * math.sin(a)
         g1 += hamp[mid, j] * hk1[mid, j] * ca
         g2 += hamp[mid, j] * hk2[mid, j] * ca
+        b1 += hbamp[mid, j] * hk1[mid, j] * ca
+        b2 += hbamp[mid, j] * hk2[mid, j] * ca
     m = 0.0
     for j in range(mk1.shape[1]):
         m += mamp[mid, j] * math.sin(mk1[mid, j] * s1 + mk2[mid, j] * s2 + mph[mid, j])
-    return h, g1, g2, m
+    return h, g1, g2, b1, b2, m
+
+
+@numba.njit(cache=True)
+def _quantise(x, res):
+    if res <= 0.0:
+        return x
+    return math.floor(x / res + 0.5) * res
+
+
+@numba.njit(cache=True)
+def _smoothstep(t):
+    # C1 blend 3t^2 - 2t^3 on [0, 1] and its derivative
+    return t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t)
+
+
+@numba.njit(cache=True)
+def _ratchet(mu, slope):
+    # Coulomb friction mu on an asperity flank rising by ``slope`` (tan theta) along the
+    # sliding direction: apparent macroscopic coefficient (mu + t) / (1 - mu t), >= 0.
+    # Patch-averaged slopes are small (rms <= 0.11 for the materials here), so the
+    # denominator guard (jamming at mu t -> 1) never acts in practice.
+    den = 1.0 - mu * slope
+    if den < 0.1:
+        den = 0.1
+    r = (mu + slope) / den
+    return r if r > 0.0 else 0.0
 
 
 @numba.njit(cache=True)
@@ -102,9 +145,11 @@ def integrate(n_out, n_sub, dt,
               # apparatus
               mr, mf, ks, bs, radius, offset, grav, servo_rate,
               # environment
-              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph,
+              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph,
               # controller (per servo tick)
               kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
+              # servo measurement: encoder resolution, velocity filter (b0, b1, b2, a1, a2)
+              feedback, enc_res, vfilt,
               # initial state
               xr0, vr0, x0, v0,
               # labelling
@@ -136,6 +181,19 @@ def integrate(n_out, n_sub, dt,
     x_hold = xr0.copy()
     holding = False
     last_k = -1
+    # what the servo sees (sensor module docstring, Encoders): the encoder-quantised robot
+    # position and its first difference, lowpassed by a biquad, both at the servo rate
+    xm = np.zeros(3)
+    xm_prev = np.zeros(3)
+    vm = np.zeros(3)
+    vz1 = np.zeros(3)
+    vz2 = np.zeros(3)
+    for a in range(3):
+        xm_prev[a] = _quantise(xr0[a] - vr0[a] / servo_rate, enc_res)
+        # filter state at rest on the initial velocity (steady state of the biquad)
+        vm[a] = vr0[a]
+        vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
+        vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + vz2[a]
     xd_now = xr0.copy()
     active = np.zeros(npl, np.bool_)
     stick = np.ones(npl, np.bool_)
@@ -161,11 +219,22 @@ def integrate(n_out, n_sub, dt,
             k = nk - 1
         if k != last_k:
             last_k = k
+            for a in range(3):
+                xm[a] = _quantise(xr[a], enc_res)
+                dv = (xm[a] - xm_prev[a]) * servo_rate
+                xm_prev[a] = xm[a]
+                vm[a] = vfilt[0] * dv + vz1[a]
+                vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + vz2[a]
+                vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
+            if feedback == 1:
+                for a in range(3):
+                    xm[a] = xr[a]
+                    vm[a] = vr[a]
             fs_now = ks * (x - xr) + bs * (v - vr)
             if hold_arr[k] != 0:
                 if not holding:
                     holding = True
-                    x_hold[:] = xr
+                    x_hold[:] = xm
                 for a in range(3):
                     xd_now[a] = x_hold[a]
                 vdk = np.zeros(3)
@@ -181,7 +250,7 @@ def integrate(n_out, n_sub, dt,
                     for a in range(3):
                         xd_now[a] = xd_arr[k, a]
             for a in range(3):
-                wr[a] = kp[a] * (xd_now[a] - xr[a]) + bp[a] * (vdk[a] - vr[a]) + fff_arr[k, a] + gcomp[a] + noise[k, a]
+                wr[a] = kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a] + gcomp[a] + noise[k, a]
 
         # ---------------- contacts ---------------------------------------
         fc_tot[:] = 0.0
@@ -204,7 +273,20 @@ def integrate(n_out, n_sub, dt,
                 s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
                 s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
                 mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-                h, g1, g2, mu_f = _texture_at(mid, s1, s2, hk1, hk2, hamp, hph, mk1, mk2, mamp, mph)
+                h, g1, g2, b1, b2, mu_f = _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                      mk1, mk2, mamp, mph)
+                edge_width = geo[p, 17]
+                xs = (s1 - geo[p, 16]) / edge_width
+                if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
+                    # the sphere straddles the texture boundary: blend the followed heights
+                    ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                       mk1, mk2, mamp, mph)
+                    hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                       mk1, mk2, mamp, mph)
+                    lam, dlam = _smoothstep(xs + 0.5)
+                    h = (1.0 - lam) * ha + lam * hb
+                    g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
+                    g2 = (1.0 - lam) * g2a + lam * g2b
                 delta = radius + h - dist
                 if delta <= 0.0:
                     ok = False
@@ -255,6 +337,13 @@ def integrate(n_out, n_sub, dt,
             ft1 = -kt * tdisp[p, 1] - ct * vt1
             ft2 = -kt * tdisp[p, 2] - ct * vt2
             mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+            if mag > 0.0:
+                # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|
+                e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
+                e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
+                slope = b1 * e1 + b2 * e2
+                mus = _ratchet(mus, slope)
+                muk = _ratchet(muk, slope)
             lim = (mus if stick[p] else muk) * fn
             if mag > lim:
                 stick[p] = False

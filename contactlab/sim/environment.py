@@ -16,6 +16,7 @@ Builders (all distances in m, the fingertip centre starts near the origin):
 - :func:`corner`          plane + two walls at configurable angles (fig 9.2)
 - :func:`block`           plane + a block with a vertical face, for impacts
 - :func:`sample_a`, :func:`sample_b`  the two-texture samples of 7.2
+- :func:`maze`            the gear-shift H maze with a tail of 9.2 (fig 9.6)
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from contactlab.sim.materials import Material, evaluate_texture, get_material, t
 
 INCH = 0.0254
 _BIG = 1e9
+_WALL_BAND = 1e-3   # maze walls: half-width of the contact-point band about the wall line, m
 
 
 @dataclass(frozen=True)
@@ -110,6 +112,10 @@ class Environment:
                           for m in mats])
         modes = [texture_modes(m, seed=self.texture_seed, radius=radius) for m in mats]
         tex = {k: np.stack([md[k] for md in modes]) for k in modes[0]}
+        for i in range(n_p):
+            # texture-boundary blend width (constants.TEXTURE_EDGE_MIN_WIDTH)
+            step = sum(float(np.sum(np.abs(tex["h_amp"][mat_ids[i, side]]))) for side in (0, 1))
+            geo[i, 17] = max(math.sqrt(18.0 * radius * step), C.TEXTURE_EDGE_MIN_WIDTH)
         out = dict(geo=geo, mat_ids=mat_ids, n_planes=n_p, props=props, **tex)
         self._cache[key] = out
         return out
@@ -138,7 +144,8 @@ class Environment:
         return out
 
     def surface_height(self, plane_index: int, s1, s2, radius: float = C.FINGERTIP_RADIUS):
-        """Texture height (m) and relative friction variation on plane ``plane_index`` at (s1, s2)."""
+        """Followed texture height (m, the envelope the fingertip rides on) and relative friction
+        variation on plane ``plane_index`` at (s1, s2)."""
         p = self.planes[plane_index]
         pk = self.pack(radius)
         s1 = np.asarray(s1, float)
@@ -146,11 +153,22 @@ class Environment:
         out_m = np.zeros_like(out_h)
         for side in (0, 1):
             mid = pk["mat_ids"][plane_index, side]
-            modes = {k: pk[k][mid] for k in ("h_k1", "h_k2", "h_amp", "h_phase", "m_k1", "m_k2", "m_amp", "m_phase")}
+            modes = {k: pk[k][mid] for k in ("h_k1", "h_k2", "h_amp", "h_bamp", "h_phase", "m_k1", "m_k2", "m_amp", "m_phase")}
             h, m = evaluate_texture(modes, s1, s2)
             sel = (s1 < p.split) if side == 0 else (s1 >= p.split)
             out_h = np.where(sel, h, out_h)
             out_m = np.where(sel, m, out_m)
+            if side == 0:
+                h_first = h
+            else:
+                h_second = h
+        if p.material_b is not None:
+            # blended across the boundary as in the integrator (constants.TEXTURE_EDGE_MIN_WIDTH)
+            width = pk["geo"][plane_index, 17]
+            t = np.clip((s1 - p.split) / width + 0.5, 0.0, 1.0)
+            lam = t * t * (3.0 - 2.0 * t)
+            edge = np.abs(s1 - p.split) < 0.5 * width
+            out_h = np.where(edge, (1.0 - lam) * h_first + lam * h_second, out_h)
         return out_h, out_m
 
 
@@ -241,5 +259,69 @@ def sample_b(*, texture_seed: int = 0) -> Environment:
     return _two_texture("sample_b", "rough_wood", "polished_aluminium", texture_seed)
 
 
+def maze_outline(*, half_width: float = 0.010, leg_x: float = 0.025, leg_length: float = 0.040,
+                 tail_length: float = 0.040) -> list[tuple[float, float]]:
+    """Corners (x, y), m, counter-clockwise, of the channel of :func:`maze` (see there)."""
+    w, a, L, T = half_width, leg_x, leg_length, tail_length
+    return [(-a - w, -L), (-a + w, -L), (-a + w, -w), (-w, -w), (-w, -T), (w, -T), (w, -w), (a - w, -w),
+            (a - w, -L), (a + w, -L), (a + w, L), (a - w, L), (a - w, w), (-a + w, w), (-a + w, L),
+            (-a - w, L)]
+
+
+def maze(*, depth: float = 0.003, half_width: float = 0.010, leg_x: float = 0.025, leg_length: float = 0.040,
+         tail_length: float = 0.040, material: str | Material = "lexan", texture_seed: int = 0) -> Environment:
+    """The gear-shift maze of 9.2 (fig 9.6): an H-shaped channel with one extra tail, milled
+    ``depth`` deep into Lexan (less than the fingertip radius).
+
+    Layout (m, channel floor at z = 0; the thesis gives the shape, not the dimensions, so
+    these are assumptions: a channel ``2 half_width`` = 20 mm wide, which the 14.3 mm disc
+    below passes with clearance, and legs a few disc diameters long):
+
+    - crossbar along x: x in [-leg_x - w, leg_x + w], y in [-w, w]   (w = ``half_width``)
+    - left and right legs along y at x = -leg_x and x = +leg_x, y in [-leg_length, leg_length]
+    - the tail: a fifth leg down from the middle of the crossbar, x in [-w, w], y in [-tail_length, 0]
+
+    :func:`maze_outline` lists the 16 corners of the channel boundary; every edge is one wall.
+
+    Contact geometry.  The sphere resting on the channel floor meets a wall at the wall's
+    top edge (z = ``depth``), at the horizontal distance r = sqrt(R^2 - (R - depth)^2) from
+    its centre: the planar task is that of a disc of radius r (7.1 mm for 3 mm), as in fig
+    9.6.  Each wall is therefore the plane through its top edge with normal
+    (r m + (R - depth) z) / R, m the wall's horizontal normal into the channel: the plane
+    the sphere touches exactly where it touches the edge, so the configuration space of the
+    disc and the direction of the edge force (inclined, lifting the finger) are both right.
+    The contact point is bounded to the wall's length and to a 1 mm band about its line
+    (``Plane.lower``/``upper``), so walls are segments seen only from their channel side.  Not modelled: contact with a convex corner itself (the circular arcs of
+    the configuration space in fig 9.6); near one the disc meets neither wall.  The thesis
+    likewise approximated those arcs by the two linear constraints.
+    """
+    r = C.FINGERTIP_RADIUS
+    if not 0.0 < depth < r:
+        raise ValueError("depth must be in (0, fingertip radius)")
+    r_disc = math.sqrt(r**2 - (r - depth) ** 2)
+    if half_width <= r_disc:
+        raise ValueError(f"half_width must exceed the disc radius {r_disc:.4f} m at this depth")
+    pts = maze_outline(half_width=half_width, leg_x=leg_x, leg_length=leg_length, tail_length=tail_length)
+    walls = []
+    for i, (p0, p1) in enumerate(zip(pts, pts[1:] + pts[:1])):
+        d = np.array([p1[0] - p0[0], p1[1] - p0[1], 0.0])
+        d /= np.linalg.norm(d)
+        m = np.array([-d[1], d[0], 0.0])                    # into the channel (left of a CCW edge)
+        n = (r_disc * m + (r - depth) * np.array([0.0, 0.0, 1.0])) / r
+        edge = np.array([p0[0], p0[1], depth])
+        lo = [min(p0[0], p1[0]), min(p0[1], p1[1]), -_BIG]
+        hi = [max(p0[0], p1[0]), max(p0[1], p1[1]), _BIG]
+        for k in range(2):
+            if abs(d[k]) < 0.5:
+                # across the wall: the contact point of a sphere touching the edge lies on the
+                # edge line (to within its micron-size penetration); a sphere in a channel on
+                # the far side of this wall is a disc radius or more away and must not see it
+                lo[k], hi[k] = p0[k] - _WALL_BAND, p0[k] + _WALL_BAND
+        walls.append(Plane(name=f"wall_{i:02d}", normal=tuple(n), offset=float(n @ edge), u_axis=tuple(d),
+                           material=material, lower=tuple(lo), upper=tuple(hi)))
+    return Environment(name="maze", planes=(_floor(material),) + tuple(walls), texture_seed=texture_seed,
+                       start=(0.0, 0.0, r + 0.0005))
+
+
 ENVIRONMENTS = {"free_space": free_space, "plane": plane, "wall": wall, "corner": corner,
-                "block": block, "sample_a": sample_a, "sample_b": sample_b}
+                "block": block, "sample_a": sample_a, "sample_b": sample_b, "maze": maze}

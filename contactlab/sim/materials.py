@@ -21,14 +21,45 @@ therefore sees a vibration whose frequencies are speed x wavenumber and whose
 power depends on the direction of travel (thesis 4.40).
 
 The fingertip touches the surface over a Hertz contact patch of radius a
-(about 20-70 um at the 0.2 N of the stroking experiment), which averages the
-height over the patch: components are attenuated by exp(-(k a)^2 / 8), the
+(about 30-80 um at the 0.2 N of the stroking experiment), which averages the
+surface over the patch: components are attenuated by exp(-(k a)^2 / 8), the
 Gaussian-patch average, with a evaluated at a nominal 0.2 N load
-(:func:`texture_modes`).  This is a simplification: the true path of a rigid
-sphere over a rough surface rides on the asperity tops and bridges valleys
-narrower than sqrt(8 R depth); a height field that it follows everywhere
-keeps the right order of magnitude of vibration without computing that
-envelope.
+(:func:`texture_modes`).
+
+What the sphere rides on (the envelope).  A rigid sphere of radius R pressed
+on a rough surface does not follow the height field: it rests on the asperity
+tops and bridges every valley narrower than about sqrt(8 R depth) (0.6 mm for
+a 5 um scratch under the 10 mm fingertip).  Its centre follows the upper
+envelope max_q [h(q) - |q - p|^2 / 2R], the morphological closing of h by the
+sphere, whose concave curvature is at most 1/R.  Computing that max over the
+footprint every integration step is too slow, so the envelope is
+approximated spectrally.  The height components are split, longest
+wavelength first, into
+
+- the *followed* part: the longest components whose summed rms curvature
+  sqrt(sum (A k^2)^2 / 2) stays below 1/(ENVELOPE_CURVATURE_SIGMAS R) (the
+  component at the boundary is scaled to meet that budget exactly).  A
+  Gaussian field with that rms curvature has valleys tighter than the sphere
+  at only ~0.1 % of its points, so the sphere follows it everywhere; this is
+  the geometry in the contact (``h_amp``).  Polished aluminium, plastic and
+  Lexan are followed entirely (rms curvature 5-30 1/m against 1/3R = 33 1/m);
+  80-grit aluminium and rough wood (1400-2400 1/m) are bridged almost
+  entirely;
+- the *bridged* part (``h_bamp``): the sphere slides over the tops of these
+  asperities.  Their geometry changes the centre height only by sagittas
+  lambda^2 / 8R (well under a micron for lambda < 0.3 mm) and is left out;
+  what they do change is the force: the patch's micro-contacts sit on
+  asperity flanks of local slope tan(theta) along the sliding direction, and
+  Coulomb friction mu on a flank inclined by theta gives an apparent
+  macroscopic coefficient (mu + tan theta) / (1 - mu tan theta) (the
+  "ratchet" roughness term of Bowden and Tabor).  So bridged roughness makes
+  sliding friction fluctuate with the patch-averaged slope: a vibration whose
+  frequencies are speed x wavenumber and whose size depends on the direction
+  of travel relative to the lay (4.40), without geometric lift-off.
+
+Not modelled: the small normal velocity kinks where the supporting asperity
+changes (micro-impacts); the friction fluctuation carries the texture
+vibration instead.
 
 The field is deterministic given its seed: the same physical sample is
 stroked in every trial.
@@ -173,7 +204,9 @@ def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_fricti
     Returns arrays ``h_k1, h_k2, h_amp, h_phase`` (height) and ``m_k1, m_k2,
     m_amp, m_phase`` (relative friction) such that
     h(s) = sum amp_j sin(k1_j s1 + k2_j s2 + phase_j), and the same for m.
-    Height amplitudes are averaged over the Hertz contact patch (module docstring).
+    Height amplitudes are averaged over the Hertz contact patch and split into
+    the part the sphere follows (``h_amp``) and the bridged part (``h_bamp``,
+    same wavevectors and phases) that acts through friction (module docstring).
     """
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), _name_key(material.name)]))
     out = {}
@@ -185,12 +218,37 @@ def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_fricti
         amp = amp * rms / math.sqrt(0.5 * np.sum(amp**2)) if rms > 0 else np.zeros(n)
         if prefix == "h":
             amp = amp * np.exp(-(k * contact_radius(material, radius)) ** 2 / 8.0)
+            followed = followed_fraction(amp, k, radius)
+            out["h_bamp"] = amp * (1.0 - followed)
+            amp = amp * followed
         ang = _mode_directions(rng, n, material.anisotropy, material.lay_angle)
         out[f"{prefix}_k1"] = k * np.cos(ang)
         out[f"{prefix}_k2"] = k * np.sin(ang)
         out[f"{prefix}_amp"] = amp
         out[f"{prefix}_phase"] = rng.uniform(0.0, 2.0 * math.pi, n)
     return out
+
+
+def followed_fraction(amp: np.ndarray, k: np.ndarray, radius: float = C.FINGERTIP_RADIUS,
+                      sigmas: float = C.ENVELOPE_CURVATURE_SIGMAS) -> np.ndarray:
+    """Fraction (0..1) of each height component's amplitude that a sphere of ``radius`` follows.
+
+    Longest wavelengths first, components are kept whole while the rms curvature of the
+    kept set stays below 1 / (sigmas radius); the first one that would exceed it is
+    scaled to meet the budget exactly and all shorter ones are bridged (module docstring).
+    """
+    budget2 = 2.0 * (1.0 / (sigmas * radius)) ** 2      # sum (A k^2)^2 allowed
+    frac = np.zeros(len(amp))
+    used = 0.0
+    for j in np.argsort(k):
+        c2 = (amp[j] * k[j] ** 2) ** 2
+        if used + c2 <= budget2:
+            frac[j] = 1.0
+            used += c2
+        else:
+            frac[j] = math.sqrt(max(budget2 - used, 0.0) / c2) if c2 > 0 else 1.0
+            break
+    return frac
 
 
 def contact_radius(material: Material, radius: float = C.FINGERTIP_RADIUS, load: float = 0.2) -> float:
@@ -204,9 +262,18 @@ def _name_key(name: str) -> int:
 
 
 def evaluate_texture(modes: dict[str, np.ndarray], s1, s2) -> tuple[np.ndarray, np.ndarray]:
-    """Height (m) and relative friction variation at surface coordinates (s1, s2); vectorised."""
+    """Followed height (m, the envelope the sphere centre rides on) and relative friction
+    variation at surface coordinates (s1, s2); vectorised."""
     s1 = np.asarray(s1, dtype=float)[..., None]
     s2 = np.asarray(s2, dtype=float)[..., None]
     h = np.sum(modes["h_amp"] * np.sin(modes["h_k1"] * s1 + modes["h_k2"] * s2 + modes["h_phase"]), axis=-1)
     m = np.sum(modes["m_amp"] * np.sin(modes["m_k1"] * s1 + modes["m_k2"] * s2 + modes["m_phase"]), axis=-1)
     return h, m
+
+
+def bridged_slope(modes: dict[str, np.ndarray], s1, s2) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient (d/ds1, d/ds2) of the bridged height part at (s1, s2); vectorised."""
+    s1 = np.asarray(s1, dtype=float)[..., None]
+    s2 = np.asarray(s2, dtype=float)[..., None]
+    c = modes["h_bamp"] * np.cos(modes["h_k1"] * s1 + modes["h_k2"] * s2 + modes["h_phase"])
+    return np.sum(c * modes["h_k1"], axis=-1), np.sum(c * modes["h_k2"], axis=-1)

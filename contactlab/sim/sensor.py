@@ -26,7 +26,9 @@ as the real system computed it.
 Encoders: the robot-side position quantised at the PHANToM's resolution;
 velocity is the first difference of the quantised position, lowpassed with a
 2nd-order Butterworth filter (thesis 1.2: "first order differenced and
-lowpass filtered").
+lowpass filtered").  The servo loop uses the same quantised position and the
+same kind of velocity estimate at its 1 kHz rate, with a faster filter
+(``servo_velocity_lowpass_hz``, constants.SERVO_VELOCITY_LOWPASS_HZ).
 """
 
 from __future__ import annotations
@@ -111,12 +113,20 @@ class Encoders:
 
     resolution: float = C.ENCODER_RESOLUTION
     velocity_lowpass_hz: float = C.VELOCITY_LOWPASS_HZ
+    servo_velocity_lowpass_hz: float = C.SERVO_VELOCITY_LOWPASS_HZ
+
+    def velocity_filter(self, rate_hz: float, cutoff_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(b, a) of the 2nd-order Butterworth lowpass applied to the differenced position at
+        ``rate_hz`` (cutoff ``velocity_lowpass_hz`` unless given).  The servo loop runs the same
+        estimator at the servo rate with ``servo_velocity_lowpass_hz``
+        (:func:`contactlab.sim.dynamics.integrate`)."""
+        return signal.butter(2, self.velocity_lowpass_hz if cutoff_hz is None else cutoff_hz, fs=rate_hz)
 
     def measure(self, robot_position: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
         """Quantised position (n, 3) and lowpassed first-difference velocity (n, 3)."""
         pos = np.round(robot_position / self.resolution) * self.resolution
         diff = np.diff(pos, axis=0, prepend=pos[:1]) * rate_hz
-        b, a = signal.butter(2, self.velocity_lowpass_hz, fs=rate_hz)
+        b, a = self.velocity_filter(rate_hz)
         zi = signal.lfilter_zi(b, a)[:, None] * diff[:1]
         vel, _ = signal.lfilter(b, a, diff, axis=0, zi=zi)
         return pos, vel

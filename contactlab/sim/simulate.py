@@ -54,7 +54,8 @@ class SimResult:
     moving : (n,) bool, sliding_speed > ``moving_threshold``
     impact : (n,) bool, inside an impact interval
     impact_intervals : (k, 2) int [start, end) sample indices, from the impact until
-        the ringing has decayed below the sensor noise
+        the ringing has decayed below the sensor noise; a bounce train is one impact
+        (definition in :func:`_impact_intervals`)
     impact_kinds : (k,) int, 1 = contact gained at speed (4.47), 2 = contact lost
         while loaded (4.52)
     texture : (n,) int index into ``materials`` of the surface under the finger (-1: none)
@@ -152,14 +153,17 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
     xr0 = start.copy()
     x0 = start + app.shell_mass * gvec / app.sensor_stiffness  # hanging at rest on the spring
     ring_tau = 1.0 / (2.0 * math.pi * C.RING_LOWPASS_HZ)
+    vb, va = enc.velocity_filter(app.servo_rate_hz, enc.servo_velocity_lowpass_hz)
+    vfilt = np.array([vb[0], vb[1], vb[2], va[1], va[2]]) / va[0]
     f_loss = float(np.linalg.norm(sen.wrench_noise_std[:3])) * 3.0
     out = integrate(n_out, n_sub, dt,
                     app.robot_mass, app.shell_mass, app.sensor_stiffness, app.sensor_damping, app.radius,
                     app.origin_offset, app.gravity, app.servo_rate_hz,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
-                    pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_phase"],
+                    pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
                     pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"],
                     sa.kind, sa.kp, sa.bp, sa.ki, sa.xd, sa.vd, sa.fff, sa.fd, sa.hold, noise,
+                    int(getattr(sa, "feedback", 0)), float(enc.resolution), vfilt,
                     xr0, v0.copy(), x0, v0.copy(),
                     ring_tau, C.IMPACT_MIN_APPROACH_SPEED, f_loss, C.TANGENTIAL_STIFFNESS_RATIO,
                     C.CONTACT_MARGIN)
@@ -213,10 +217,21 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
 
 
 def _impact_intervals(event, ring, noise_level, rate_hz):
-    """Impact intervals: from each event until the ringing stays below the noise level
-    for 3 ms (at most IMPACT_MAX_DURATION_S); overlapping intervals merge."""
+    """Impact intervals (thesis 4.47-4.52, 7.1) as [start, end) sample indices, and their kinds.
+
+    Definition.  An impact starts at a contact event: a contact gained at a normal
+    approach speed above IMPACT_MIN_APPROACH_SPEED (kind 1, 4.47), or a contact lost
+    while it carried more than 3 sigma of sensor noise (kind 2, 4.52).  It lasts until
+    the ringing (``ring``: peak of the sensor force minus its RING_LOWPASS_HZ lowpass
+    within the sample) has stayed below the sensor noise level for IMPACT_QUIET_S, but
+    at most IMPACT_MAX_DURATION_S after the event.  An event while an interval is open
+    (the next bounce of a bounce train, 4.51) belongs to the same impact and restarts
+    its decay: a train of bounces is one interval, from its first bounce to the decay
+    after its last, of the kind of its first event; so only the decay after the last
+    event, not the whole interval, is bounded by IMPACT_MAX_DURATION_S.
+    """
     n = len(event)
-    quiet = max(1, int(round(0.003 * rate_hz)))
+    quiet = max(1, int(round(C.IMPACT_QUIET_S * rate_hz)))
     max_len = int(round(C.IMPACT_MAX_DURATION_S * rate_hz))
     below = ring < noise_level
     # run length of "below" starting at each index
@@ -231,7 +246,7 @@ def _impact_intervals(event, ring, noise_level, rate_hz):
             if run[k] >= quiet:
                 end = k
                 break
-        if intervals and i <= intervals[-1][1]:
+        if intervals and i < intervals[-1][1]:
             intervals[-1][1] = max(intervals[-1][1], end)
         else:
             intervals.append([int(i), int(end)])
