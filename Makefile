@@ -19,10 +19,15 @@ $(STAMP): pyproject.toml | $(BIN)/python
 
 env: $(STAMP)
 
-## Run the main job end to end on simulated data and write a report under reports/.
+## Run the main job end to end on simulated data and write a report under reports/:
+## simulate a small stroking dataset, report it, then reproduce the experiments.
 demo: $(STAMP)
-	$(BIN)/contactlab reproduce ph-demo ph-roc --out reports --seed $(SEED)
-	@echo "demo report: reports/index.html"
+	@mkdir -p build/demo
+	$(BIN)/contactlab acquire --spec stroke-a --trials 2 --seed $(SEED) --out build/demo/stroke-a.h5 --force
+	$(BIN)/contactlab validate build/demo/stroke-a.h5
+	$(BIN)/contactlab report build/demo/stroke-a.h5 --out reports/stroke-a
+	$(BIN)/contactlab reproduce ph-demo ph-roc datasets --out reports --seed $(SEED)
+	@echo "demo report: reports/index.html (dataset report: reports/stroke-a/index.html)"
 
 ## Run the test suite.
 test: $(STAMP)

@@ -7,6 +7,7 @@ import click
 
 from contactlab import __version__
 from contactlab.cli.common import ContactlabGroup, not_available
+from contactlab.cli.acquire import acquire
 from contactlab.cli.import_ import import_cmd
 from contactlab.cli.info import info
 from contactlab.cli.report import report
@@ -32,7 +33,7 @@ main.add_command(info)
 main.add_command(import_cmd)
 main.add_command(report)
 main.add_command(reproduce)
-main.add_command(not_available("acquire", "Simulator and acquire"))
+main.add_command(acquire)
 main.add_command(not_available("segment", "Temporal features"))
 main.add_command(not_available("train", "Temporal features"))
 main.add_command(not_available("label", "Temporal features"))

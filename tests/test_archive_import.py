@@ -160,7 +160,7 @@ def test_parse_column_map_text_and_json_file(tmp_path):
 
 
 @pytest.mark.parametrize("text, fragment", [
-    ("time=t", "needs strain or wrench"),
+    ("time=t", "needs strain, wrench or position"),
     ("time=t;force=fx", "unknown field 'force'"),
     ("time;wrench=fx", "is not FIELD=COLUMN"),
     ("time=t,u;wrench=fx", "takes exactly one column"),

@@ -169,8 +169,8 @@ def test_incremental_flushes_finished_trials_to_the_temp_file(tmp_path):
      "wrench"),
     (lambda t, d: t.append(time=d["time"][::-1], wrench=d["wrench"]), "strictly increasing",
      "time"),
-    (lambda t, d: t.append(time=d["time"], position=d["position"]), "needs strain or wrench",
-     "strain"),
+    (lambda t, d: t.append(time=d["time"], velocity=d["velocity"]),
+     "needs strain, wrench or position", "strain"),
     (lambda t, d: t.append(time=d["time"], strain=d["strain"][:, :3]), "expected (rows, 8)",
      "strain"),
 ])

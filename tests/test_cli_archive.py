@@ -141,7 +141,7 @@ def test_import_reads_a_json_column_map(tmp_path):
     assert validate_archive(tmp_path / "o.h5") == []
 
 
-@pytest.mark.parametrize("columns", ["time=t;force=fx", "time", "time=t;position=x,y,z"])
+@pytest.mark.parametrize("columns", ["time=t;force=fx", "time", "time=t;velocity=x,y,z"])
 def test_import_bad_map_is_a_usage_error(tmp_path, columns):
     write_csv(tmp_path / "a.csv", n=20)
     result = run("import", tmp_path / "a.csv", "--out", tmp_path / "o.h5", "--columns", columns)

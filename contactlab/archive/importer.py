@@ -78,8 +78,8 @@ def normalize_column_map(columns: dict) -> dict[str, list[str]]:
         if field in SCALAR_FIELDS and (len(names) > 1 or _is_pattern(names[0])):
             raise UsageError(f"field {field!r} takes exactly one column, not {value!r}")
         out[field] = names
-    if "strain" not in out and "wrench" not in out:
-        raise UsageError("the column map needs strain or wrench")
+    if not {"strain", "wrench", "position"} & set(out):
+        raise UsageError("the column map needs strain, wrench or position")
     return out
 
 

@@ -254,6 +254,24 @@ class Trial:
             "code": codes,
         })
 
+    def truth_names(self) -> list[str]:
+        """Names of the ground-truth datasets this trial holds (labels, contact, ...)."""
+        group = self._group.get(spec.GROUND_TRUTH)
+        return sorted(group.keys()) if isinstance(group, h5py.Group) else []
+
+    def truth(self, name: str) -> np.ndarray | None:
+        """Ground-truth dataset ``name`` (``contact``, ``contact_normals``, ``moving``,
+        ``impact``, ``impact_intervals``, ``texture``, ``labels``, ...), or None when absent.
+
+        ``contact``, ``moving`` and ``impact`` come back as bool arrays; the
+        names that go with ``contact`` and ``texture`` are in
+        ``dataset_attrs(name, "ground_truth")`` (``surfaces``, ``names``).
+        """
+        data = self._read(spec.GROUND_TRUTH, name)
+        if data is not None and name in ("contact", "moving", "impact"):
+            data = data.astype(bool)
+        return data
+
     # -- results ----------------------------------------------------------------
     def result_stages(self) -> list[str]:
         group = self._group.get(spec.RESULTS)

@@ -37,6 +37,9 @@ CHUNK_ROWS = 1024
 #: gzip (deflate) is readable by every HDF5 tool, unlike lzf.
 COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
+#: Ground-truth datasets with one row per sample.
+PER_SAMPLE_TRUTH = ("labels", "contact", "contact_normals", "moving", "impact", "texture")
+
 SEGMENT_DTYPE = np.dtype([("start_s", "<f8"), ("end_s", "<f8"), ("label", "<i2")])
 
 
@@ -102,6 +105,7 @@ class ArchiveWriter:
             self._stack.__exit__(type(err), err, err.__traceback__)
             raise
         self._trials: dict[str, TrialWriter] = {}
+        self._copied: list[str] = []
         self._closed = False
 
     # -- trials -----------------------------------------------------------------
@@ -121,7 +125,7 @@ class ArchiveWriter:
         """
         self._check_open()
         check_name(trial_id, "trial id")
-        if trial_id in self._trials:
+        if trial_id in self._trials or trial_id in self._copied:
             raise UsageError(f"trial {trial_id!r} added twice")
         if not (isinstance(rate_hz, (int, float, np.number)) and math.isfinite(rate_hz)
                 and rate_hz > 0):
@@ -147,10 +151,29 @@ class ArchiveWriter:
         self._trials[trial_id] = trial
         return trial
 
+    def copy_trials_from(self, path: str | os.PathLike) -> list[str]:
+        """Copy every trial of the archive at ``path`` into this one (for appending).
+
+        HDF5 object copies, so chunks are copied as they are; the file's title
+        is kept unless this archive has one. Returns the copied trial ids.
+        """
+        self._check_open()
+        copied = []
+        with h5py.File(path, "r") as src:
+            if "title" in src.attrs and "title" not in self._file.attrs:
+                self._file.attrs["title"] = src.attrs["title"]
+            for tid in src.get("trials", {}):
+                if tid in self._trials or tid in self._trials_group:
+                    raise UsageError(f"trial {tid!r} added twice")
+                src.copy(src["trials"][tid], self._trials_group, name=tid)
+                copied.append(tid)
+        self._copied.extend(copied)
+        return copied
+
     @property
     def trial_ids(self) -> list[str]:
-        """Ids of the trials added so far, in order."""
-        return list(self._trials)
+        """Ids of the trials added so far (copied ones first), in order."""
+        return self._copied + list(self._trials)
 
     def flush(self) -> None:
         """Push everything written so far to the temporary file on disk."""
@@ -184,6 +207,7 @@ class ArchiveWriter:
             return None
         self._closed = True
         error = error or RuntimeError("archive writing aborted")
+        # copied trials (append) alone are no reason to keep: the original still holds them
         keep = self.incremental and any(t.complete for t in self._trials.values())
         if keep:
             for tid, trial in self._trials.items():
@@ -265,8 +289,8 @@ class TrialWriter:
         given = {k: v for k, v in given.items() if v is not None}
         fields = tuple(k for k in spec.MEASUREMENT_FIELDS if k in given)
         if self._fields is None:
-            if "strain" not in given and "wrench" not in given:
-                raise self._error("the first append needs strain or wrench", "strain")
+            if not {"strain", "wrench", "position"} & set(given):
+                raise self._error("the first append needs strain, wrench or position", "strain")
         elif fields != self._fields:
             missing = sorted(set(self._fields) - set(fields))
             extra = sorted(set(fields) - set(self._fields))
@@ -302,7 +326,8 @@ class TrialWriter:
         a structured array or a list of tuples -- whose label is a name or code.
         """
         self._check_writable()
-        if spec.GROUND_TRUTH in self._group:
+        if "labels" in self._group.get(spec.GROUND_TRUTH, {}) or \
+                "segments" in self._group.get(spec.GROUND_TRUTH, {}):
             raise self._error("ground truth already set", "labels", spec.GROUND_TRUTH)
         names = [str(n) for n in names]
         codes = np.asarray(labels)
@@ -311,10 +336,87 @@ class TrialWriter:
             raise self._error(f"labels must be a 1-D array of integer codes in [-1, {len(names)})",
                               "labels", spec.GROUND_TRUTH)
         table = None if segments is None else self._segment_table(segments, names)
-        gt = self._group.create_group(spec.GROUND_TRUTH)
+        gt = self._group.require_group(spec.GROUND_TRUTH)
         for name, data in (("labels", codes.astype(np.int16)), ("segments", table)):
             if data is not None:
                 create_dataset(gt, name, data).attrs["names"] = spec.string_array(names)
+
+    def set_attrs(self, attrs: dict) -> None:
+        """Extra trial attributes (e.g. ``dropped_packets``, the spec a trial came from).
+
+        The schema's own trial attributes are set by :meth:`ArchiveWriter.add_trial`.
+        """
+        self._check_writable()
+        reserved = {"rate_hz", "controller", "environment", "seed", "source", "description",
+                    "complete"}
+        for key, value in attrs.items():
+            if key in reserved:
+                raise UsageError(f"trial {self.id!r}: attribute {key!r} is set by add_trial")
+            self._group.attrs[check_name(str(key), "attribute")] = value
+
+    def set_extra(self, name: str, data, *, attrs: dict | None = None) -> None:
+        """An extra per-sample measurement the schema does not name (e.g. a Net F/T's
+        ``rdt_sequence``): ``measurements/NAME`` with one row per sample, written
+        after the appends; the validator leaves its values alone."""
+        self._check_writable()
+        name = check_name(str(name), "dataset")
+        if name in spec.MEASUREMENT_FIELDS or name in self._meas:
+            raise self._error("is a schema field or already written", name)
+        arr = np.asarray(data)
+        if arr.ndim == 0 or len(arr) != self.n_samples:
+            raise self._error(f"{0 if arr.ndim == 0 else len(arr)} rows, but time has "
+                              f"{self.n_samples} samples", name)
+        ds = create_dataset(self._meas, name, arr)
+        for key, value in (attrs or {}).items():
+            ds.attrs[key] = value
+
+    def set_truth(self, *, contact=None, surfaces=None, contact_normals=None, moving=None,
+                  impact=None, impact_intervals=None, texture=None, texture_names=None) -> None:
+        """Store per-sample simulator truth under ``ground_truth/`` (each optional, once).
+
+        ``contact`` (n, S) bool with the ``surfaces`` names; ``contact_normals``
+        (n, S, 3); ``moving`` and ``impact`` (n,) bool; ``impact_intervals``
+        (k, 2) seconds; ``texture`` (n,) codes into ``texture_names`` (-1: none).
+        Lengths are checked against ``time`` when the trial is closed.
+        """
+        self._check_writable()
+        gt = self._group.require_group(spec.GROUND_TRUTH)
+        given = {"contact": contact, "contact_normals": contact_normals, "moving": moving,
+                 "impact": impact, "impact_intervals": impact_intervals, "texture": texture}
+        for name, value in given.items():
+            if value is None:
+                continue
+            if name in gt:
+                raise self._error("already set", name, spec.GROUND_TRUTH)
+            arr = np.asarray(value)
+            rule = spec.dataset_spec(spec.GROUND_TRUTH, name)["shape"]
+            fixed_ok = all(not isinstance(d, int) or d == s for d, s in zip(rule, arr.shape))
+            if arr.ndim != len(rule) or not fixed_ok:
+                raise self._error(f"shape {arr.shape}, expected {spec.shape_text(rule)}", name,
+                                  spec.GROUND_TRUTH)
+            if name in ("contact", "moving", "impact"):
+                arr = arr.astype(np.int8)
+            elif name == "texture":
+                if arr.size and (not np.issubdtype(arr.dtype, np.integer) or arr.min() < -1 or
+                                 texture_names is None or arr.max() >= len(texture_names)):
+                    raise self._error("texture must hold integer codes in [-1, len(texture_names))",
+                                      name, spec.GROUND_TRUTH)
+                arr = arr.astype(np.int16)
+            else:
+                arr = arr.astype(np.float64)
+            if name == "contact" and (surfaces is None or len(surfaces) != arr.shape[1]):
+                raise self._error("contact needs one surface name per column", name,
+                                  spec.GROUND_TRUTH)
+            if 0 in arr.shape[1:]:  # no surfaces (free space): HDF5 cannot chunk it
+                ds = gt.create_dataset(name, data=arr)
+            else:
+                ds = create_dataset(gt, name, arr)
+            if name == "contact":
+                ds.attrs["surfaces"] = spec.string_array(surfaces)
+            elif name == "texture":
+                ds.attrs["names"] = spec.string_array(texture_names)
+            elif name == "impact_intervals":
+                ds.attrs["units"] = "s"
 
     def close(self) -> None:
         """Check the trial is whole, mark it complete (and flush when incremental)."""
@@ -326,9 +428,11 @@ class TrialWriter:
         if "command" in self._fields and not self._command_units:
             raise self._error("command_units is required when commands are appended", "command")
         gt = self._group.get(spec.GROUND_TRUTH)
-        if gt is not None and len(gt["labels"]) != self.n_samples:
-            raise self._error(f"{len(gt['labels'])} labels, but time has {self.n_samples} "
-                              "samples", "labels", spec.GROUND_TRUTH)
+        for name in PER_SAMPLE_TRUTH:
+            if gt is not None and name in gt and len(gt[name]) != self.n_samples:
+                noun = 'labels' if name == 'labels' else 'rows'
+                raise self._error(f"{len(gt[name])} {noun}, but time has {self.n_samples} "
+                                  "samples", name, spec.GROUND_TRUTH)
         if "command" in self._meas:
             self._meas["command"].attrs["units"] = self._command_units
         self._group.attrs["complete"] = True

@@ -57,6 +57,8 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in [
                "contactlab.experiments.ph_demo"),
     Experiment("ph-roc", "ROC of Page-Hinkley and lowpass+threshold", "6.3.1, figs 6.3, 6.5", _F,
                "contactlab.experiments.ph_roc"),
+    Experiment("datasets", "One typical simulated trial per dataset spec",
+               "7.2, 7.3, 8.1.1.2, 9.1; figs 7.5, 9.1", _S, "contactlab.experiments.datasets"),
     Experiment("impact-spectrogram", "Spectrogram of an impact", "7.1, fig 7.1", _T),
     Experiment("ar-fit", "AR(4) fit of a texture strain", "7.1, fig 7.2", _T),
     Experiment("impact-envelope", "Log-energy envelope of an impact", "7.1, fig 7.3", _T),

@@ -90,6 +90,23 @@ def _measurement_caption(trial) -> str:
             "y_h = log|y_d| averaged in blocks of 8 (section 7.1), ground-truth labels.")
 
 
+def plot_trial(trial):
+    """The measurement figure of one archive trial (like thesis figs 7.5 and 9.1).
+
+    Panels: position, velocity, force, raw strains, the high-frequency
+    log-energy y_h of section 7.1 and, when the trial has them, its ground-truth
+    labels; impact intervals of the simulator's truth are shaded on every panel.
+    Returns the matplotlib Figure (the caller saves or closes it).
+    """
+    fig = _plot_measurements(trial)
+    intervals = trial.truth("impact_intervals") if hasattr(trial, "truth") else None
+    if intervals is not None:
+        for ax in fig.axes:
+            for a, b in np.asarray(intervals).reshape(-1, 2):
+                ax.axvspan(a, b, color="C3", alpha=0.15, lw=0)
+    return fig
+
+
 def _plot_measurements(trial):
     t = trial.time
     panels = []

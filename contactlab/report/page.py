@@ -125,7 +125,7 @@ class ReportPage:
         return "\n".join(out)
 
     def _pdf(self, path: Path) -> None:
-        with PdfPages(path) as pdf:
+        with PdfPages(path, metadata={"CreationDate": None}) as pdf:  # reproducible bytes
             text: list[tuple[str, str]] = [("title", self.title)]
             for b in self._blocks:
                 if b.kind in ("heading", "paragraph", "note"):

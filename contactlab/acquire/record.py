@@ -1,0 +1,107 @@
+"""The acquisition loop: a :class:`~contactlab.acquire.base.Source` -> an archive.
+
+Each trial is written as it completes through the incremental archive writer,
+so an interruption (Ctrl-C, or SIGTERM, which :func:`record` turns into the
+same KeyboardInterrupt while it runs) leaves every finished trial readable and
+the archive valid. ``append`` copies the existing trials into the new file
+first; the result replaces the original only by an atomic rename.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from contactlab.archive import create_archive
+from contactlab.errors import UsageError
+from contactlab.progress import bar
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: handled exactly like Ctrl-C."""
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt():
+    """While active (main thread only), SIGTERM raises :class:`Terminated`."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise Terminated(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def record(source, *, out: str | Path, n_trials: int, seed: int, append: bool = False,
+           force: bool = False, title: str = "", quiet: bool = False, log=None) -> dict:
+    """Record ``n_trials`` trials of ``source`` into the archive ``out``.
+
+    ``append`` adds to an existing archive (its trials are kept; new ids must
+    not clash); otherwise an existing ``out`` is refused unless ``force``.
+    ``log(message)`` (default: stderr unless ``quiet``) hears one line per
+    finished trial. Returns ``{file, trials_written, trial_ids, seed, source}``.
+    """
+    out = Path(out)
+    if n_trials < 1:
+        raise UsageError(f"--trials must be at least 1, not {n_trials}")
+    if append and not out.exists():
+        raise UsageError(f"--append: {out} does not exist (leave out --append to create it)")
+    if append and force:
+        raise UsageError("--append and --force exclude each other")
+    if log is None:
+        def log(message: str) -> None:
+            if not quiet:
+                print(message, file=sys.stderr, flush=True)
+    written: list[str] = []
+    with sigterm_as_interrupt():
+        writer = create_archive(out, force=force or append, title=title, incremental=True)
+        with writer:
+            if append:
+                writer.copy_trials_from(out)
+            for stream in source.trials(n_trials=n_trials, seed=seed):
+                _record_trial(writer, stream, quiet=quiet)
+                written.append(stream.info.trial_id)
+                log(f"acquire: trial {stream.info.trial_id} written "
+                    f"({len(written)}/{n_trials})")
+    return {"file": str(out), "trials_written": len(written), "trial_ids": written,
+            "seed": seed, "source": getattr(source, "name", type(source).__name__)}
+
+
+def _record_trial(writer, stream, *, quiet: bool) -> None:
+    info = stream.info
+    trial = writer.add_trial(
+        info.trial_id, rate_hz=info.rate_hz, controller=info.controller,
+        environment=info.environment, seed=info.seed, source=info.source,
+        description=info.description, calibration=info.calibration,
+        command_columns=info.command_columns, action_names=info.action_names,
+        strain_units=info.strain_units, command_units=info.command_units)
+    progress = bar(total=None, desc=info.trial_id, quiet=quiet, unit="sample")
+    try:
+        for chunk in stream.chunks():
+            trial.append(**chunk)
+            progress.update(len(chunk["time"]))
+    finally:
+        progress.close()
+    truth = stream.ground_truth()
+    if truth:
+        truth = dict(truth)
+        extra = truth.pop("truth", None)
+        if "labels" in truth:
+            trial.set_ground_truth(**truth)
+        if extra:
+            trial.set_truth(**extra)
+    extra = getattr(stream, "extra_datasets", None)  # optional: hardware bookkeeping
+    for name, data in (extra() if extra else {}).items():
+        trial.set_extra(name, data)
+    attrs = {**info.attrs, **(stream.final_attrs() or {})}
+    trial.set_attrs(attrs)
+    trial.close()
