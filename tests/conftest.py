@@ -75,3 +75,22 @@ def archive_path(tmp_path):
     path = tmp_path / "runs.h5"
     write_archive(path)
     return path
+
+
+def run_cli(*args):
+    """Invoke the contactlab CLI in-process with string arguments."""
+    from click.testing import CliRunner
+
+    from contactlab.cli import main
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def one_json_object(stdout: str) -> dict:
+    """Assert ``stdout`` is exactly one JSON object on one line and return it."""
+    import json
+
+    lines = stdout.strip().splitlines()
+    assert len(lines) == 1, stdout
+    obj = json.loads(lines[0])
+    assert isinstance(obj, dict)
+    return obj

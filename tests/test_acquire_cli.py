@@ -14,10 +14,9 @@ import time
 import h5py
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from contactlab.archive import open_archive, validate_archive
-from contactlab.cli import main
+from conftest import one_json_object, run_cli
 
 QUICK = """
 name = "quick"
@@ -37,16 +36,7 @@ trials = {trials}
 """
 
 
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def one_json_object(stdout: str) -> dict:
-    lines = stdout.strip().splitlines()
-    assert len(lines) == 1, stdout
-    obj = json.loads(lines[0])
-    assert isinstance(obj, dict)
-    return obj
+run = run_cli
 
 
 @pytest.fixture

@@ -9,24 +9,14 @@ import sys
 
 import h5py
 import pytest
-from click.testing import CliRunner
 from test_archive_import import MAP, write_csv
 
 from contactlab.archive import summarize, validate_archive
-from contactlab.cli import main
 from contactlab.cli.common import to_jsonable
+from conftest import one_json_object, run_cli
 
 
-def run(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def one_json_object(stdout: str) -> dict:
-    lines = stdout.strip().splitlines()
-    assert len(lines) == 1, stdout
-    obj = json.loads(lines[0])
-    assert isinstance(obj, dict)
-    return obj
+run = run_cli
 
 
 @pytest.fixture
