@@ -80,7 +80,6 @@ def test_refuses_overwrite_then_force_then_append(quick, tmp_path):
 
 
 @pytest.mark.parametrize("args, code, text", [
-    (["--spec", "maze", "--out", "m.h5"], 2, "needs maze geometry"),
     (["--spec", "nope", "--out", "m.h5"], 2, "unknown dataset spec"),
     (["--out", "m.h5"], 2, "needs --spec"),
     (["--spec", "stroke-a"], 2, "--out"),

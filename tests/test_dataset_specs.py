@@ -15,7 +15,8 @@ from contactlab.errors import DataError, UsageError
 
 #: The thesis's trial counts (EXPERIMENTS.md / thesis sections in the spec comments).
 THESIS_COUNTS = {"stroke-a": 8, "stroke-b": 8, "hf-train": 15, "hf-test": 12, "cartesian": 16,
-                 "guarded-move": 10, "guarded-move-actions": 20, "impact-spectrogram": 1}
+                 "guarded-move": 10, "guarded-move-actions": 20, "impact-spectrogram": 1,
+                 "maze": 21}
 
 GOOD = """
 name = "tiny"
@@ -52,7 +53,25 @@ def test_group_structure_follows_the_thesis():
     assert [g.trials for g in load_spec("guarded-move").groups] == [3, 3, 4]
     assert [g.name for g in load_spec("cartesian").groups] == ["free", "plane", "line", "corner"]
     assert load_spec("impact-spectrogram").rate_hz == 2700.0
-    assert not load_spec("maze").ready
+    maze = load_spec("maze")
+    assert [g.trials for g in maze.groups] == [20, 1] and maze.labels == "maze"
+    assert all(g.goal_region_m is not None and g.start_m is not None for g in maze.groups)
+    assert maze.action_names[1] == "action-1" and len(maze.action_names) == 9   # 8 commands
+
+
+def as_acquired(name, tmp_path):
+    """A bundled spec as ``contactlab acquire`` runs it: a spec still carrying a ``status``
+    line (the maze, until the lead enables it) is loaded from a copy without it."""
+    spec = load_spec(name)
+    if spec.ready:
+        return spec
+    p = tmp_path / f"{name}.toml"
+    lines = spec.path.read_text().splitlines()
+    p.write_text("\n".join(line for line in lines
+                           if not line.startswith("status =") and "test_acquire_cli" not in line))
+    spec = load_spec(p)
+    assert spec.ready
+    return spec
 
 
 def test_every_value_line_carries_a_comment_or_is_documented():
@@ -64,7 +83,7 @@ def test_every_value_line_carries_a_comment_or_is_documented():
 
 @pytest.mark.parametrize("name", [n for n in sorted(THESIS_COUNTS) + ["guarded-move-multi"]])
 def test_every_spec_simulates_and_validates(name, tmp_path):
-    spec = load_spec(name)
+    spec = as_acquired(name, tmp_path)
     # one short trial of every group
     short = spec.__class__(**{**spec.__dict__, "groups": tuple(
         g.__class__(**{**g.__dict__, "duration_s": min(g.duration_s, 0.6)}) for g in spec.groups)})
@@ -108,6 +127,10 @@ def write(tmp_path, text, name="tiny.toml"):
      "group[0].controller.moves[0].displacement_m"),
     (lambda s: "bogus = 1\n" + s, "bogus"),
     (lambda s: s.replace('name = "g"\n', ""), "group[0].name"),
+    (lambda s: s + "goal_region_m = [[0.0, 0.0], [-1.0, 1.0]]\n", "group[0].goal_region_m"),
+    (lambda s: s + "goal_region_m = [0.0, 1.0]\n", "group[0].goal_region_m"),
+    (lambda s: s + "vary = { force_angle_deg = 95.0 }\n", "group[0].vary.force_angle_deg"),
+    (lambda s: s + 'vary = { force_angle_deg = "a bit" }\n', "group[0].vary.force_angle_deg"),
 ])
 def test_bad_specs_are_one_line_errors_naming_file_and_key(tmp_path, edit, key):
     path = write(tmp_path, edit(GOOD))
@@ -134,7 +157,8 @@ def test_datasets_experiment_draws_every_ready_spec(tmp_path):
     summary = exp.run(out_dir=tmp_path, seed=2, quiet=True)
     ready = [n for n in list_specs() if load_spec(n).ready]
     assert summary["valid"] and summary["simulated"] == ready
-    assert summary["not_simulated"] == {"maze": "needs maze geometry"}
+    assert summary["not_simulated"] == {n: load_spec(n).status for n in list_specs()
+                                        if not load_spec(n).ready}
     for name in ready:
         assert (tmp_path / f"{name}-trial.png").exists()
     assert (tmp_path / "index.html").exists() and (tmp_path / "report.pdf").exists()

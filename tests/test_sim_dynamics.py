@@ -15,12 +15,18 @@ R = C.FINGERTIP_RADIUS
 
 def test_free_flight_covariance_matches_lyapunov_solution():
     # (4.19)-(4.21): zeta = [p_t, x~_t] per axis, driven by the random control wrench.
-    app = Apparatus()
+    # The linear oracle cannot hold the robot's Coulomb backdrive friction (0.04 N, 10x the
+    # 4 mN control error: with it the robot simply sticks), so the friction is disabled
+    # here; the robot's viscous (back-EMF) damping is kept, and added to the loop's
+    # damping in the oracle (it acts on the robot velocity, which at the loop's 5 Hz is
+    # the velocity of the whole moving mass).
+    app = Apparatus(robot_friction=0.0)
     kp = 100.0
     # the chapter-4 model feeds back the true state (encoder quantisation is not in 4.12)
     ctrl = PositionController(stiffness=(kp, kp, kp), feedback="true")
-    bp = ctrl.servo_arrays((0, 0, 0), np.zeros(1)).bp[0]
-    r = simulate(environment=free_space(), controller=ctrl, duration_s=40.0, seed=3, start=(0, 0, 0))
+    bp = ctrl.servo_arrays((0, 0, 0), np.zeros(1)).bp[0] + app.robot_damping
+    r = simulate(environment=free_space(), controller=ctrl, duration_s=40.0, seed=3, start=(0, 0, 0),
+                 apparatus=app)
     ht = app.total_mass
     a_t = np.array([[1.0, bp], [0.0, ht]])
     b_t = np.array([[0.0, kp], [-1.0, 0.0]])
@@ -49,19 +55,26 @@ def test_quasi_static_wrench_on_a_plane_is_applied_force_plus_gravity():
     ctrl = PositionController(stiffness=(100.0, 100.0, 0.0), damping=(2.0, 2.0, 0.0), feedforward=(0, 0, -push))
     r = simulate(environment=plane(material="lexan"), controller=ctrl, duration_s=1.0, seed=5,
                  start=(0, 0, R + 0.0005), preroll_s=0.5)
+    # The PHANToM's Coulomb backdrive friction (constants.ROBOT_BACKDRIVE_FRICTION) holds the
+    # resting robot anywhere within +-F_c of the commanded push (it is not in 4.44's model).
     assert r.contact[:, 0].all()
     fc = r.contact_force[:, 0].mean(axis=0)
-    np.testing.assert_allclose(fc, [0, 0, push], atol=0.01)
-    expected = np.array([0.0, 0.0, push - app.shell_mass * app.gravity])
-    np.testing.assert_allclose(r.wrench_true[:, :3].mean(axis=0), expected, atol=0.01)
-    np.testing.assert_allclose(r.wrench[:, :3].mean(axis=0), expected, atol=0.01)  # measured via strains
+    np.testing.assert_allclose(fc[:2], [0, 0], atol=0.01)
+    assert abs(fc[2] - push) <= app.robot_friction + 0.01
+    # the sensor carries exactly the contact force less the shell's weight (4.44)
+    expected = np.array([0.0, 0.0, fc[2] - app.shell_mass * app.gravity])
+    np.testing.assert_allclose(r.wrench_true[:, :3].mean(axis=0), expected, atol=0.005)
+    np.testing.assert_allclose(r.wrench[:, :3].mean(axis=0), expected, atol=0.005)  # measured via strains
     assert np.abs(r.wrench[:, 3:].mean(axis=0)).max() < 1e-3
 
 
 def test_impact_impulse_is_along_the_normal_and_removes_normal_momentum():
     # (4.47)-(4.50) on a frictionless plane: the robot coasts tangentially (no tangential
-    # gains, no friction) and a damped z loop holds a target 2 mm below the surface.
-    app = Apparatus()
+    # gains, no friction) and a damped z loop holds a target 2 mm below the surface.  The
+    # PHANToM's own losses (Coulomb backdrive friction, viscous back-EMF damping) are
+    # disabled: (4.50) is about a lossless coasting robot, and the tangential momentum must
+    # be kept exactly.
+    app = Apparatus(robot_friction=0.0, robot_damping=0.0)
     slick = Material(name="slick", youngs_modulus=69e9, poisson_ratio=0.33, mu_static=0.0, mu_kinetic=0.0,
                      mu_variation=0.0, roughness_rms=0.0, wavelength_min=1e-4, wavelength_max=1e-3,
                      restitution=0.7)
@@ -73,7 +86,8 @@ def test_impact_impulse_is_along_the_normal_and_removes_normal_momentum():
     ctrl = PositionController(moves=(Move((0, 0, z_target - (R + 0.001)), 1e-3, -1.0),),
                               stiffness=(0, 0, kz), damping=(0, 0, bz), feedback="true")
     r = simulate(environment=plane(material=slick), controller=ctrl, duration_s=0.6, seed=6, preroll_s=0.0,
-                 start=(0, 0, R + 0.001), initial_velocity=(0.03, 0.01, -0.05), control_noise=False)
+                 start=(0, 0, R + 0.001), initial_velocity=(0.03, 0.01, -0.05), control_noise=False,
+                 apparatus=app)
     assert len(r.impact_intervals) >= 1 and r.impact_kinds[0] == 1
     i0 = r.impact_intervals[0, 0]
     dt = 1.0 / r.rate_hz
@@ -135,13 +149,16 @@ def _still_runs(v, thr=1e-3):
 
 
 def test_stick_slip_under_low_stiffness_position_control_but_not_integral_force_control():
+    # on aluminium sanded with 80 grit (a surface of the thesis, 7.2), both controllers on
+    # their defaults (encoder feedback): the 100 N/m PD loop sticks and slips repeatedly,
+    # the integral force controller (a generalized damper, 9.1.2) slides steadily
     pd = PositionController(moves=(Move((0, 0, -0.0035), 0.2, 0.0), Move((0.01, 0, 0), 2.0, 0.3)))
-    r = _slide(pd)
+    r = _slide(pd, material="sanded_aluminium_80")
     vx = r.fingertip_velocity[600:2200, 0]
     frac_still, transitions = _still_runs(vx)
-    assert frac_still > 0.1 and np.mean(vx > 0.005) > 0.3 and transitions >= 10
+    assert frac_still > 0.1 and np.mean(vx > 0.005) > 0.2 and transitions >= 10
     fi = IntegralForceController(forces=((0.0, (0.0, 0.0, -0.3)), (0.3, (0.25, 0.0, -0.3))))
-    r2 = _slide(fi)
+    r2 = _slide(fi, material="sanded_aluminium_80")
     vx2 = r2.fingertip_velocity[800:2500, 0]
     frac_still2, transitions2 = _still_runs(vx2)
     assert frac_still2 == 0.0 and transitions2 == 0

@@ -42,8 +42,9 @@ def test_stroke_shows_the_physical_phases_of_fig_7_5(make):
     mu_k = get_material(env.planes[0].material).mu_kinetic
     assert abs(r.wrench_true[i_slide - 1, 0]) > 0.5 * mu_k * ctrl.normal_force
     # 4-5 steady sliding over both textures: contact kept, labels never drop, no impacts
+    # (the finger may catch briefly on the rough wood of sample B, as in 9.1.2)
     slide = (t > t[i_slide] + 0.2) & (t < stop - 0.2)
-    assert r.contact[slide, 0].all() and r.moving[slide].mean() > 0.95
+    assert r.contact[slide, 0].all() and r.moving[slide].mean() > 0.9
     assert np.isin(r.texture[slide], [rough, smooth]).all()
     assert not r.impact[slide].any() and len(r.impact_intervals) == 0
     # the rough texture vibrates more than the smooth one at the same speeds (the stroke's

@@ -3,8 +3,8 @@
 Trial ``k`` of a run with seed ``s`` is fully determined by ``(s, k)``: its
 seed is drawn from ``numpy.random.SeedSequence([s, k])``, and that seed both
 draws the trial's variation (start jitter, speed, environment parameters,
-hand-motion waypoints) and drives the simulator's noise. So ``--trials 3``
-gives exactly the first three trials of ``--trials 8``, and ``--append``
+hand-motion waypoints, the turn of commanded forces) and drives the simulator's
+noise. So ``--trials 3`` gives exactly the first three trials of ``--trials 8``, and ``--append``
 continues the numbering.
 
 Label functions (``labels = ...`` in a spec) turn the simulator's per-sample
@@ -74,12 +74,16 @@ def plan_trial(spec: DatasetSpec, k: int, seed: int) -> TrialPlan:
         if group.move_duration_s else None
     controller, actions, action_times = _controller(group, rng, scale, move_duration,
                                                     group.duration_s)
+    turn = ""
+    if "force_angle_deg" in vary and hasattr(controller, "forces") and controller.forces:
+        f = controller.forces[-1][1]
+        turn = f"; last force ({f[0]:.3f}, {f[1]:.3f}, {f[2]:.3f}) N"
     desc = (f"{spec.title}; group {group.name!r} trial {j + 1}/{group.trials}"
             + (f"; {group.description}" if group.description else "")
             + "; " + ", ".join(f"{key}={v:.4g}" if isinstance(v, float) else f"{key}={v}"
                                for key, v in env_kw.items())
             + (f"; move {move_duration:g} s" if move_duration else "")
-            + (f"; speed scale {scale:.3f}" if (lo, hi) != (1.0, 1.0) else ""))
+            + (f"; speed scale {scale:.3f}" if (lo, hi) != (1.0, 1.0) else "") + turn)
     return TrialPlan(env, controller, group.duration_s, start, tseed, actions, action_times, desc)
 
 
@@ -114,6 +118,10 @@ def _controller(group: Group, rng, scale: float, move_duration: float | None, du
     if kind == "integral_force":
         forces = tuple((float(f["start_s"]), tuple(float(x) for x in f["force_n"]))
                        for f in c["forces"])
+        if "force_angle_deg" in group.vary:
+            # one small turn about z of every commanded force's horizontal part per trial
+            forces = _turn_forces(forces, float(rng.uniform(-1.0, 1.0))
+                                  * float(group.vary["force_angle_deg"]))
         kw = {"forces": forces, "exploration": exploration}
         if c.get("integral_gain"):
             kw["integral_gain"] = float(c["integral_gain"])
@@ -127,6 +135,23 @@ def _controller(group: Group, rng, scale: float, move_duration: float | None, du
     if kind == "hand":
         return _hand(c, rng, duration_s), None, None
     raise UsageError(f"unknown controller kind {kind!r}")
+
+
+def _turn_forces(forces, angle_deg: float):
+    """``forces`` ((start_s, (fx, fy, fz)), ...) with (fx, fy) turned by ``angle_deg`` about z."""
+    a = math.radians(angle_deg)
+    ca, sa = math.cos(a), math.sin(a)
+    return tuple((t0, (ca * f[0] - sa * f[1], sa * f[0] + ca * f[1], f[2])) for t0, f in forces)
+
+
+def reached_goal(group: Group, fingertip_position) -> bool | None:
+    """Whether the last fingertip centre (x, y) lies in ``group.goal_region_m``
+    (None when the group declares no goal)."""
+    if group.goal_region_m is None:
+        return None
+    (xl, yl), (xh, yh) = group.goal_region_m
+    x, y = np.asarray(fingertip_position, float)[-1, :2]
+    return bool(xl <= x <= xh and yl <= y <= yh)
 
 
 def _hand(c: dict, rng, duration_s: float):
@@ -219,8 +244,63 @@ def labels_contacts(r) -> tuple[np.ndarray, list[str]]:
     return codes.astype(np.int16), names
 
 
+#: The walls of :func:`contactlab.sim.environment.maze` by edge of ``maze_outline()``
+#: (surface ``wall_NN`` is edge NN, counter-clockwise from the left leg's lower end;
+#: fig 9.6 with the tail pointing to -y).
+MAZE_WALLS = ("left-leg-bottom", "left-leg-inner-low", "crossbar-low-left", "tail-left",
+              "tail-end", "tail-right", "crossbar-low-right", "right-leg-inner-low",
+              "right-leg-bottom", "right-leg-outer", "right-leg-top", "right-leg-inner-high",
+              "crossbar-high", "left-leg-inner-high", "left-leg-top", "left-leg-outer")
+
+
+def maze_corners() -> list[tuple[int, int]]:
+    """The channel's inside corners as pairs (i, i + 1 mod n) of outline edges: where the
+    disc can touch two walls at once (a left turn of the counter-clockwise outline).  The
+    other vertices are convex corners, the circular arcs of fig 9.6, touching one wall."""
+    from contactlab.sim.environment import maze_outline
+
+    pts = np.asarray(maze_outline(), float)
+    d = np.roll(pts, -1, axis=0) - pts                  # edge i: pts[i] -> pts[i + 1]
+    nxt = np.roll(d, -1, axis=0)
+    turn = d[:, 0] * nxt[:, 1] - d[:, 1] * nxt[:, 0]
+    return [(i, (i + 1) % len(pts)) for i in np.flatnonzero(turn > 0)]
+
+
+def labels_maze(r) -> tuple[np.ndarray, list[str]]:
+    """Contact features of the maze (9.2, fig 9.8), each fixed or moving: the disc in the
+    channel touching no wall ("channel": on the floor alone; "lifted": off the floor too),
+    one wall, or the two walls of an inside corner, named by :data:`MAZE_WALLS`.  The floor
+    is implied, as in the thesis's planar configuration space.  "impact" inside an impact
+    interval; "other" for any other set of walls (none in a working maze)."""
+    surfaces = list(r.surfaces)
+    walls = [j for j, name in enumerate(surfaces) if name.startswith("wall_")]
+    edge = [int(surfaces[j][5:]) for j in walls]
+    wall_names = [MAZE_WALLS[e] if e < len(MAZE_WALLS) else surfaces[j]
+                  for j, e in zip(walls, edge)]
+    corners = [(edge.index(a), edge.index(b)) for a, b in maze_corners()
+               if a in edge and b in edge]
+    features = (["lifted", "channel"] + wall_names
+                + [f"{wall_names[a]}+{wall_names[b]}" for a, b in corners] + ["other"])
+    names = ["impact"] + [f"{f}-{m}" for f in features for m in ("fixed", "moving")]
+    n = len(r.time)
+    contact = np.asarray(r.contact, bool).reshape(n, -1)
+    touched = contact[:, walls]
+    count = touched.sum(axis=1)
+    on_floor = contact[:, surfaces.index("floor")] if "floor" in surfaces else np.zeros(n, bool)
+    feature = np.full(n, len(features) - 1)                          # "other"
+    feature[count == 0] = np.where(on_floor[count == 0], 1, 0)
+    one = count == 1
+    feature[one] = 2 + np.argmax(touched[one], axis=1)
+    pair = {frozenset(c): 2 + len(walls) + i for i, c in enumerate(corners)}
+    for row in np.flatnonzero(count == 2):
+        feature[row] = pair.get(frozenset(np.flatnonzero(touched[row]).tolist()), feature[row])
+    codes = 1 + 2 * feature + np.asarray(r.moving, bool)
+    codes = np.where(np.asarray(r.impact, bool), 0, codes)
+    return codes.astype(np.int16), names
+
+
 LABEL_FUNCTIONS = {"texture": labels_texture, "hf": labels_hf, "constraint": labels_constraint,
-                   "contacts": labels_contacts}
+                   "contacts": labels_contacts, "maze": labels_maze}
 
 
 def segments_from_labels(codes: np.ndarray, time: np.ndarray, rate_hz: float) -> list[tuple]:
@@ -303,7 +383,10 @@ class SimTrial:
         }
 
     def final_attrs(self) -> dict:
-        return {}
+        # a group with a goal region (the maze) records whether the finger ended in it
+        reached = reached_goal(self.group, self._result.fingertip_position) \
+            if self._result is not None else None
+        return {} if reached is None else {"goal_reached": reached}
 
 
 class SimSource:

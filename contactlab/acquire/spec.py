@@ -26,12 +26,16 @@ thesis section in the files themselves)::
     ...
     [vary]                           # trial-to-trial variation, drawn from the trial seed
     start_jitter_m = [0.001, 0.001, 0.0]
+    force_angle_deg = 3.0            # integral_force: every force's horizontal part turned
+                                     # about z by one angle drawn in +-3 deg per trial
 
     [[group]]                        # consecutive blocks of trials
     name = "..."
     trials = 8
     # optional overrides: duration_s, start_m, move_duration_s (list, cycled
     # over the group's trials), [group.environment], [group.controller], [group.vary]
+    # optional: goal_region_m = [[x_lo, y_lo], [x_hi, y_hi]], where the fingertip centre
+    # should end (horizontal box, m); checked by contactlab.acquire.sim.reached_goal
 
 A group's tables are merged key by key over the top-level ones. Any problem is
 a :class:`~contactlab.errors.DataError` naming the file and the key.
@@ -57,13 +61,14 @@ CONTROLLER_KEYS = {
 }
 MOVE_KEYS = {"displacement_m", "displacement_in", "duration_s", "start_s"}
 FORCE_KEYS = {"start_s", "force_n", "action"}
-VARY_KEYS = {"start_jitter_m", "duration_scale", "texture_seed", "environment_uniform"}
+VARY_KEYS = {"start_jitter_m", "duration_scale", "texture_seed", "environment_uniform",
+             "force_angle_deg"}
 TOP_KEYS = {"name", "title", "thesis", "experiments", "status", "thesis_trials", "rate_hz",
             "duration_s", "labels", "action_names", "variation", "environment", "controller",
             "vary", "group", "notes"}
 GROUP_KEYS = {"name", "trials", "duration_s", "start_m", "move_duration_s", "environment",
-              "controller", "vary", "description"}
-LABELS = ("texture", "hf", "constraint", "contacts")
+              "controller", "vary", "description", "goal_region_m"}
+LABELS = ("texture", "hf", "constraint", "contacts", "maze")
 
 READY = "ready"
 
@@ -81,6 +86,8 @@ class Group:
     start_m: tuple[float, float, float] | None = None
     move_duration_s: tuple[float, ...] = ()
     description: str = ""
+    #: ((x_lo, y_lo), (x_hi, y_hi)): where the fingertip centre should end, m (optional)
+    goal_region_m: tuple[tuple[float, float], tuple[float, float]] | None = None
 
 
 @dataclass(frozen=True)
@@ -272,6 +279,14 @@ class _Checker:
         mds = self.get(g, "move_duration_s", list, where, required=False, default=[])
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in mds):
             raise self.error(f"{where}.move_duration_s", "must be a list of positive numbers")
+        goal = g.get("goal_region_m")
+        if goal is not None:
+            key = f"{where}.goal_region_m"
+            if not (isinstance(goal, list) and len(goal) == 2):
+                raise self.error(key, "must be [[x_lo, y_lo], [x_hi, y_hi]]")
+            goal = (self.vector(goal[0], key, 2), self.vector(goal[1], key, 2))
+            if not all(lo < hi for lo, hi in zip(*goal)):
+                raise self.error(key, "needs x_lo < x_hi and y_lo < y_hi")
         self.environment(genv, f"{where}.environment", strict=status == READY)
         self.controller(gctrl, f"{where}.controller", action_names)
         self.vary(gvary, f"{where}.vary")
@@ -280,7 +295,8 @@ class _Checker:
                      environment=genv, controller=gctrl, vary=gvary, start_m=start,
                      move_duration_s=tuple(float(v) for v in mds),
                      description=self.get(g, "description", str, where, required=False,
-                                          default=""))
+                                          default=""),
+                     goal_region_m=goal)
 
     def environment(self, env: dict, where: str, *, strict: bool) -> None:
         from contactlab.sim.environment import ENVIRONMENTS
@@ -344,6 +360,10 @@ class _Checker:
             lo, hi = self.vector(vary["duration_scale"], f"{where}.duration_scale", 2)
             if not 0 < lo <= hi:
                 raise self.error(f"{where}.duration_scale", "must be [low, high] with 0 < low <= high")
+        if "force_angle_deg" in vary:
+            self.get(vary, "force_angle_deg", float, where)
+            if not 0.0 <= vary["force_angle_deg"] < 90.0:
+                raise self.error(f"{where}.force_angle_deg", "must be in [0, 90) degrees")
         ts = vary.get("texture_seed")
         if ts is not None and ts != "trial" and (isinstance(ts, bool) or not isinstance(ts, int)):
             raise self.error(f"{where}.texture_seed", "must be an integer or \"trial\"")

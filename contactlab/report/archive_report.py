@@ -136,9 +136,12 @@ def _plot_measurements(trial):
     if has_labels:
         ax = axes[len(panels)]
         names = trial.label_names or []
-        ax.step(t, trial.labels, where="post", lw=1.0, color="k")
-        ax.set_yticks(range(len(names)))
-        ax.set_yticklabels(names, fontsize=7)
+        # only the labels this trial visits, in code order, one row each
+        present, rows = np.unique(trial.labels, return_inverse=True)
+        ax.step(t, rows, where="post", lw=1.0, color="k")
+        ax.set_yticks(range(len(present)))
+        ax.set_yticklabels([names[c] if 0 <= c < len(names) else "unlabelled" for c in present],
+                           fontsize=7)
         ax.set_ylabel("truth", fontsize=8)
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(f"Trial {trial.id}", fontsize=10)

@@ -41,6 +41,33 @@ PHANTOM_MAX_STIFFNESS = 3500.0
 """datasheet: PHANToM 1.0 closed-loop stiffness, 3.5 N/mm; controller gains
 are chosen as fractions of this."""
 
+ROBOT_BACKDRIVE_FRICTION = 0.04
+"""datasheet: Coulomb (dry) friction felt at the PHANToM's tip when it is backdriven,
+N, isotropic.  SensAble's spec sheets for the PHANToM 1.0 / 1.5 (Premium) list a
+"backdrive friction" of about 0.04 N (we quote this from memory of those sheets,
+not from a document we could check here; the thesis gives no value.  Trust it to
+within a factor of ~2).  A physical cross-check of the order of magnitude: a
+20 W-class brushed DC motor (Maxon RE 25 class, as on the PHANToM) takes a
+no-load current of a few tens of mA, i.e. a friction torque of roughly 0.5 mN m
+(brushes + ball bearings), which the ~11:1 capstan and ~0.14 m link multiply by
+~80 /m into ~0.04 N at the tip.  It is the friction of brushes, bearings and
+capstan cable of all three motors; modelled as one isotropic Coulomb force on the
+robot mass with a true stick state (dynamics module docstring).  Static and kinetic
+values are taken equal: the sheets give one number."""
+
+ROBOT_VISCOUS_DAMPING = 0.1
+"""physics: viscous damping on the robot mass, N s/m, from the motors' back-EMF
+through the amplifiers.  A motor shorted through its winding resistance damps with
+k_t^2 / R; for a RE 25-class motor (k_t ~ 23 mN m/A, R ~ 2 ohm) that is ~2.6e-4
+N m s, reflected to the tip by (80 /m)^2 as ~1.8 N s/m.  But the PHANToM's
+amplifiers are current (torque) amplifiers -- the force command must be a motor
+torque for the 100:1 force dynamic range of 3.4 -- and a current loop rejects the
+back-EMF as a disturbance by its loop gain: with a few-kHz current-loop bandwidth,
+below ~5 % of it remains at the few-hundred-Hz frequencies of interest, ~0.1 N s/m.
+Bearing viscous friction is smaller still (~0.005 N s/m at the tip).  So this term
+is tiny (0.04 % of critical at the ~250 Hz robot-on-sensor mode): the PHANToM's own
+dissipation is dominated by ROBOT_BACKDRIVE_FRICTION."""
+
 FORCE_DYNAMIC_RANGE = 100.0
 """thesis 3.4: "high force dynamic range (around 100:1)"."""
 

@@ -18,7 +18,8 @@ with gravity compensation of both masses and the random control error w.
   command freezes the robot where it is.
 - :class:`IntegralForceController`  the integral endpoint force controller with
   position feedback of fig 9.3: the desired position integrates the force error,
-  x_d' = Ki (f_d - f), and a PD loop tracks x_d.  In free space a force command
+  x_d' = Ki (f_d - f), and a PD loop tracks x_d (its stiffness set by a cascade
+  rule so the force loop stays slower than the tracking loop).  In free space a force command
   becomes a constant velocity; in contact it holds the supported part of the
   force and moves along the rest: a generalized damper.
 
@@ -57,22 +58,42 @@ def _feedback_code(name: str) -> int:
         raise ValueError(f"feedback must be one of {sorted(FEEDBACK)}, got {name!r}") from None
 
 
+PROFILES = ("sinusoidal", "constant_velocity")
+"""Command profiles (``shape``) of a :class:`Move`:
+
+- ``"sinusoidal"``: a sinusoidal acceleration profile (7.3), a(t) ~ sin(2 pi t / T):
+  velocity and acceleration are continuous at both ends;
+- ``"constant_velocity"``: the desired position ramps at constant speed |d| / T
+  (linear interpolation, the simplest position command): the desired velocity
+  steps up at the start and down at the end.
+"""
+
+
 @dataclass(frozen=True)
 class Move:
     """A straight move by ``displacement`` (m, 3-vector) starting at ``start_s`` lasting
-    ``duration_s``, with a sinusoidal acceleration profile (7.3): a(t) ~ sin(2 pi t / T),
-    so velocity and acceleration are continuous at both ends."""
+    ``duration_s``, with the velocity profile ``shape`` of :data:`PROFILES` (default the
+    sinusoidal acceleration profile of 7.3)."""
 
     displacement: tuple[float, float, float]
     duration_s: float
     start_s: float = 0.0
+    shape: str = "sinusoidal"
+
+    def __post_init__(self):
+        if self.shape not in PROFILES:
+            raise ValueError(f"shape must be one of {PROFILES}, got {self.shape!r}")
 
     def profile(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Displacement and velocity (n, 3) at times ``t``."""
         tau = np.clip((np.asarray(t, float) - self.start_s) / self.duration_s, 0.0, 1.0)
-        s = tau - np.sin(2.0 * math.pi * tau) / (2.0 * math.pi)
-        ds = (1.0 - np.cos(2.0 * math.pi * tau)) / self.duration_s
-        ds = np.where((tau > 0.0) & (tau < 1.0), ds, 0.0)
+        inside = (tau > 0.0) & (tau < 1.0)
+        if self.shape == "constant_velocity":
+            s = tau
+            ds = np.where(inside, 1.0 / self.duration_s, 0.0)
+        else:
+            s = tau - np.sin(2.0 * math.pi * tau) / (2.0 * math.pi)
+            ds = np.where(inside, (1.0 - np.cos(2.0 * math.pi * tau)) / self.duration_s, 0.0)
         d = np.asarray(self.displacement, float)
         return s[:, None] * d, ds[:, None] * d
 
@@ -171,6 +192,18 @@ class StrokeController:
     which freezes the robot in its current position").  ``damping`` defaults
     to a damping ratio of 0.7 (a controller setting: the thesis describes
     steady motion over the textures in this experiment, not stick-slip).
+
+    ``shape`` is the command's velocity profile (:data:`PROFILES`).  The default,
+    the sinusoidal acceleration profile the thesis used for its trajectories (7.3),
+    starts without a burst: y_h at the command start stays at the resting level, and
+    friction holds the finger for ~0.6 s while the P term builds the strain (7.2's
+    third phase).  7.2's second phase, an "impact-like burst caused by the start of
+    the motion command" (and 9.1.1: "the initial acceleration to start the motion
+    generated an impact"), appears with ``"constant_velocity"``: the desired
+    velocity steps, the servo's damping term kicks the robot by b v (~65 mN), and
+    the sensor rings; but then the P term ramps at Kp v and the finger breaks away
+    after only ~50 ms.  The thesis does not say which profile 7.2 used, so the
+    default stays the documented one (tests/test_sim_losses.py measures both).
     """
 
     normal_force: float = 0.200
@@ -182,11 +215,13 @@ class StrokeController:
     damping: float | None = None
     name: str = "stroke"
     feedback: str = "encoder"
+    shape: str = "sinusoidal"
 
     def servo_arrays(self, start, t: np.ndarray) -> ServoArrays:
         d = np.asarray(self.direction, float)
         d = d / np.linalg.norm(d)
-        move = Move((self.stroke_length * d[0], self.stroke_length * d[1], 0.0), self.command_s, self.command_start_s)
+        move = Move((self.stroke_length * d[0], self.stroke_length * d[1], 0.0), self.command_s, self.command_start_s,
+                    self.shape)
         xd, vd = _trajectory([move], t, start)
         b = self.damping if self.damping is not None else _critical_damping([self.stiffness])[0]
         n = len(t)
@@ -208,26 +243,37 @@ class IntegralForceController:
     ``forces`` is a sequence of (start_s, (fx, fy, fz)) desired forces, N, that
     the fingertip should apply to the world (the thesis's commands are in mN,
     e.g. (100, -100, 200)); each holds until the next.  x_d' = Ki (f_d - f)
-    with f estimated from the sensor (shell gravity compensated), and a stiff
-    PD loop (``stiffness`` ~ 1/4 of the PHANToM's 3.5 N/mm) tracks x_d.
-    ``integral_gain`` Ki (m/(N s)) sets the damper: free-space speed = Ki |f_d|.
-    ``damping`` defaults to a damping ratio of 0.7 on the stiff tracking loop.
+    with f estimated from the sensor (shell gravity compensated), and a PD loop
+    tracks x_d.  ``integral_gain`` Ki (m/(N s)) sets the damper: free-space
+    speed = Ki |f_d|.  ``damping`` defaults to a damping ratio of 0.7 on the
+    tracking loop.
 
-    ``feedback`` defaults to ``"true"`` (see :data:`FEEDBACK`): with the encoder's
-    differenced, lowpassed velocity the estimate lags the robot by a servo tick or
-    more, the tracking loop's damping no longer reaches the ~250 Hz mode of the
-    robot mass on the sensor spring, and on a stiff contact this controller hops
-    off the surface at ~12 Hz.  A faithful encoder-fed version needs the
-    PHANToM's own structural damping, which the model does not have yet.
+    ``stiffness`` (N/m) defaults to the cascade rule 1 / (4 Ki^2 m) (m the moving
+    mass): the outer force loop, whose rate in contact is Kp Ki (the motor force
+    is Kp x_d there), must stay below half the natural frequency sqrt(Kp / m) of
+    the tracking loop it drives, Kp Ki <= sqrt(Kp / m) / 2.  For Ki = 0.1 that is
+    294 N/m.  A stiffer loop (an earlier default was 800 N/m, Kp Ki = 80 /s
+    against sqrt(Kp/m) = 97 rad/s) has no separation: on encoder feedback the
+    finger then hops off a stiff contact at ~30 Hz in a limit cycle (wind-up of
+    x_d below the surface during each flight, a nearly elastic bounce of the
+    robot on the sensor spring).  With the cascade rule the controller holds a
+    steady contact force under the default encoder feedback (:data:`FEEDBACK`).
     """
 
     forces: tuple[tuple[float, tuple[float, float, float]], ...] = ((0.0, (0.0, 0.0, -0.2)),)
     integral_gain: float = 0.1
-    stiffness: float = 800.0
+    stiffness: float | None = None
     damping: float | None = None
     exploration: Exploration | None = None
     name: str = "integral_force"
-    feedback: str = "true"
+    feedback: str = "encoder"
+
+    @property
+    def tracking_stiffness(self) -> float:
+        """The PD loop's stiffness, N/m (``stiffness`` or the cascade rule)."""
+        if self.stiffness is not None:
+            return float(self.stiffness)
+        return 1.0 / (4.0 * self.integral_gain**2 * (C.ROBOT_MASS + C.SHELL_MASS))
 
     def desired_force(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, float)
@@ -244,8 +290,8 @@ class IntegralForceController:
         vd = np.zeros((n, 3))
         if self.exploration is not None:
             xd, vd = self.exploration.offset(t)
-        b = self.damping if self.damping is not None else _critical_damping([self.stiffness])[0]
-        k = self.stiffness
+        k = self.tracking_stiffness
+        b = self.damping if self.damping is not None else _critical_damping([k])[0]
         return ServoArrays(KIND_INTEGRAL_FORCE, np.array([k, k, k]), np.array([b, b, b]),
                            np.full(3, self.integral_gain), xd, vd, np.zeros((n, 3)),
                            self.desired_force(t), np.zeros(n, np.int64), _feedback_code(self.feedback))

@@ -45,6 +45,18 @@ vibrate, without lifting the finger off.  Across a texture boundary the two
 followed heights are blended over the width the sphere needs to roll over the
 step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
 
+The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
+the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
+that mode), and a resting finger would ring on control noise forever.  The robot
+mass carries (a) the Coulomb backdrive friction of its motors, brushes, bearings
+and capstan cables (``constants.ROBOT_BACKDRIVE_FRICTION``), integrated as the
+exact set-valued law: a step whose friction impulse can stop the robot leaves it
+stuck (v_r = 0, no creep, no regularisation constant), else the impulse is taken
+off along its velocity; and (b) a small viscous term from the back-EMF left over
+by the current amplifiers (``constants.ROBOT_VISCOUS_DAMPING``).  Friction
+decays a ringing amplitude linearly, by 4 F_c of spring force per cycle, and holds
+a robot whose net drive is below F_c: that is what makes a resting contact quiet.
+
 Servo.  The controller runs at the 1 kHz servo rate on what the controller
 declares it feeds back (``controllers.FEEDBACK``): by default the encoder-
 quantised robot position and a differenced, lowpassed velocity, as on the real
@@ -81,6 +93,8 @@ class Apparatus:
     gravity: float = C.GRAVITY
     control_error_std: float = C.CONTROL_ERROR_STD
     servo_rate_hz: float = C.SERVO_RATE_HZ
+    robot_friction: float = C.ROBOT_BACKDRIVE_FRICTION
+    robot_damping: float = C.ROBOT_VISCOUS_DAMPING
 
     @property
     def total_mass(self) -> float:
@@ -143,7 +157,7 @@ def _ratchet(mu, slope):
 @numba.njit(cache=True)
 def integrate(n_out, n_sub, dt,
               # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate,
+              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br,
               # environment
               n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph,
               # controller (per servo tick)
@@ -398,6 +412,21 @@ def integrate(n_out, n_sub, dt,
         for a in range(3):
             vr[a] += dt * ((wr[a] + fs[a]) / mr + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
+        # the PHANToM's own losses on the robot mass, implicitly (backward Euler): viscous
+        # back-EMF damping, then Coulomb backdrive friction as a set-valued law -- if the
+        # friction impulse available in the step can stop the robot, it sticks (v_r = 0);
+        # otherwise it is reduced by that impulse along its velocity
+        if br > 0.0:
+            for a in range(3):
+                vr[a] /= 1.0 + dt * br / mr
+        if fr > 0.0:
+            sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+            cap = dt * fr / mr
+            if sp <= cap:
+                vr[:] = 0.0
+            else:
+                for a in range(3):
+                    vr[a] *= 1.0 - cap / sp
         # linearly implicit correction of the stiff contact springs
         for p in range(n_planes):
             if not active[p]:

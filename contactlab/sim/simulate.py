@@ -159,6 +159,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
     out = integrate(n_out, n_sub, dt,
                     app.robot_mass, app.shell_mass, app.sensor_stiffness, app.sensor_damping, app.radius,
                     app.origin_offset, app.gravity, app.servo_rate_hz,
+                    app.robot_friction, app.robot_damping,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
                     pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"],
