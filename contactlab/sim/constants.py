@@ -238,3 +238,29 @@ robot mass on the sensor spring while the shell is held by a contact)."""
 CONTACT_MARGIN = 1.0e-4
 """numerics: planes farther than radius + 0.1 mm from the fingertip centre are
 not examined (textures are microns high)."""
+
+LAY_ENVELOPE_STEP = 1.0e-6
+"""numerics: grid step of the tabulated sphere envelope over a texture's lay (scratch)
+components (materials module docstring), m.  The shortest texture wavelengths are
+20-50 um and the Hertz patch (~30 um on aluminium) has already smoothed them, so a
+1 um grid resolves every ridge top; linear interpolation between grid points changes
+the envelope slope by at most step / R = 1e-4 per point, far below its ~0.01 rms."""
+
+LAY_ENVELOPE_HALF_LENGTH = 0.1
+"""numerics: the envelope table covers +-0.1 m along the lay direction from the plane's
+origin, more than any simulated workspace (samples A/B span 51 mm, the maze +-45 mm);
+beyond it the envelope is held at its end value."""
+
+NOMINAL_NORMAL_LOAD = 0.2
+"""thesis 7.2: the 200 mN downward force of the stroking experiment, N; the load at which
+the Hertz contact patch (texture smoothing) and the load sharing between supporting
+ridge crests (the lay envelope) are evaluated (materials module docstring)."""
+
+LAY_RIDGE_MIN_ANISOTROPY = 0.5
+"""physics: a texture's lay components are treated as straight ridges that the sphere
+rides over (its exact 1-D envelope, materials module docstring) only when the lay
+carries most of the relief, i.e. the highest points under the footprint lie on ridge
+crests (crosswise 80-grit scratches, anisotropy 0.9).  Where most of the relief is
+isotropic (rough wood, 0.3) the sphere is held by isolated 2-D peaks whose hand-overs
+a 1-D ridge profile does not represent, and the spectral followed/bridged split is kept
+for all components."""

@@ -37,7 +37,8 @@ elastic tangential displacement xi: sticking, F_t = -k_t xi - c_t v_t must stay
 inside the static cone mu_s F_n; once it leaves it the contact slips with
 |F_t| = mu_k F_n opposing the slip, and it re-sticks when the trial force falls
 back inside the kinetic cone (the slip has stopped or reversed).  The height
-the sphere follows is the texture's envelope (the components it can follow);
+the sphere follows is the texture's envelope (the components it can follow, and for a
+lay-dominated texture the exact envelope over its ridges, whose cusps are micro-impacts);
 the roughness it bridges raises or lowers the friction coefficient with the
 asperity-flank slope along the sliding direction, and mu itself varies along
 the surface (:mod:`contactlab.sim.materials`): that is what makes sliding
@@ -106,12 +107,25 @@ class Apparatus:
 
 
 @numba.njit(cache=True)
-def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph):
-    # followed height h and its gradient (g1, g2); gradient (b1, b2) of the bridged part;
+def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
+    # followed height h and its gradient (g1, g2), including the sphere's envelope over the
+    # lay ridges (tabulated, linearly interpolated); gradient (b1, b2) of the bridged part;
     # relative friction variation m (materials module docstring)
-    h = 0.0
-    g1 = 0.0
-    g2 = 0.0
+    c1 = epar[mid, 0]
+    c2 = epar[mid, 1]
+    uf = (c1 * s1 + c2 * s2 - epar[mid, 2]) / epar[mid, 3]
+    iu = int(math.floor(uf))
+    ne = etab.shape[1]
+    if iu < 0 or iu > ne - 2:
+        # beyond the table the envelope is held at its end value (constants)
+        h = etab[mid, 0] if iu < 0 else etab[mid, ne - 1]
+        de = 0.0
+    else:
+        de = etab[mid, iu + 1] - etab[mid, iu]
+        h = etab[mid, iu] + (uf - iu) * de
+        de = de / epar[mid, 3]
+    g1 = de * c1
+    g2 = de * c2
     b1 = 0.0
     b2 = 0.0
     for j in range(hk1.shape[1]):
@@ -159,7 +173,7 @@ def integrate(n_out, n_sub, dt,
               # apparatus
               mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br,
               # environment
-              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph,
+              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar,
               # controller (per servo tick)
               kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
               # servo measurement: encoder resolution, velocity filter (b0, b1, b2, a1, a2)
@@ -288,15 +302,15 @@ def integrate(n_out, n_sub, dt,
                 s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
                 mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
                 h, g1, g2, b1, b2, mu_f = _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                      mk1, mk2, mamp, mph)
+                                                      mk1, mk2, mamp, mph, etab, epar)
                 edge_width = geo[p, 17]
                 xs = (s1 - geo[p, 16]) / edge_width
                 if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
                     # the sphere straddles the texture boundary: blend the followed heights
                     ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph)
+                                                       mk1, mk2, mamp, mph, etab, epar)
                     hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph)
+                                                       mk1, mk2, mamp, mph, etab, epar)
                     lam, dlam = _smoothstep(xs + 0.5)
                     h = (1.0 - lam) * ha + lam * hb
                     g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
@@ -355,7 +369,9 @@ def integrate(n_out, n_sub, dt,
                 # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|
                 e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
                 e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
-                slope = b1 * e1 + b2 * e2
+                # plus the tilt of the contact normal on the followed height (the sphere's
+                # arcs over the lay ridges): the same ratchet geometry
+                slope = (b1 + g1) * e1 + (b2 + g2) * e2
                 mus = _ratchet(mus, slope)
                 muk = _ratchet(muk, slope)
             lim = (mus if stick[p] else muk) * fn

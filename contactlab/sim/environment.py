@@ -114,7 +114,8 @@ class Environment:
         tex = {k: np.stack([md[k] for md in modes]) for k in modes[0]}
         for i in range(n_p):
             # texture-boundary blend width (constants.TEXTURE_EDGE_MIN_WIDTH)
-            step = sum(float(np.sum(np.abs(tex["h_amp"][mat_ids[i, side]]))) for side in (0, 1))
+            step = sum(float(np.sum(np.abs(tex["h_amp"][mat_ids[i, side]])))
+                       + float(np.max(np.abs(tex["e_tab"][mat_ids[i, side]]))) for side in (0, 1))
             geo[i, 17] = max(math.sqrt(18.0 * radius * step), C.TEXTURE_EDGE_MIN_WIDTH)
         out = dict(geo=geo, mat_ids=mat_ids, n_planes=n_p, props=props, **tex)
         self._cache[key] = out
@@ -153,7 +154,8 @@ class Environment:
         out_m = np.zeros_like(out_h)
         for side in (0, 1):
             mid = pk["mat_ids"][plane_index, side]
-            modes = {k: pk[k][mid] for k in ("h_k1", "h_k2", "h_amp", "h_bamp", "h_phase", "m_k1", "m_k2", "m_amp", "m_phase")}
+            modes = {k: pk[k][mid] for k in ("h_k1", "h_k2", "h_amp", "h_bamp", "h_phase", "m_k1", "m_k2", "m_amp", "m_phase",
+                                             "e_tab", "e_par")}
             h, m = evaluate_texture(modes, s1, s2)
             sel = (s1 < p.split) if side == 0 else (s1 >= p.split)
             out_h = np.where(sel, h, out_h)

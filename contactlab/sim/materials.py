@@ -57,9 +57,32 @@ wavelength first, into
   frequencies are speed x wavenumber and whose size depends on the direction
   of travel relative to the lay (4.40), without geometric lift-off.
 
-Not modelled: the small normal velocity kinks where the supporting asperity
-changes (micro-impacts); the friction fluctuation carries the texture
-vibration instead.
+The lay as ridges: the exact envelope and its micro-impacts.  The spectral
+split above smooths away what makes a rough lay vibrate.  A surface sanded
+crosswise is a set of straight ridges (scratch flanks) across the sliding
+direction, and the sphere rests on the highest crests under its footprint; with
+crest heights varying by microns it bridges all but every few ridges (the
+supporting crests of the 80-grit profile here are ~0.37 mm apart, where
+L^2 / 8R ~ the ~2 um spread of crest heights).  Between hand-overs the centre
+follows a circular arc over one crest; at a hand-over the centre height has a
+cusp where its slope jumps by about L / R (~0.04), i.e. the finger's normal
+velocity jumps by v L / R (~0.5 mm/s at 13 mm/s): a micro-impact.  Through the
+sensor spring each jump rings the ~250 Hz mode of the robot mass on the sensor
+with a force amplitude of about v (L/R) sqrt(K m_r) (~0.06 N), well above the
+sensor noise, and the normal-force swing modulates friction.  So when the lay
+carries most of the relief (anisotropy >= constants.LAY_RIDGE_MIN_ANISOTROPY),
+its components (taken as exact ridges along the lay, i.e. their wavevectors
+projected on the lay direction) are removed from the spectral sum and replaced
+by the exact 1-D envelope E(u) = max_q f(q) - (u - q)^2 / 2R of their profile f
+along the lay (:func:`sphere_dilation`), tabulated every 1 um and rounded at
+the hand-overs by the load sharing of the two crests at the nominal 0.2 N
+(:func:`shared_load_envelope`; the rounding is only a few microns wide).  The
+contact normal tilts with the followed slope (envelope included) and Coulomb
+friction on a tilted contact gives the same ratchet (mu + tan theta) /
+(1 - mu tan theta) as the bridged flanks.  Not modelled: the hand-overs between
+isolated 2-D peaks of an isotropic relief (rough wood keeps the spectral
+model), and the reduction of the ridges to exact straight lines (their +-5 deg
+scatter is dropped).
 
 The field is deterministic given its seed: the same physical sample is
 stroked in every trial.
@@ -67,9 +90,11 @@ stroked in every trial.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from contactlab.sim import constants as C
@@ -190,11 +215,132 @@ def get_material(name: str | Material) -> Material:
         raise ValueError(f"unknown material {name!r}; choose one of {sorted(MATERIALS)}") from None
 
 
-def _mode_directions(rng: np.random.Generator, n: int, anisotropy: float, lay_angle: float) -> np.ndarray:
+def _mode_directions(rng: np.random.Generator, n: int, anisotropy: float, lay_angle: float):
     along = rng.random(n) < anisotropy
     angle = np.where(along, lay_angle + rng.normal(0.0, math.radians(5.0), n),
                      rng.uniform(0.0, math.pi, n))
-    return angle
+    return angle, along
+
+
+@numba.njit(cache=True)
+def sphere_dilation(f, du, radius):
+    """Height of the lowest point of a sphere of ``radius`` resting on the 1-D profile ``f``
+    (sampled every ``du``) above each sample: E(p) = max_q f(q) - (p - q)^2 / (2 radius).
+
+    The exact upper envelope of the parabolas hung from every profile point, in O(n)
+    (the lower-envelope-of-parabolas algorithm of Felzenszwalb and Huttenlocher's
+    distance transform, on g = -2 radius f)."""
+    n = f.shape[0]
+    g = -2.0 * radius * f
+    v = np.zeros(n, np.int64)
+    z = np.zeros(n + 1)
+    k = 0
+    z[0] = -1e300
+    z[1] = 1e300
+    for q in range(1, n):
+        while True:
+            s = ((g[q] + (q * du) ** 2) - (g[v[k]] + (v[k] * du) ** 2)) / (2.0 * du * (q - v[k]))
+            if s <= z[k] and k > 0:
+                k -= 1
+            else:
+                break
+        if s <= z[k]:
+            # k == 0 and the new parabola dominates everywhere so far
+            v[0] = q
+            z[0] = -1e300
+            z[1] = 1e300
+            continue
+        k += 1
+        v[k] = q
+        z[k] = s
+        z[k + 1] = 1e300
+    out = np.empty(n)
+    k = 0
+    for p in range(n):
+        while z[k + 1] < p * du:
+            k += 1
+        d = (p - v[k]) * du
+        out[p] = -(d * d + g[v[k]]) / (2.0 * radius)
+    return out
+
+
+@numba.njit(cache=True)
+def shared_load_envelope(f, rigid, du, radius, k_h, load):
+    """The envelope of :func:`sphere_dilation` with the load shared between ridges.
+
+    Near a hand-over from one supporting ridge crest to the next both carry load: at the
+    sphere-centre offset z every crest q (a local maximum of the profile ``f``) is pressed
+    by its Hertz deflection d_q - z, d_q = f(q) - (p - q)^2 / 2R, and the centre sits where
+    sum_q k_h (d_q - z)^1.5 equals ``load``.  Returned as the equivalent single-contact
+    height z + (load / k_h)^(2/3): equal to the rigid envelope ``rigid`` where one crest
+    carries the load, rounded over the hand-over, where the rigid envelope has a cusp."""
+    n = f.shape[0]
+    d0 = (load / k_h) ** (2.0 / 3.0)
+    crest = np.zeros(n, np.int64)
+    nc = 0
+    for i in range(1, n - 1):
+        if f[i] >= f[i - 1] and f[i] > f[i + 1]:
+            crest[nc] = i
+            nc += 1
+    out = rigid.copy()
+    if nc == 0:
+        return out
+    lo = 0
+    span = np.max(f) - np.min(f)
+    reach = math.sqrt(2.0 * radius * (span + d0)) / du + 2.0
+    dq = np.zeros(nc)
+    for p in range(n):
+        while lo < nc - 1 and crest[lo] < p - reach:
+            lo += 1
+        # crests close enough to the rigid envelope to carry part of the load
+        m = 0
+        c = lo
+        while c < nc and crest[c] <= p + reach:
+            x = (p - crest[c]) * du
+            d = f[crest[c]] - x * x / (2.0 * radius)
+            if d > rigid[p] - d0:
+                dq[m] = d
+                m += 1
+            c += 1
+        if m <= 1:
+            continue
+        # bisection for z in [rigid - d0, rigid]: the summed Hertz force is decreasing in z
+        a = rigid[p] - d0
+        b = rigid[p]
+        for _ in range(50):
+            z = 0.5 * (a + b)
+            tot = 0.0
+            for q in range(m):
+                if dq[q] > z:
+                    tot += k_h * (dq[q] - z) ** 1.5
+            if tot > load:
+                a = z
+            else:
+                b = z
+        out[p] = 0.5 * (a + b) + d0
+    return out
+
+
+def lay_envelope(amp: np.ndarray, k: np.ndarray, angle: np.ndarray, phase: np.ndarray, lay_angle: float,
+                 radius: float = C.FINGERTIP_RADIUS, half_length: float = C.LAY_ENVELOPE_HALF_LENGTH,
+                 step: float = C.LAY_ENVELOPE_STEP, k_h: float = 0.0, load: float = C.NOMINAL_NORMAL_LOAD) -> np.ndarray:
+    """The sphere's envelope over the lay (scratch) part of the height (module docstring).
+
+    The lay components are straight ridges across the lay direction; the profile along it,
+    u in [-half_length, half_length] every ``step``, is dilated by the sphere's section
+    (:func:`sphere_dilation`) and, if a Hertz constant ``k_h`` is given, the hand-overs
+    between supporting crests are rounded by load sharing at ``load``
+    (:func:`shared_load_envelope`).  Returns the table of E(u), m."""
+    u = np.arange(-half_length, half_length + 0.5 * step, step)
+    prof = np.zeros_like(u)
+    kk = k * np.cos(angle - lay_angle)
+    for j in range(len(amp)):
+        if amp[j] != 0.0:
+            prof += amp[j] * np.sin(kk[j] * u + phase[j])
+    rigid = sphere_dilation(prof, step, radius)
+    if k_h > 0.0:
+        return shared_load_envelope(prof, rigid, step, radius, k_h, load)
+    return rigid
 
 
 def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_friction: int = 16,
@@ -207,7 +353,22 @@ def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_fricti
     Height amplitudes are averaged over the Hertz contact patch and split into
     the part the sphere follows (``h_amp``) and the bridged part (``h_bamp``,
     same wavevectors and phases) that acts through friction (module docstring).
+    The lay components of a lay-dominated texture are zeroed in both and carried
+    instead by ``e_tab``, the sphere's envelope over them tabulated along the lay,
+    with ``e_par`` = (cos lay, sin lay, first abscissa, step) (zeros if none).
+    Results are cached per (material, seed, sizes, radius); copies are returned.
     """
+    modes = _cached_modes(material, int(seed), int(n_height), int(n_friction), float(radius))
+    return {k: v.copy() for k, v in modes.items()}
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_modes(material, seed, n_height, n_friction, radius):
+    # the lay envelope table takes ~0.1 s to build; trials that share a sample reuse it
+    return _texture_modes(material, seed=seed, n_height=n_height, n_friction=n_friction, radius=radius)
+
+
+def _texture_modes(material, *, seed, n_height, n_friction, radius):
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), _name_key(material.name)]))
     out = {}
     for prefix, n, rms in (("h", n_height, material.roughness_rms), ("m", n_friction, material.mu_variation)):
@@ -219,13 +380,29 @@ def texture_modes(material: Material, *, seed: int, n_height: int = 32, n_fricti
         if prefix == "h":
             amp = amp * np.exp(-(k * contact_radius(material, radius)) ** 2 / 8.0)
             followed = followed_fraction(amp, k, radius)
-            out["h_bamp"] = amp * (1.0 - followed)
+            bamp = amp * (1.0 - followed)
+            full = amp
             amp = amp * followed
-        ang = _mode_directions(rng, n, material.anisotropy, material.lay_angle)
+        ang, along = _mode_directions(rng, n, material.anisotropy, material.lay_angle)
+        if prefix == "h":
+            phase = rng.uniform(0.0, 2.0 * math.pi, n)
+            # the lay (scratch) components: ridden over by the sphere's exact envelope
+            lay = along & (material.anisotropy >= C.LAY_RIDGE_MIN_ANISOTROPY)
+            if np.any(lay):
+                out["e_tab"] = lay_envelope(np.where(lay, full, 0.0), k, ang, phase, material.lay_angle, radius,
+                                             k_h=material.hertz_constant(radius))
+            else:
+                out["e_tab"] = np.zeros(int(round(2.0 * C.LAY_ENVELOPE_HALF_LENGTH / C.LAY_ENVELOPE_STEP)) + 1)
+            out["e_par"] = np.array([math.cos(material.lay_angle), math.sin(material.lay_angle),
+                                     -C.LAY_ENVELOPE_HALF_LENGTH, C.LAY_ENVELOPE_STEP])
+            out["h_bamp"] = np.where(lay, 0.0, bamp)
+            amp = np.where(lay, 0.0, amp)
+        else:
+            phase = rng.uniform(0.0, 2.0 * math.pi, n)
         out[f"{prefix}_k1"] = k * np.cos(ang)
         out[f"{prefix}_k2"] = k * np.sin(ang)
         out[f"{prefix}_amp"] = amp
-        out[f"{prefix}_phase"] = rng.uniform(0.0, 2.0 * math.pi, n)
+        out[f"{prefix}_phase"] = phase
     return out
 
 
@@ -251,7 +428,7 @@ def followed_fraction(amp: np.ndarray, k: np.ndarray, radius: float = C.FINGERTI
     return frac
 
 
-def contact_radius(material: Material, radius: float = C.FINGERTIP_RADIUS, load: float = 0.2) -> float:
+def contact_radius(material: Material, radius: float = C.FINGERTIP_RADIUS, load: float = C.NOMINAL_NORMAL_LOAD) -> float:
     """Hertz contact-patch radius a = (3 F R / (4 E*))^(1/3) at ``load`` N, m."""
     return (3.0 * load * radius / (4.0 * material.effective_modulus)) ** (1.0 / 3.0)
 
@@ -268,7 +445,19 @@ def evaluate_texture(modes: dict[str, np.ndarray], s1, s2) -> tuple[np.ndarray, 
     s2 = np.asarray(s2, dtype=float)[..., None]
     h = np.sum(modes["h_amp"] * np.sin(modes["h_k1"] * s1 + modes["h_k2"] * s2 + modes["h_phase"]), axis=-1)
     m = np.sum(modes["m_amp"] * np.sin(modes["m_k1"] * s1 + modes["m_k2"] * s2 + modes["m_phase"]), axis=-1)
+    if "e_tab" in modes:
+        h = h + lay_height(modes["e_tab"], modes["e_par"], s1[..., 0], s2[..., 0])[0]
     return h, m
+
+
+def lay_height(e_tab, e_par, s1, s2):
+    """The tabulated lay envelope and its derivative along the lay direction at (s1, s2),
+    linearly interpolated as in the integrator; vectorised."""
+    u = (e_par[0] * np.asarray(s1, float) + e_par[1] * np.asarray(s2, float) - e_par[2]) / e_par[3]
+    i = np.clip(np.floor(u).astype(np.int64), 0, len(e_tab) - 2)
+    f = np.clip(u - i, 0.0, 1.0)
+    d = np.where((u >= 0) & (u < len(e_tab) - 1), e_tab[i + 1] - e_tab[i], 0.0)
+    return e_tab[i] + f * (e_tab[i + 1] - e_tab[i]), d / e_par[3]
 
 
 def bridged_slope(modes: dict[str, np.ndarray], s1, s2) -> tuple[np.ndarray, np.ndarray]:

@@ -162,7 +162,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
                     app.robot_friction, app.robot_damping,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
-                    pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"],
+                    pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"], pk["e_tab"], pk["e_par"],
                     sa.kind, sa.kp, sa.bp, sa.ki, sa.xd, sa.vd, sa.fff, sa.fd, sa.hold, noise,
                     int(getattr(sa, "feedback", 0)), float(enc.resolution), vfilt,
                     xr0, v0.copy(), x0, v0.copy(),
