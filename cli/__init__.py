@@ -12,6 +12,7 @@ from contactlab.cli.import_ import import_cmd
 from contactlab.cli.info import info
 from contactlab.cli.report import report
 from contactlab.cli.reproduce import reproduce
+from contactlab.cli.segment import segment
 from contactlab.cli.validate import validate
 
 
@@ -34,7 +35,7 @@ main.add_command(import_cmd)
 main.add_command(report)
 main.add_command(reproduce)
 main.add_command(acquire)
-main.add_command(not_available("segment", "Temporal features"))
+main.add_command(segment)
 main.add_command(not_available("train", "Temporal features"))
 main.add_command(not_available("label", "Temporal features"))
 main.add_command(not_available("estimate", "Constraint estimation"))

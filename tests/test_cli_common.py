@@ -24,7 +24,7 @@ def test_every_verb_has_help_with_an_example(verb):
     assert f"contactlab {verb}" in result.output
 
 
-@pytest.mark.parametrize("verb", ["segment", "label", "estimate", "train", "recognize"])
+@pytest.mark.parametrize("verb", ["label", "estimate", "train", "recognize"])
 def test_unavailable_verbs_say_so_in_one_line(verb):
     result = CliRunner().invoke(main, [verb, "x.h5"])
     assert result.exit_code == 2

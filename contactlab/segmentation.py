@@ -1,0 +1,496 @@
+"""Change-detector segmentation of strains and forces (section 7.2.1, fig 7.6).
+
+The pipeline of figure 7.6, one box per existing module:
+
+1. conditioning (7.1): strains lowpassed and decimated to 250 Hz
+   (:func:`contactlab.conditioning.condition_strains`), or the wrench through
+   the same filter, or the high-frequency log-energy signal;
+2. per channel a square-root AR(p) estimator
+   (:class:`~contactlab.estimators.rls.SquareRootRLS` on
+   :class:`~contactlab.estimators.models.ARModel` regressors, the channels as
+   the batch axis), whose running innovation variance starts on the ninth
+   measurement (``warmup=8``);
+3. the sum over the C channels of the squared normalised innovations,
+   ``chi2(n) = sum_c nu_c(n)^2 / V_c(n-1)`` (6.11, chi-square with C degrees of
+   freedom);
+4. the Page-Hinkley test (6.14-6.18) for a change of covariance size
+   ``q = change_size`` in both directions (an increase to ``q V`` and a
+   decrease to ``V / q``), threshold ``T^2 = threshold``;
+5. on an alarm, both the estimators and the detector restart, the estimators
+   "using the next measurement" (fig 7.6): the first sample they absorb is the
+   one after the alarm.
+
+Boundaries.  The Page-Hinkley test estimates the change time as the last
+sample at which the firing statistic was zero (fig 6.4); the new regime starts
+one sample later (the maximiser ``r`` of 6.15).  A :class:`Segmentation`
+reports **that first sample of the new regime** as the boundary
+(``boundaries``, ``boundaries_s``) -- the convention of ruptures, where a
+boundary is the end (exclusive) of a regime -- the last zero itself as
+``change_s``, and the sample at which the alarm was raised as ``alarms`` /
+``alarms_s``.  The estimators restart after
+the *alarm*, as in the thesis, so the samples between a boundary and its alarm
+were modelled by the old estimator.
+
+While the estimators warm up after a (re)start, ``chi2`` is undefined (NaN in
+:attr:`Segmentation.statistic`) and the detector is held at zero.  The thesis
+starts the variance estimate on the ninth measurement but does not say when
+testing starts.  Testing from the tenth measurement -- a variance from one
+sample -- makes each channel's ratio ``nu^2 / V`` F(1, 1)-distributed
+(Cauchy-like tails): on stationary 8-channel AR(2) data the test then alarms
+within the first 300 samples after 22% of (re)starts (400 runs, T^2 = 200),
+and every false alarm restarts the estimators into the same trap.  So the
+detector starts once the variance holds ``variance_samples`` samples (default
+8, no false alarm in the same 400 runs already at 2); ``variance_samples=1``
+is the literal reading.  Channels that are constant over the whole
+signal (no innovation variance to estimate) are left out, and the statistic's
+degrees of freedom are the channels used (:attr:`Segmentation.channels`).
+
+Efficiency.  :func:`segment_signal` runs the estimators and the detector over
+blocks of samples (numba kernels, state carried between blocks) with no
+per-sample Python.  On an alarm inside a block both are reset and processing
+continues from the sample after the alarm; the rest of that block is simply
+recomputed, so the cost is ``O(N + alarms * block)``.
+
+Metrics (:func:`boundary_metrics`) are ruptures' ``precision_recall``
+(``ruptures.metrics``), boundaries as sample indices with a margin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from contactlab.conditioning import condition_strains, lowpass_decimate
+from contactlab.detection import PageHinkley, VarianceChangeDetector
+from contactlab.detection.increments import VARIANCE_SIDES
+from contactlab.errors import DataError, UsageError
+from contactlab.estimators import ARModel, SquareRootRLS
+
+__all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
+           "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
+           "min_samples", "run_archive"]
+
+#: signals :func:`segment_trial` can segment
+SIGNALS = ("strain", "wrench", "hf")
+#: side codes of :attr:`Segmentation.sides`: 0 increase, 1 decrease of the covariance
+SIDES = VARIANCE_SIDES
+
+DEFAULT_BLOCK = 512
+
+
+@dataclass(frozen=True, eq=False)
+class Segmentation:
+    """Result of :func:`segment_signal` / :func:`segment_trial`.
+
+    Attributes
+    ----------
+    boundaries : (K,) int64 sample index of the first sample of each new
+        segment (Page-Hinkley change-time estimate + 1), increasing.
+    alarms : (K,) int64 sample index at which each change was detected
+        (the estimators and detector restart at ``alarms + 1``).
+    sides : (K,) int64 which test fired: 0 = covariance increase,
+        1 = decrease (names in :data:`SIDES`).
+    times : (N,) time (s) of every sample of the segmented signal.
+    statistic : (N,) the chi-square statistic fed to the detector; NaN where
+        undefined (estimator warm-up after a start or restart).
+    channels : indices of the channels used (constant channels are left out).
+    parameters : the parameters of the run (order, threshold, change_size,
+        warmup, fs, ...).
+    """
+
+    boundaries: np.ndarray
+    alarms: np.ndarray
+    sides: np.ndarray
+    times: np.ndarray
+    statistic: np.ndarray
+    channels: np.ndarray
+    parameters: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.boundaries.size)
+
+    @property
+    def boundaries_s(self) -> np.ndarray:
+        """Boundaries as times (s) of the signal's samples."""
+        return self.times[self.boundaries]
+
+    @property
+    def change_s(self) -> np.ndarray:
+        """The Page-Hinkley change-time estimates (s): the sample before each boundary,
+        the last one at which the firing statistic was zero (fig 6.4)."""
+        return self.times[self.boundaries - 1]
+
+    @property
+    def alarms_s(self) -> np.ndarray:
+        """Alarm times (s)."""
+        return self.times[self.alarms]
+
+    @property
+    def side_names(self) -> list[str]:
+        return [SIDES[s] for s in self.sides]
+
+    def as_dict(self) -> dict:
+        """JSON-ready summary: boundaries, alarms (samples and seconds), sides."""
+        return {"boundaries_s": self.boundaries_s.tolist(),
+                "change_s": self.change_s.tolist(),
+                "alarm_s": self.alarms_s.tolist(),
+                "boundaries": self.boundaries.tolist(),
+                "alarms": self.alarms.tolist(),
+                "sides": self.side_names}
+
+
+def min_samples(order: int, warmup: int, variance_samples: int = 8) -> int:
+    """Fewest samples a signal needs for one tested chi-square value after a start.
+
+    ``order`` samples of history, ``max(warmup, order)`` rows of warm-up,
+    ``variance_samples`` rows in the variance, then the row tested.
+    """
+    return order + max(warmup, order) + variance_samples + 1
+
+
+def _check_params(order, threshold, change_size, warmup, block) -> None:
+    if not isinstance(order, (int, np.integer)) or isinstance(order, bool) or order < 1:
+        raise UsageError(f"order must be an integer >= 1; got {order!r}")
+    if not (isinstance(threshold, (int, float, np.number)) and math.isfinite(threshold)
+            and threshold > 0):
+        raise UsageError(f"threshold must be a number > 0; got {threshold!r}")
+    if not (isinstance(change_size, (int, float, np.number)) and math.isfinite(change_size)
+            and change_size > 1):
+        raise UsageError(f"change_size must be a number > 1; got {change_size!r}")
+    if not isinstance(warmup, (int, np.integer)) or isinstance(warmup, bool) or warmup < 0:
+        raise UsageError(f"warmup must be an integer >= 0; got {warmup!r}")
+    if not isinstance(block, (int, np.integer)) or block < 1:
+        raise UsageError(f"block must be an integer >= 1; got {block!r}")
+
+
+def segment_signal(y, *, fs: float, order: int = 2, threshold: float = 200.0,
+                   change_size: float = 2.5, warmup: int = 8, variance_samples: int = 8,
+                   t0: float = 0.0, times=None, block: int = DEFAULT_BLOCK) -> Segmentation:
+    """Segment ``y`` (N,) or (N, C) sampled at ``fs`` Hz (fig 7.6).
+
+    Parameters
+    ----------
+    order : AR order p of every channel's estimator (2 in the thesis).
+    threshold : Page-Hinkley decision threshold ``T^2`` (200 in the thesis;
+        fig 7.5 uses 100).
+    change_size : covariance change ``q`` tested in both directions (2.5).
+    warmup : samples after a (re)start before the variance estimate starts
+        (8: "starts on the ninth measurement").
+    variance_samples : samples in the variance estimate before the detector
+        tests (>= 1; see the module notes).
+    t0, times : sample times: ``times`` (N,) if given, else ``t0 + n / fs``.
+    block : samples per block of the batch kernels.
+
+    Raises UsageError for bad parameters and DataError (naming the field
+    ``signal``) for a signal too short for the model or not finite.
+    """
+    _check_params(order, threshold, change_size, warmup, block)
+    if not isinstance(variance_samples, (int, np.integer)) or variance_samples < 1:
+        raise UsageError(f"variance_samples must be an integer >= 1; got {variance_samples!r}")
+    a = np.asarray(y, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[1] < 1:
+        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise DataError("signal has NaN or infinite values", field="signal")
+    n, _ = a.shape
+    need = min_samples(int(order), int(warmup), int(variance_samples))
+    if n < need:
+        raise DataError(f"signal has {n} samples; AR({order}) with a variance warm-up of "
+                        f"{warmup} needs at least {need}", field="signal")
+    if times is None:
+        times = t0 + np.arange(n) / float(fs)
+    times = np.asarray(times, dtype=np.float64)
+    if times.shape != (n,):
+        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
+    parameters = dict(order=int(order), threshold=float(threshold),
+                      change_size=float(change_size), warmup=int(warmup),
+                      variance_samples=int(variance_samples), fs=float(fs),
+                      boundary="first sample of the new segment (PH last zero + 1)")
+    statistic = np.full(n, np.nan)
+    empty = np.empty(0, dtype=np.int64)
+    if channels.size == 0:
+        return Segmentation(empty, empty.copy(), empty.copy(), times, statistic, channels,
+                            parameters)
+
+    model = ARModel(order=int(order))
+    p = model.order
+    psi = np.ascontiguousarray(model.regressors(a[:, channels]))    # rows r <-> samples r + p
+    target = np.ascontiguousarray(model.targets(a[:, channels]))
+    rows = psi.shape[0]
+    first_test = max(int(warmup), p) + int(variance_samples)   # see the module notes
+    vcd = VarianceChangeDetector(q=float(change_size), dim=int(channels.size),
+                                 threshold=float(threshold), sides="both")
+    rls = SquareRootRLS(variance_warmup=int(warmup))
+    ph = PageHinkley(threshold=float(threshold), sides=vcd.side_names)
+
+    bounds, alarms, sides = [], [], []
+    seg_start = 0                  # row at which estimators and detector (re)started
+    pos = 0
+    while pos < rows:
+        end = min(pos + block, rows)
+        res = rls.run(psi[pos:end], target[pos:end])
+        chi2 = res.stat.sum(axis=1)                          # NaN if any channel is
+        since = np.arange(pos, end) - seg_start           # samples absorbed before this one
+        valid = np.isfinite(chi2) & (since >= first_test)
+        chi2[since < first_test] = np.nan
+        inc = vcd.increments(np.where(valid, chi2, 0.0))
+        inc[~valid] = 0.0          # detector held at 0 (its last zero) until chi2 exists
+        found = ph.run(inc)
+        if len(found) == 0:
+            statistic[pos + p:end + p] = chi2
+            pos = end
+            continue
+        a_row = seg_start + int(found.time[0])               # detector counts from seg_start
+        change_row = seg_start + int(found.change_time[0])
+        statistic[pos + p:a_row + 1 + p] = chi2[:a_row + 1 - pos]
+        bounds.append(change_row + 1 + p)
+        alarms.append(a_row + p)
+        sides.append(int(found.side[0]))
+        rls.reset()
+        ph.reset()
+        seg_start = pos = a_row + 1
+    as_int = lambda v: np.asarray(v, dtype=np.int64)  # noqa: E731
+    return Segmentation(as_int(bounds), as_int(alarms), as_int(sides), times, statistic,
+                        channels, parameters)
+
+
+def conditioned_signal(trial, signal: str = "strain") -> tuple[np.ndarray, np.ndarray, float]:
+    """The 7.1-conditioned signal of ``trial``: ``(y, times, fs_out)``.
+
+    ``strain``: ``condition_strains(strain).low`` (lowpass at fs/8 -- 125 Hz
+    at 1000 Hz -- decimated 4:1); ``wrench``: the wrench through the same
+    lowpass and decimation; ``hf``: ``condition_strains(strain).hf`` (the
+    block-averaged log-energy).  ``times`` are the conditioned samples' times
+    in the trial's time base (the newest input sample of each output).
+    Raises DataError when the trial lacks the signal.
+    """
+    if signal not in SIGNALS:
+        raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
+    source = "wrench" if signal == "wrench" else "strain"
+    raw = getattr(trial, source)
+    if raw is None:
+        raise DataError(f"trial has no {source} (needed for --signal {signal})",
+                        field=f"/trials/{trial.id}/measurements/{source}")
+    fs = float(trial.rate_hz)
+    time = np.asarray(trial.time, dtype=np.float64)
+    if len(time) == 0:
+        raise DataError("trial has no samples", field=f"/trials/{trial.id}/measurements/time")
+    cutoff = fs / 8.0
+    if signal == "wrench":
+        y = lowpass_decimate(raw, fs=fs, cutoff_hz=cutoff, factor=4)
+        index = 4 * np.arange(len(y))
+        return y, time[index], fs / 4.0
+    cond = condition_strains(raw, fs=fs, cutoff_hz=cutoff)
+    if signal == "strain":
+        return cond.low, time[cond.low_index], cond.fs_out
+    index = np.minimum(cond.hf_index, len(time) - 1)   # newest input of each block
+    return cond.hf, time[index], cond.fs_out
+
+
+def segment_trial(trial, *, signal: str = "strain", order: int = 2, threshold: float = 200.0,
+                  change_size: float = 2.5, warmup: int = 8,
+                  block: int = DEFAULT_BLOCK) -> Segmentation:
+    """Segment one archive trial's conditioned ``signal`` (see :func:`conditioned_signal`).
+
+    Boundaries come back in seconds of the trial's time base.
+    """
+    y, times, fs = conditioned_signal(trial, signal)
+    try:
+        seg = segment_signal(y, fs=fs, order=order, threshold=threshold,
+                             change_size=change_size, warmup=warmup, times=times, block=block)
+    except DataError as err:
+        raise DataError(f"{err.message} (after conditioning to "
+                        f"{fs:g} Hz)", field=f"/trials/{trial.id}/measurements/"
+                        f"{'wrench' if signal == 'wrench' else 'strain'}") from None
+    seg.parameters["signal"] = signal
+    return seg
+
+
+def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str = "strain",
+          **kwargs) -> dict[float, Segmentation]:
+    """Segment at each of ``thresholds`` (fig 7.7): ``{threshold: Segmentation}``.
+
+    ``y_or_trial`` is an array (then ``fs`` is required) or an archive trial
+    (then ``signal`` picks the signal); ``kwargs`` go to :func:`segment_signal`.
+    """
+    thresholds = [float(t) for t in thresholds]
+    if not thresholds:
+        raise UsageError("sweep needs at least one threshold")
+    if isinstance(y_or_trial, np.ndarray) or np.ndim(y_or_trial) > 0:
+        if fs is None:
+            raise UsageError("sweep over an array needs fs")
+        return {t: segment_signal(y_or_trial, fs=fs, threshold=t, **kwargs) for t in thresholds}
+    y, times, fs_out = conditioned_signal(y_or_trial, signal)
+    return {t: segment_signal(y, fs=fs_out, times=times, threshold=t, **kwargs)
+            for t in thresholds}
+
+
+def truth_boundaries_s(trial) -> np.ndarray | None:
+    """Ground-truth boundaries (s): every ``segments.start_s`` but the first; None if none."""
+    seg = trial.segments
+    if seg is None or len(seg) == 0:
+        return None
+    return np.asarray(seg["start_s"], dtype=np.float64)[1:]
+
+
+def boundary_metrics(true_s, found_s, *, times, tolerance_s: float = 0.1) -> dict:
+    """Boundary precision, recall and F1 within ``tolerance_s`` (ruptures' metric).
+
+    Both sets of boundaries (seconds) are placed on the sample grid ``times``
+    (nearest sample; duplicates and boundaries at the first sample or past the
+    end dropped) and compared with ``ruptures.metrics.precision_recall`` with a
+    margin of ``tolerance_s`` in samples (a found boundary matches a true one
+    strictly closer than the margin; each found boundary matches at most one
+    true one).  Precision with no boundary found is 0 (ruptures' convention);
+    recall with no true boundary is undefined (None).
+    """
+    from ruptures.metrics import precision_recall
+
+    times = np.asarray(times, dtype=np.float64)
+    n = len(times)
+    if n < 2:
+        raise UsageError("boundary_metrics needs a time base of at least 2 samples")
+    dt = float(np.median(np.diff(times)))
+    if not tolerance_s > 0:
+        raise UsageError(f"tolerance must be > 0 s; got {tolerance_s!r}")
+
+    def to_index(s):
+        s = np.asarray(s, dtype=np.float64).reshape(-1)
+        idx = np.searchsorted(times, s - dt / 2)
+        idx = np.unique(idx[(idx > 0) & (idx < n)])
+        return [int(i) for i in idx] + [n]
+
+    true_idx, found_idx = to_index(true_s), to_index(found_s)
+    margin = max(tolerance_s / dt, 1e-9)
+    out = {"tolerance_s": float(tolerance_s), "n_true": len(true_idx) - 1,
+           "n_found": len(found_idx) - 1}
+    if len(true_idx) == 1:
+        out.update(precision=None, recall=None, f1=None)
+        return out
+    precision, recall = precision_recall(true_idx, found_idx, margin=margin)
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    out.update(precision=float(precision), recall=float(recall), f1=float(f1))
+    return out
+
+
+# -- archives ------------------------------------------------------------------------------
+
+def _pooled(per_trial: list[dict], tolerance_s: float) -> dict | None:
+    """Precision/recall/F1 over all trials, pooling matched, found and true counts."""
+    rows = [m for m in per_trial if m.get("recall") is not None]
+    if not rows:
+        return None
+    matched = sum(round(m["recall"] * m["n_true"]) for m in rows)
+    n_true = sum(m["n_true"] for m in rows)
+    n_found = sum(m["n_found"] for m in rows)
+    precision = matched / n_found if n_found else 0.0
+    recall = matched / n_true if n_true else 0.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return {"tolerance_s": float(tolerance_s), "n_true": n_true, "n_found": n_found,
+            "precision": precision, "recall": recall, "f1": f1, "trials": len(rows)}
+
+
+def run_archive(path, *, signal: str = "strain", order: int = 2, threshold: float = 200.0,
+                thresholds=None, change_size: float = 2.5, warmup: int = 8,
+                tolerance_s: float = 0.1, trials=None, quiet: bool = True,
+                write: bool = True) -> dict:
+    """Segment the trials of the archive ``path`` (``contactlab segment``).
+
+    Without ``thresholds``: every trial (or those named in ``trials``) is
+    segmented at ``threshold`` and, if ``write``, its results are stored in
+    ``results/segment``: ``boundaries_s``, ``change_s`` (alarm times),
+    ``sides`` (0 increase, 1 decrease; names in the ``side_names``
+    attribute), ``boundaries`` / ``alarms`` (indices into the conditioned
+    signal), ``statistic`` and ``statistic_time_s`` (the chi-square trace),
+    with the parameters.  With ``thresholds`` (a sweep, fig 7.7) nothing is
+    written.
+
+    Returns ``{"trials": {id: {...}}, "metrics": {...}}``; ``metrics`` only
+    when some trial has ground-truth segments (pooled over trials, and per
+    trial under ``metrics["trials"]``; per threshold for a sweep).
+    """
+    from contactlab.archive import open_archive, write_results
+    from contactlab.progress import progress
+
+    if signal not in SIGNALS:
+        raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
+    _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
+    levels = None if thresholds is None else [float(t) for t in thresholds]
+    for t in levels or []:
+        _check_params(order, t, change_size, warmup, DEFAULT_BLOCK)
+    runs: dict[str, dict[float, Segmentation]] = {}
+    truths: dict[str, np.ndarray | None] = {}
+    with open_archive(path) as archive:
+        ids = list(trials) if trials else list(archive.trial_ids)
+        for tid in ids:
+            if tid not in archive:
+                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        for tid in progress(ids, desc="segment", quiet=quiet, unit="trial"):
+            trial = archive.trial(tid)
+            try:
+                if levels is None:
+                    runs[tid] = {float(threshold): segment_trial(
+                        trial, signal=signal, order=order, threshold=threshold,
+                        change_size=change_size, warmup=warmup)}
+                else:
+                    runs[tid] = sweep(trial, levels, signal=signal, order=order,
+                                      change_size=change_size, warmup=warmup)
+            except DataError as err:
+                raise DataError(err.message, file=str(path), field=err.field) from None
+            truths[tid] = truth_boundaries_s(trial)
+
+    out_trials: dict = {}
+    metrics_by_level: dict[float, list] = {}
+    per_trial_metrics: dict = {}
+    for tid, by_level in runs.items():
+        entry: dict = {}
+        for level, seg in by_level.items():
+            d = seg.as_dict()
+            if truths[tid] is not None:
+                m = boundary_metrics(truths[tid], seg.boundaries_s, times=seg.times,
+                                     tolerance_s=tolerance_s)
+                metrics_by_level.setdefault(level, []).append(m)
+                if levels is None:
+                    per_trial_metrics[tid] = m
+                else:
+                    d["metrics"] = m
+            if levels is None:
+                entry = d
+            else:
+                entry.setdefault("sweep", {})[f"{level:g}"] = d
+        out_trials[tid] = entry
+
+    if write and levels is None:
+        for tid, by_level in progress(list(runs.items()), desc="write", quiet=quiet,
+                                      unit="trial"):
+            seg = next(iter(by_level.values()))
+            write_results(
+                path, tid, "segment",
+                datasets={"boundaries_s": seg.boundaries_s, "change_s": seg.change_s,
+                          "alarm_s": seg.alarms_s,
+                          "sides": seg.sides.astype(np.int8), "boundaries": seg.boundaries,
+                          "alarms": seg.alarms, "statistic": seg.statistic,
+                          "statistic_time_s": seg.times},
+                attrs={"side_names": list(SIDES), "signal": signal,
+                       "boundary": "boundaries_s: first sample of the new segment; "
+                                   "change_s: Page-Hinkley last zero (the sample before); "
+                                   "alarm_s: detection time"},
+                parameters={**seg.parameters, "channels": seg.channels.tolist()})
+
+    summary: dict = {"trials": out_trials}
+    if metrics_by_level:
+        if levels is None:
+            pooled = _pooled(next(iter(metrics_by_level.values())), tolerance_s)
+            if pooled is not None:
+                summary["metrics"] = {"overall": pooled, "trials": per_trial_metrics}
+        else:
+            pooled = {f"{lv:g}": _pooled(ms, tolerance_s) for lv, ms in metrics_by_level.items()}
+            pooled = {k: v for k, v in pooled.items() if v is not None}
+            if pooled:
+                summary["metrics"] = pooled
+    return summary
