@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from benchmarks.timing import best_time
 
 CHANNELS = 8
 STEPS = 20_000
@@ -32,13 +33,6 @@ def _data(seed: int = 0):
     return psi, np.ascontiguousarray(y[2:])
 
 
-def _best(fn, repeats: int = 3) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _filterpy_run(psi, y, steps):
@@ -72,16 +66,16 @@ def run() -> list[dict]:
     warm_note = (f"numba warm-up {warm:.2f} s ({'loaded from cache' if cached else 'compiled'}), "
                  "excluded")
 
-    ours = _best(lambda: SquareRootKalman(**args).filter(psi, y))
+    ours = best_time(lambda: SquareRootKalman(**args).filter(psi, y))
 
     def stream():
         kf = SquareRootKalman(**args)
         for n in range(STREAM_STEPS):
             kf.update(psi[n], y[n])
-    ours_stream = _best(stream) * STEPS / STREAM_STEPS
+    ours_stream = best_time(stream) * STEPS / STREAM_STEPS
 
-    peer = _best(lambda: _filterpy_run(psi, y, PEER_STEPS)) * STEPS / PEER_STEPS
-    rls = _best(lambda: SquareRootRLS().run(psi, y))
+    peer = best_time(lambda: _filterpy_run(psi, y, PEER_STEPS)) * STEPS / PEER_STEPS
+    rls = best_time(lambda: SquareRootRLS().run(psi, y))
 
     per = CHANNELS * STEPS
     return [

@@ -14,26 +14,18 @@ linear in the samples); the notes say where.
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 
 from contactlab.detection import MeanChangeDetector, PageHinkley, mean_increment
+from benchmarks.timing import best_time_and_result
 
 N = 1_000_000
 CHANGE = 600_000
 T2 = 15.0
 PEER_N = 100_000
-REPEATS = 3
 
 
-def _best(fn, repeats: int = REPEATS) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def _signal(seed: int = 0) -> np.ndarray:
@@ -64,7 +56,7 @@ def run() -> list[dict]:
     def batch():
         return det.reset().run(y)
 
-    ours_s, alarms = _best(batch)
+    ours_s, alarms = best_time_and_result(batch)
     first_ours = int(alarms.first(1, at_or_after=CHANGE)[0][0])
 
     def chunked():
@@ -73,28 +65,28 @@ def run() -> list[dict]:
             d.run(y[i:i + 1000])
         return d
 
-    chunk_s, _ = _best(chunked)
+    chunk_s, _ = best_time_and_result(chunked)
 
     inc = mean_increment(y, mu0=0.0, dmu=1.0, sigma=1.0)
     numpy_engine = PageHinkley(threshold=T2, engine="numpy")
-    numpy_s, _ = _best(lambda: numpy_engine.reset().run(inc))
+    numpy_s, _ = best_time_and_result(lambda: numpy_engine.reset().run(inc))
 
     def per_sample():
         ph = PageHinkley(threshold=T2)
         for v in inc[:PEER_N]:
             ph.update(v)
 
-    update_s, _ = _best(per_sample)
+    update_s, _ = best_time_and_result(per_sample)
     update_s *= N / PEER_N
 
     # many detectors at once: 1000 independent signals of 1000 samples
     bank = np.random.default_rng(1).standard_normal((1000, 1000))
     bank[500:] += 1.0
     bank_det = MeanChangeDetector(mu0=0.0, dmu=1.0, sigma=1.0, threshold=T2)
-    bank_s, _ = _best(lambda: bank_det.reset().run(bank))
+    bank_s, _ = best_time_and_result(lambda: bank_det.reset().run(bank))
 
     try:
-        river_s, _ = _best(_river(y[:PEER_N]))
+        river_s, _ = best_time_and_result(_river(y[:PEER_N]))
         river_s *= N / PEER_N
         first_river = _river(y)()  # untimed: its detection index on the full signal
         peer = "river.drift.PageHinkley 0.26"

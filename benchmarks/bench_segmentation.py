@@ -16,7 +16,6 @@ methods, not with the thesis.
 from __future__ import annotations
 
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -24,23 +23,18 @@ from scipy.signal import lfilter
 
 from contactlab.acquire.record import record
 from contactlab.acquire.sim import SimSource, simulate_trial
-from contactlab.archive import open_archive
 from contactlab.acquire.spec import load_spec
+from contactlab.archive import open_archive
 from contactlab.conditioning import condition_strains
 from contactlab.segmentation import (boundary_metrics, conditioned_signal, segment_signal,
                                      truth_boundaries_s)
+
+from benchmarks.timing import best_time
 
 FS_LOW = 250.0
 REPEATS = 3
 
 
-def _best(fn, repeats=REPEATS):
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _stationary(seconds: float, *, seed: int = 0) -> np.ndarray:
@@ -57,8 +51,8 @@ def run() -> list[dict]:
     strain = result.strain
     low = condition_strains(strain, fs=1000.0).low
     segment_signal(low[:200], fs=FS_LOW)  # compile / load the numba kernels
-    t_seg = _best(lambda: segment_signal(low, fs=FS_LOW))
-    t_all = _best(lambda: segment_signal(condition_strains(strain, fs=1000.0).low, fs=FS_LOW))
+    t_seg = best_time(lambda: segment_signal(low, fs=FS_LOW))
+    t_all = best_time(lambda: segment_signal(condition_strains(strain, fs=1000.0).low, fs=FS_LOW))
     rows.append({"name": "segment 7 s 8-strain stroke trial", "ours_s": t_seg, "peer": None,
                  "peer_s": None, "ratio": None,
                  "notes": f"{7.0 / t_seg:.0f}x real time (target >= 1000x); with 7.1 "
@@ -66,7 +60,7 @@ def run() -> list[dict]:
     per_second = {}
     for seconds in (10.0, 1000.0):
         y = _stationary(seconds)
-        t = _best(lambda: segment_signal(y, fs=FS_LOW), repeats=REPEATS if seconds < 100 else 1)
+        t = best_time(lambda: segment_signal(y, fs=FS_LOW), repeats=REPEATS if seconds < 100 else 1)
         per_second[seconds] = t / seconds
         rows.append({"name": f"segment {seconds:g} s stationary 8 channels", "ours_s": t,
                      "peer": None, "peer_s": None, "ratio": None,
@@ -95,7 +89,7 @@ def _peers() -> list[dict]:
     ours = {thr: segment_signal(y, fs=fs, t0=float(times[0]), times=times, threshold=thr)
             for thr in (25.0, 50.0, 100.0, 200.0)}
     best_thr = max(ours, key=lambda thr: f1(ours[thr].boundaries_s))
-    t_ours = _best(lambda: segment_signal(y, fs=fs, times=times, threshold=best_thr))
+    t_ours = best_time(lambda: segment_signal(y, fs=fs, times=times, threshold=best_thr))
     rows = [{"name": "contactlab segment, stroke-a trial", "ours_s": t_ours, "peer": None,
              "peer_s": None, "ratio": None,
              "notes": f"boundary F1 {f1(ours[200.0].boundaries_s):.2f} at the thesis's threshold "
@@ -111,7 +105,7 @@ def _peers() -> list[dict]:
             return [times[i] for i in algo.predict(pen=pen)[:-1]]
         scores = {pen: f1(fit_predict(pen)) for pen in grid}
         pen = max(scores, key=scores.get)
-        t_peer = _best(lambda: fit_predict(pen), repeats=1 if name == "Pelt" else REPEATS)
+        t_peer = best_time(lambda: fit_predict(pen), repeats=1 if name == "Pelt" else REPEATS)
         rows.append({"name": f"segment stroke-a trial vs ruptures {name}", "ours_s": t_ours,
                      "peer": f"ruptures {name} (ar)", "peer_s": t_peer,
                      "ratio": t_peer / t_ours,

@@ -10,24 +10,16 @@ simulator of this apparatus to compare with.
 from __future__ import annotations
 
 import tempfile
-import time
 from pathlib import Path
 
 from contactlab.acquire.record import record
 from contactlab.acquire.sim import SimSource, simulate_trial
 from contactlab.acquire.spec import load_spec
+from benchmarks.timing import best_time
 
 DURATION_S = 7.0
-REPEATS = 3
 
 
-def _best(fn, repeats=REPEATS):
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def run() -> list[dict]:
@@ -36,7 +28,7 @@ def run() -> list[dict]:
         spec = load_spec(name)
         simulate_trial(spec, 0, 1, duration_s=0.2)  # compile / load the numba kernel
         k = spec.n_trials - 1  # last group: the integral force controller for the multi move
-        ours = _best(lambda: simulate_trial(spec, k, 1, duration_s=DURATION_S))
+        ours = best_time(lambda: simulate_trial(spec, k, 1, duration_s=DURATION_S))
         rows.append({"name": f"simulate 7 s trial ({name})", "ours_s": ours, "peer": None,
                      "peer_s": None, "ratio": None,
                      "notes": f"{DURATION_S / ours:.0f}x real time (target >= 20x)"})
@@ -48,7 +40,7 @@ def run() -> list[dict]:
             record(SimSource(spec), out=out, n_trials=1, seed=1, force=True, quiet=True,
                    log=lambda m: None)
 
-        ours = _best(acquire)
+        ours = best_time(acquire)
     rows.append({"name": "acquire 7 s stroke-a trial to HDF5", "ours_s": ours, "peer": None,
                  "peer_s": None, "ratio": None,
                  "notes": f"{DURATION_S / ours:.0f}x real time incl. truth + gzip HDF5"})

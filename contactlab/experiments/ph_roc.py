@@ -239,15 +239,8 @@ def _fig_ph(res):
     if op and op["tF"] is not None:
         ax.plot(op["tD"], np.log10(op["tF"]), "kD", ms=7, mfc="none",
                 label=f"T^2 = 15 simulated: t_F {op['tF']:.2g}, t_D {op['tD']:.1f}")
-    ax.set_xlim(0, 120)
-    ax.set_ylim(0, LOG10_TF_MAX)
-    ax.set_xlabel("mean delay to detection t_D (samples)")
-    ax.set_ylabel("log10 mean time to false alarm t_F")
-    ax.set_title("Page-Hinkley ROC, change in mean (thesis fig 6.3)", fontsize=10)
-    ax.legend(fontsize=7, ncol=2, loc="lower right")
-    ax.grid(alpha=0.3)
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
-    return fig
+    return _finish_roc(fig, ax, xmax=120, legend_size=7,
+                       title="Page-Hinkley ROC, change in mean (thesis fig 6.3)")
 
 
 def _fig_lp(res):
@@ -270,12 +263,18 @@ def _fig_lp(res):
     p = THESIS_POINT
     ax.plot([p["lp_tD_estimate"], p["lp_rise_time"]], [np.log10(p["ph_tF"])] * 2, "k*", ms=10,
             label="thesis a = 0.98: t_D 29.5 / rise 34.5")
-    ax.set_xlim(0, 150)
+    return _finish_roc(fig, ax, xmax=150, legend_size=6.5,
+                       title="Lowpass + threshold ROC, threshold dmu/2 (thesis fig 6.5)")
+
+
+def _finish_roc(fig, ax, *, xmax: float, legend_size: float, title: str):
+    """The axes of a thesis-style ROC: log10 t_F against t_D."""
+    ax.set_xlim(0, xmax)
     ax.set_ylim(0, LOG10_TF_MAX)
     ax.set_xlabel("mean delay to detection t_D (samples)")
     ax.set_ylabel("log10 mean time to false alarm t_F")
-    ax.set_title("Lowpass + threshold ROC, threshold dmu/2 (thesis fig 6.5)", fontsize=10)
-    ax.legend(fontsize=6.5, ncol=2, loc="lower right")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=legend_size, ncol=2, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     return fig

@@ -30,7 +30,7 @@ settling pre-roll) see the initial command.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

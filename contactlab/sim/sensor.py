@@ -33,7 +33,7 @@ same kind of velocity estimate at its 1 kHz rate, with a faster filter
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
