@@ -12,7 +12,9 @@ from contactlab.cli.import_ import import_cmd
 from contactlab.cli.info import info
 from contactlab.cli.report import report
 from contactlab.cli.reproduce import reproduce
+from contactlab.cli.label import label
 from contactlab.cli.segment import segment
+from contactlab.cli.train import train
 from contactlab.cli.validate import validate
 
 
@@ -36,7 +38,7 @@ main.add_command(report)
 main.add_command(reproduce)
 main.add_command(acquire)
 main.add_command(segment)
-main.add_command(not_available("train", "Temporal features"))
-main.add_command(not_available("label", "Temporal features"))
+main.add_command(train)
+main.add_command(label)
 main.add_command(not_available("estimate", "Constraint estimation"))
 main.add_command(not_available("recognize", "Feature graphs and observer"))

@@ -1,0 +1,78 @@
+"""contactlab train: per-class temporal models (AR orthogonal-parameter priors, 7.2.2, A.2.3)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+
+
+@click.command()
+@archive_argument
+@click.option("--labels", "labels", default="truth", show_default=True, metavar="truth|STAGE",
+              help="Classes from the ground truth, or from a results stage's segments "
+                   "(e.g. 'segment'), each named by its majority ground-truth label.")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Models file to write (HDF5, datasets_spec/MODELS.md).")
+@click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default="strain",
+              show_default=True, help="Conditioned signal (7.1) to model.")
+@click.option("--order", type=int, default=2, show_default=True, help="AR order p.")
+@click.option("--mean/--no-mean", default=False, show_default=True,
+              help="Include a constant (mean) regressor.")
+@click.option("--block", type=int, default=100, show_default=True,
+              help="Samples per training block (blocks never span a label change).")
+@click.option("--classes", default=None, metavar="A,B,...",
+              help="Train only these labels (default: every label with enough blocks).")
+@click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
+@json_option
+@quiet_option
+def train(archive, labels, out, signal, order, mean, block, classes, trials, force, as_json,
+          quiet):
+    """Train one temporal model per class of ARCHIVE and write them to --out.
+
+    Every labelled run of the conditioned signal is cut into blocks; per
+    block and channel a square-root RLS AR fit gives the orthogonal
+    parameters (LPC coefficients, 7.3) and the driving-noise variance.  Per
+    class and channel the models store the mean and covariance of those
+    parameters, the mean noise variance and the pooled training structure,
+    with the training provenance.
+
+    \b
+    Examples:
+      contactlab train runs.h5 --labels truth --out models.h5
+      contactlab train runs.h5 --labels segment --classes sanded,polished --out m.h5
+      contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --json
+    """
+    from contactlab.fileio import check_writable
+    from contactlab.temporal import train_temporal
+
+    if order < 1:
+        raise click.BadParameter(f"must be >= 1; got {order}", param_hint="'--order'")
+    if block < 1:
+        raise click.BadParameter(f"must be >= 1; got {block}", param_hint="'--block'")
+    check_writable(out, force=force)
+    names = None if classes is None else [c.strip() for c in classes.split(",") if c.strip()]
+    if names is not None and not names:
+        raise click.BadParameter("expected comma-separated labels", param_hint="'--classes'")
+    models = train_temporal(archive, labels=labels, signal=signal, order=order, mean=mean,
+                            block=block, trials=list(trials) or None, classes=names,
+                            quiet=quiet, command=" ".join(["contactlab"] + sys.argv[1:]))
+    models.save(out, force=force)
+    summary = {"out": str(out), "signal": models.signal, "fs": models.fs,
+               "labels": models.labels, "channels": models.channels,
+               "blocks": {k: m.n_blocks for k, m in models.models.items()},
+               "skipped": models.provenance.get("skipped", {}),
+               "order": order, "mean": mean, "block": block}
+    if as_json:
+        echo_json(summary)
+        return
+    for k, m in models.models.items():
+        click.echo(f"{k}: {m.n_blocks} blocks, {m.channels} channels")
+    for k, n in summary["skipped"].items():
+        click.echo(f"{k}: skipped ({n} blocks; a covariance of {order + int(mean)} "
+                   "parameters needs more)")
+    click.echo(f"models written to {out}")
