@@ -7,6 +7,7 @@ import click
 
 from contactlab import __version__
 from contactlab.cli.common import ContactlabGroup, not_available
+from contactlab.cli.graph import graph
 from contactlab.cli.acquire import acquire
 from contactlab.cli.import_ import import_cmd
 from contactlab.cli.info import info
@@ -38,6 +39,7 @@ main.add_command(report)
 main.add_command(reproduce)
 main.add_command(acquire)
 main.add_command(segment)
+main.add_command(graph)
 main.add_command(train)
 main.add_command(label)
 main.add_command(not_available("estimate", "Constraint estimation"))

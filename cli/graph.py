@@ -1,0 +1,61 @@
+"""``contactlab graph``: inspect feature-graph files (thesis 5.3, 9.1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from contactlab.cli.common import echo_json, json_option
+from contactlab.observer.draw import draw_graph
+from contactlab.observer.graph import load_graph
+
+
+@click.group(name="graph")
+def graph() -> None:
+    """Feature graphs: show and check graph files.
+
+    \b
+    Example:
+      contactlab graph show datasets_spec/graphs/hf-context.toml --out hf.png
+    """
+
+
+@graph.command(name="show")
+@click.argument("graph_file", metavar="GRAPH", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Draw the graph into this PNG/PDF/SVG file.")
+@click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
+@json_option
+def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None:
+    """Validate GRAPH, print its nodes and edges, optionally draw it.
+
+    A graph with a mistake gets a one-line error naming the file and field.
+
+    \b
+    Example:
+      contactlab graph show datasets_spec/graphs/hf-context-free.toml
+      contactlab graph show datasets_spec/graphs/hf-context.toml --out hf.png --json
+    """
+    g = load_graph(graph_file)
+    if out is not None:
+        draw_graph(g, out, force=force)
+    if as_json:
+        d = g.to_dict()
+        if out is not None:
+            d["figure"] = str(out)
+        echo_json(d)
+        return
+    click.echo(f"{g.name}: {g.title}" + (f" (thesis {g.thesis})" if g.thesis else ""))
+    for n in g.nodes:
+        models = ", ".join(f"{r}={m}" if r != m else m for r, m in n.models)
+        flags = [f for f, on in (("transient", n.transient), ("self", n.self_transition)) if on]
+        succ = [g.nodes[j].name for j in g.successors(g.index(n.name)) if j != g.index(n.name)]
+        click.echo(f"  {n.name:>6}  p0={n.initial:.3g}  [{models}]  {n.label}"
+                   f"  -> {', '.join(succ) or '-'}" + (f"  ({', '.join(flags)})" if flags else ""))
+    names = g.node_names
+    for a, edges in sorted(g.action_edges.items()):
+        act = g.actions[a] if a < len(g.actions) else str(a)
+        click.echo(f"  while {act}: " + ", ".join(f"{names[i]}->{names[j]}" for i, j in sorted(edges)))
+    if out is not None:
+        click.echo(f"wrote {out}")

@@ -1,0 +1,76 @@
+"""Drawing a feature graph (matplotlib): nodes on a circle, transient nodes as
+diamonds, initial probabilities under the labels, action-dependent edges
+coloured by action; optional node probabilities shade the nodes (fig 7.10)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from contactlab.fileio import atomic_path
+from contactlab.observer.graph import FeatureGraph
+
+__all__ = ["draw_graph", "plot_graph"]
+
+
+def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
+    """Draw ``graph`` into matplotlib axes ``ax`` (``probabilities``: (K,) node shading)."""
+    import matplotlib.pyplot as plt
+
+    K = graph.n_nodes
+    ang = np.pi / 2 - 2 * np.pi * np.arange(K) / K
+    xy = np.c_[np.cos(ang), np.sin(ang)] if K > 1 else np.zeros((1, 2))
+    cmap = plt.get_cmap("tab10")
+
+    def arrow(i, j, color, rad):
+        ax.annotate("", xy=xy[j], xytext=xy[i], arrowprops=dict(
+            arrowstyle="-|>", color=color, lw=1.2, shrinkA=16, shrinkB=16,
+            connectionstyle=f"arc3,rad={rad}"))
+
+    for i, j in sorted(graph.edges):
+        arrow(i, j, "0.3", 0.12)
+    handles = []
+    for k, (a, edges) in enumerate(sorted(graph.action_edges.items())):
+        color = cmap((k + 1) % 10)
+        for i, j in sorted(edges):
+            arrow(i, j, color, 0.25)
+        name = graph.actions[a] if a < len(graph.actions) else str(a)
+        handles.append(plt.Line2D([], [], color=color, label=f"while {name}"))
+    p = np.zeros(K) if probabilities is None else np.asarray(probabilities, dtype=float)
+    for k, n in enumerate(graph.nodes):
+        face = plt.get_cmap("Reds")(0.15 + 0.7 * p[k]) if probabilities is not None else "white"
+        ax.scatter(*xy[k], s=900, marker="D" if n.transient else "o", facecolor=face,
+                   edgecolor="black", zorder=3)
+        ax.text(*xy[k], n.name, ha="center", va="center", zorder=4, fontsize=9)
+        if n.self_transition:
+            ax.annotate("", xy=xy[k] * 1.13 + [0.04, 0], xytext=xy[k] * 1.13 - [0.04, 0],
+                        arrowprops=dict(arrowstyle="-|>", color="0.5",
+                                        connectionstyle="arc3,rad=-1.8"))
+        models = "/".join(n.model_names)
+        ax.text(xy[k, 0], xy[k, 1] - 0.2, f"{n.label}\n[{models}] p0={n.initial:.2g}",
+                ha="center", va="top", fontsize=7)
+    if handles:
+        ax.legend(handles=handles, loc="lower right", fontsize=7, frameon=False)
+    ax.set_xlim(-1.5, 1.5)
+    ax.set_ylim(-1.6, 1.4)
+    ax.set_aspect("equal")
+    ax.axis("off")
+    ax.set_title(graph.title, fontsize=10)
+
+
+def draw_graph(graph: FeatureGraph, path, *, force: bool = False, probabilities=None) -> Path:
+    """Write a drawing of ``graph`` to ``path`` (format from the suffix), atomically."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    fig, ax = plt.subplots(figsize=(6, 6))
+    try:
+        plot_graph(graph, ax, probabilities=probabilities)
+        with atomic_path(path, force=force) as tmp:
+            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=120)
+    finally:
+        plt.close(fig)
+    return path

@@ -1,0 +1,101 @@
+"""The one interface every feature model implements (6.1, 6.3), and the bank of its instances.
+
+A feature model is a parameterised Markov measurement process with a prior on
+its parameters (6.1).  The observer runs one *instance* of it per active path
+that uses it (an estimator started at the path's start time, 6.4) and needs
+from each instance, per sample, the log-likelihood of the measurement given
+the past (6.10) and the chi-square statistic ``nu^T V^-1 nu`` of its
+innovation (6.11) that the Page-Hinkley detector tests (6.14).
+
+A model is a small object (parameters in ``__init__``) with
+
+* ``name``, ``signal`` (which measurement stream it reads), ``lag`` (past
+  samples its first prediction needs), ``change_size`` (None: the observer's q);
+* ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
+* ``init_state(starts, channels) -> dict`` -- the prior state of ``U`` new
+  instances (arrays with a leading unit axis; ``{}`` for stateless models);
+* ``run(state, x, *, t0, starts) -> (loglik, chi2)`` -- advance every instance
+  over the samples ``t0 .. t0+N-1``: ``x`` is ``(lag + N, C)``, the measurements
+  from ``t0 - lag``; returns two ``(N, U)`` arrays and updates ``state`` in
+  place.  Running consecutive blocks must equal one run on their union.
+
+:class:`ModelBank` holds all instances of one model as one batch, so paths
+that share a model share one vectorised update.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["FeatureModel", "ModelBank", "LOG_2PI"]
+
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+class FeatureModel:
+    """Base class of the feature models (see the module notes for the contract)."""
+
+    #: the graph-file kind this class implements
+    kind = ""
+    lag = 0
+
+    def __init__(self, *, name: str, signal: str, change_size: float | None = None):
+        self.name = name
+        self.signal = signal
+        self.change_size = change_size
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, signal={self.signal!r})"
+
+    def check_channels(self, channels: int) -> None:
+        """Raise ValueError if the signal's channel count does not fit the model."""
+
+    def dim(self, channels: int) -> int:
+        return channels
+
+    def init_state(self, starts: np.ndarray, channels: int) -> dict:
+        return {}
+
+    def run(self, state: dict, x: np.ndarray, *, t0: int, starts: np.ndarray):
+        raise NotImplementedError
+
+
+class ModelBank:
+    """All active instances of one :class:`FeatureModel`, as one batch.
+
+    ``starts`` (U,) are the instances' start times; ``state`` the model's state
+    arrays with a leading unit axis.
+    """
+
+    def __init__(self, model: FeatureModel, channels: int):
+        model.check_channels(channels)
+        self.model = model
+        self.channels = channels
+        self.starts = np.empty(0, dtype=np.int64)
+        self.state = model.init_state(self.starts, channels)
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def new(self, starts) -> tuple[np.ndarray, dict]:
+        """Prior state of new instances started at ``starts`` (not yet in the bank)."""
+        starts = np.asarray(starts, dtype=np.int64).reshape(-1)
+        return starts, self.model.init_state(starts, self.channels)
+
+    def run(self, x, *, t0: int, starts=None, state=None):
+        """Advance the bank (or a detached ``state`` from :meth:`new`) over ``x``."""
+        if state is None:
+            starts, state = self.starts, self.state
+        return self.model.run(state, x, t0=t0, starts=starts)
+
+    def extend(self, starts: np.ndarray, state: dict) -> None:
+        self.starts = np.concatenate([self.starts, starts])
+        self.state = {k: np.ascontiguousarray(np.concatenate([v, state[k]]))
+                      for k, v in self.state.items()}
+
+    def keep(self, rows) -> None:
+        rows = np.asarray(rows, dtype=np.intp)
+        self.starts = self.starts[rows]
+        self.state = {k: np.ascontiguousarray(v[rows]) for k, v in self.state.items()}

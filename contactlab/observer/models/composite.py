@@ -1,0 +1,97 @@
+"""Composite nodes (9.1.1): a node is a tuple of models -- e.g. (high frequency,
+constraint, velocity) -- whose log-likelihoods add (the signals are modelled as
+independent given the node) and each of which has its own change detector; a
+change in any of them is a change of the node (6.4).
+
+:func:`build_models` binds the model declarations of a graph file to model
+objects, using trained models where the declaration names one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactlab.errors import DataError
+from contactlab.observer.graph import PLANNED_KINDS, FeatureGraph, ModelSpec
+from contactlab.observer.models.base import FeatureModel
+from contactlab.observer.models.impact import ImpactFeature
+from contactlab.observer.models.temporal import TemporalFeature
+from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
+
+__all__ = ["CompositeNode", "build_models", "node_models"]
+
+
+@dataclass(frozen=True)
+class CompositeNode:
+    """The models of one node, in the graph file's role order."""
+
+    name: str
+    roles: tuple[str, ...]
+    models: tuple[FeatureModel, ...]
+
+
+def node_models(graph: FeatureGraph, models: Mapping[str, FeatureModel]) -> list[CompositeNode]:
+    """The :class:`CompositeNode` of every graph node, in node order."""
+    missing = [m for m in graph.models if m not in models]
+    if missing:
+        raise ValueError(f"no model object for {missing[0]!r} (graph {graph.name!r} declares "
+                         f"{list(graph.models)})")
+    return [CompositeNode(n.name, tuple(r for r, _ in n.models),
+                          tuple(models[m] for _, m in n.models)) for n in graph.nodes]
+
+
+def build_models(graph: FeatureGraph, trained: Mapping | None = None, *,
+                 source: str | None = None) -> dict[str, FeatureModel]:
+    """Model objects for every declaration in ``graph``.
+
+    ``trained`` maps a trained-model label to a trained object: a
+    :class:`contactlab.temporal.TemporalModel` for ``temporal``, an
+    :class:`ImpactFeature` (or anything with ``theta_mean``, ``theta_cov``,
+    ``noise_var``) for ``impact``; a ``ModelSet`` may be passed as is.
+    ``source`` names the models file in error messages.
+    """
+    if trained is not None and hasattr(trained, "models") and not isinstance(trained, Mapping):
+        trained = trained.models
+    trained = trained or {}
+    out = {}
+    for name, spec in graph.models.items():
+        out[name] = _build(spec, trained, graph, source)
+    return out
+
+
+def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> FeatureModel:
+    where = f"models.{spec.name}"
+    p = spec.params
+    if spec.kind in PLANNED_KINDS:
+        raise DataError(f"model kind {spec.kind!r} is not available yet (lands with the "
+                        f"{PLANNED_KINDS[spec.kind]} issue)", file=graph.source, field=f"{where}.kind")
+    if spec.kind == "velocity-fixed":
+        return FixedVelocity(name=spec.name, sigma=p["sigma"], signal=spec.signal)
+    if spec.kind == "velocity-moving":
+        return MovingVelocity(name=spec.name, low=p["low"], high=p["high"], sigma=p["sigma"],
+                              signal=spec.signal)
+    if spec.kind == "impact" and "theta_mean" in p:
+        return ImpactFeature(name=spec.name, theta_mean=p["theta_mean"], theta_sqrt=p["theta_sd"],
+                             noise_var=p["noise_var"], signal=spec.signal)
+    label = spec.trained
+    if label not in trained:
+        raise DataError(f"no trained model {label!r} for {spec.kind} model {spec.name!r} "
+                        f"(have: {', '.join(map(str, trained)) or 'none'})",
+                        file=source or graph.source, field=f"{where}.trained")
+    obj = trained[label]
+    if spec.kind == "temporal":
+        if isinstance(obj, TemporalFeature):
+            return obj
+        return TemporalFeature.from_trained(obj, name=spec.name, signal=spec.signal)
+    if isinstance(obj, ImpactFeature):
+        return obj
+    if hasattr(obj, "order"):
+        raise DataError(f"trained model {label!r} is an AR model; the impact model needs an "
+                        "impact-decay prior (ImpactFeature.fit)", file=source or graph.source,
+                        field=f"{where}.trained")
+    return ImpactFeature(name=spec.name, theta_mean=obj.theta_mean,
+                         theta_sqrt=np.linalg.cholesky(np.asarray(obj.theta_cov)),
+                         noise_var=obj.noise_var, signal=spec.signal)

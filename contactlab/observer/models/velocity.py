@@ -1,0 +1,85 @@
+"""Velocity feature models of 9.1.1: fixed (F) and moving (M).
+
+* F -- the robot is not moving: the measured velocity is the measurement
+  noise, ``v ~ N(0, sigma^2 I)`` (9.1.1: "a vector normal distribution with
+  zero mean and variance corresponding to the measurement noise").
+* M -- the robot is moving: every velocity in ``[low, high]`` per component
+  is equally likely (9.1.1: uniform on [-0.01, 0.01]; the maximum-entropy
+  choice of footnote 1, ch. 5).  The measured velocity is that velocity plus
+  the same measurement noise, so its density is the uniform convolved with
+  N(0, sigma^2): ``(Phi((high - v)/sigma) - Phi((low - v)/sigma)) / (high - low)``.
+  (Our choice: a bare uniform gives probability zero to a measurement just
+  outside the range and would kill the correct path on one noisy sample.)
+
+Both are stateless (no parameters are estimated).  The innovation the
+detector tests is the measurement standardised by the model's variance:
+``v / sigma`` for F, ``(v - centre) / sqrt(width^2/12 + sigma^2)`` for M
+(our choice; the thesis does not say what the velocity models' detectors
+test), chi-square with m = number of components under the model's
+second moment.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import log_ndtr
+
+from contactlab.observer.models.base import LOG_2PI, FeatureModel
+
+__all__ = ["FixedVelocity", "MovingVelocity"]
+
+
+class FixedVelocity(FeatureModel):
+    """F: zero velocity, ``v ~ N(0, sigma^2 I)``."""
+
+    kind = "velocity-fixed"
+
+    def __init__(self, *, name: str = "F", sigma: float, signal: str = "velocity",
+                 change_size: float | None = None):
+        super().__init__(name=name, signal=signal, change_size=change_size)
+        if not sigma > 0:
+            raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
+        self.sigma = float(sigma)
+
+    def run(self, state, x, *, t0, starts):
+        z2 = (x / self.sigma) ** 2
+        C = x.shape[1]
+        ll = -0.5 * z2.sum(axis=1) - C * (np.log(self.sigma) + 0.5 * LOG_2PI)
+        U = len(starts)
+        return (np.repeat(ll[:, None], U, axis=1), np.repeat(z2.sum(axis=1)[:, None], U, axis=1))
+
+
+class MovingVelocity(FeatureModel):
+    """M: each component uniform on ``[low, high]``, measured with N(0, sigma^2) noise."""
+
+    kind = "velocity-moving"
+
+    def __init__(self, *, name: str = "M", low: float, high: float, sigma: float,
+                 signal: str = "velocity", change_size: float | None = None):
+        super().__init__(name=name, signal=signal, change_size=change_size)
+        if not low < high:
+            raise ValueError(f"{name}: need low < high; got [{low}, {high}]")
+        if not sigma > 0:
+            raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
+        self.low, self.high, self.sigma = float(low), float(high), float(sigma)
+
+    def logpdf(self, x) -> np.ndarray:
+        """Per-component log density of the measured velocity."""
+        x = np.asarray(x, dtype=np.float64)
+        a = (self.low - x) / self.sigma
+        b = (self.high - x) / self.sigma
+        # log(Phi(b) - Phi(a)), b > a; use the upper tail where both are near 1
+        flip = a > 0
+        lo = np.where(flip, -b, a)
+        hi = np.where(flip, -a, b)
+        lhi = log_ndtr(hi)
+        diff = lhi + np.log1p(-np.exp(np.minimum(log_ndtr(lo) - lhi, 0.0)))
+        return diff - np.log(self.high - self.low)
+
+    def run(self, state, x, *, t0, starts):
+        ll = self.logpdf(x).sum(axis=1)
+        centre = 0.5 * (self.low + self.high)
+        var = (self.high - self.low) ** 2 / 12.0 + self.sigma ** 2
+        chi2 = ((x - centre) ** 2).sum(axis=1) / var
+        U = len(starts)
+        return np.repeat(ll[:, None], U, axis=1), np.repeat(chi2[:, None], U, axis=1)

@@ -1,0 +1,669 @@
+"""The contact feature observer of section 6.4 (figures 1.3, 6.1).
+
+Per active path: an estimator instance for each model of its node and a
+Page-Hinkley detector (6.14-6.18, threshold ``T^2``, change size ``q``) on
+each instance's innovations; the path log-likelihood is ``log pi(0)`` plus the
+sum of the per-sample log-likelihoods (6.10).  When a detector crosses, the
+path spawns one successor per node the graph allows (its own node too, if it
+self-transitions: a new draw of the parameters, 6.1), started at the
+estimated change time (the detector's last zero + 1) with the spawning
+path's log-likelihood just before it, and caught up on the buffered
+measurements.  A successor whose (node, start) is already tracked replaces the
+tracked path only if its initial log-likelihood is higher (the maximisation
+of 6.4, step 2; the later increments of the two are identical).  Then the
+paths are ranked and kept until their probability mass reaches ``P_prune``.
+Paths whose log-likelihood falls more than ``gap`` below the best are
+dropped at every sample (9.1.1, gap 20).  The measurement and
+log-likelihood buffers are trimmed to the earliest change time any detector
+could still report.  Node probabilities are sums of path probabilities (6.5).
+
+Processing is incremental: :meth:`Observer.process` takes a chunk of any
+length (one sample from a live source, or a whole trace), and any split of a
+stream into chunks gives identical results.  Within a chunk every model bank
+runs all its instances over the chunk in one vectorised call; the detectors
+and path sums then advance in a compiled loop that stops at the first event
+(a detector crossing or a gap prune), which is handled in Python before the
+loop resumes.
+
+Choices where 6.4 is silent (also in the report):
+
+* Before the first ``lag`` samples (the largest AR order) no model can
+  predict; those samples are buffered and not scored.
+* A successor's detector also runs over its catch-up samples (its statistic
+  starts at the change time); a crossing during catch-up fires at the next
+  sample.
+* Only the detector that fired is reset (6.4, step 4: "the change test
+  statistic for the spawning model").
+* With an action-dependent graph, the edges active at the estimated change
+  time are used.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from contactlab.observer.graph import FeatureGraph
+from contactlab.observer.models.base import FeatureModel, ModelBank
+from contactlab.observer.models.composite import node_models
+from contactlab.observer.paths import ChangeEvent, PathInfo, RowBuffer, Segment, history
+
+__all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path"]
+
+SIDES = ("increase", "both")
+
+
+@numba.njit(cache=True)
+def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  # pragma: no cover
+    """Advance detectors (6.18) and path sums from row 0; stop at the first event.
+
+    Returns the row of the first event (a crossing or a path ``gap`` below the
+    best) after completing it, or ``n`` if none.  ``trace[i, p]`` receives the
+    path log-likelihoods after row i.
+    """
+    n, U, S = xi.shape
+    P = path_ll.shape[0]
+    for i in range(n):
+        t = t0 + i
+        event = False
+        for u in range(U):
+            for s in range(S):
+                v = df[u, s] + xi[i, u, s]
+                if v > 0.0:
+                    df[u, s] = v
+                else:
+                    df[u, s] = 0.0
+                    last_zero[u, s] = t
+                if df[u, s] > thr:
+                    event = True
+        for u in range(U):
+            path_ll[unit_path[u]] += inc[i, u]
+        best = -np.inf
+        for p in range(P):
+            if path_ll[p] > best:
+                best = path_ll[p]
+        for p in range(P):
+            trace[i, p] = path_ll[p]
+            if path_ll[p] < best - gap:
+                event = True
+        if event:
+            return i
+    return n
+
+
+@numba.njit(cache=True)
+def _catch_up(inc, xi, ll0, t_first):  # pragma: no cover
+    """A new path's log-likelihood trajectory and detector state over its catch-up rows.
+
+    Same arithmetic and order as :func:`_advance` (no thresholding).
+    """
+    n, k, S = xi.shape
+    traj = np.empty(n)
+    df = np.zeros((k, S))
+    lz = np.full((k, S), t_first - 1, dtype=np.int64)
+    ll = ll0
+    for i in range(n):
+        for u in range(k):
+            for s in range(S):
+                v = df[u, s] + xi[i, u, s]
+                if v > 0.0:
+                    df[u, s] = v
+                else:
+                    df[u, s] = 0.0
+                    lz[u, s] = t_first + i
+        for u in range(k):
+            ll += inc[i, u]
+        traj[i] = ll
+    return traj, df, lz
+
+
+@dataclass
+class _Path:
+    id: int
+    node: int
+    start: int
+    init: float            # initial path log-likelihood (at start - 1)
+    seg: Segment
+    slot: int              # column in the log-likelihood history
+
+
+@dataclass(frozen=True)
+class ObserverStep:
+    """What :meth:`Observer.process` returns for one chunk.
+
+    t0 : global index of the chunk's first sample.
+    node_prob : (n, K) node probabilities after each sample (6.5).
+    map_node : (n,) node of the most probable path after each sample.
+    events : changes detected / pruning steps during the chunk.
+    """
+
+    t0: int
+    node_prob: np.ndarray
+    map_node: np.ndarray
+    events: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class ObserverResult:
+    """A whole trace: per-sample arrays, the events, and the final paths.
+
+    map_path : ``[(node name, start sample), ...]`` of the most probable path at
+        the end (the MAP path with its event times).
+    labels : (n,) node index per sample along ``map_path`` (retrospective).
+    """
+
+    node_names: tuple[str, ...]
+    node_prob: np.ndarray
+    map_node: np.ndarray
+    events: list
+    map_path: list
+    labels: np.ndarray
+    paths: list
+
+    def to_dict(self, *, rate_hz: float | None = None) -> dict:
+        scale = (1.0 / rate_hz) if rate_hz else 1.0
+        return {"nodes": list(self.node_names),
+                "path": [[n, s * scale] for n, s in self.map_path],
+                "events": [e.to_dict() for e in self.events if e.model is not None]}
+
+
+class Observer:
+    """Contact-state observer over a feature graph (6.4).
+
+    Parameters
+    ----------
+    graph : the :class:`~contactlab.observer.graph.FeatureGraph`.
+    models : model objects by the names the graph declares
+        (:func:`~contactlab.observer.models.build_models`).
+    threshold : ``T^2``, the detectors' decision threshold (6.16); 7.3.1 uses 8.0.
+    change_size : ``q``, the covariance change of the alternative (6.14); 7.3.1 uses 2.0.
+    p_prune : probability mass kept when pruning (``P_prune``, 6.4).
+    gap : drop paths whose log-likelihood is more than this below the best (9.1.1: 20.0).
+    sides : ``"increase"`` (the thesis's test for ``N(0, qV)``) or ``"both"``
+        (also a decrease to ``V/q``).
+    max_paths : optional beam width cap after pruning.
+    initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
+
+    State: ``n_seen_`` samples processed; ``events_`` all events so far;
+    ``buffer_len_`` samples in the measurement buffer; :meth:`paths` the
+    active paths; :meth:`map_path` the best path's history.
+    """
+
+    def __init__(self, graph: FeatureGraph, models: Mapping[str, FeatureModel], *,
+                 threshold: float = 8.0, change_size: float = 2.0, p_prune: float = 0.999,
+                 gap: float = 20.0, sides: str = "increase", max_paths: int | None = None,
+                 initial=None):
+        if not (threshold > 0 and math.isfinite(threshold)):
+            raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
+        if not change_size > 1:
+            raise ValueError(f"change_size (q) must be > 1; got {change_size!r}")
+        if not 0 < p_prune <= 1:
+            raise ValueError(f"p_prune must be in (0, 1]; got {p_prune!r}")
+        if not gap > 0:
+            raise ValueError(f"gap must be > 0 (math.inf disables it); got {gap!r}")
+        if sides not in SIDES:
+            raise ValueError(f"sides must be one of {SIDES}; got {sides!r}")
+        if max_paths is not None and int(max_paths) < 1:
+            raise ValueError(f"max_paths must be >= 1; got {max_paths!r}")
+        self.graph = graph if initial is None else graph.with_initial(initial)
+        self.nodes = node_models(self.graph, models)
+        self.models = {name: models[name] for name in self.graph.models}
+        self.threshold = float(threshold)
+        self.change_size = float(change_size)
+        self.p_prune = float(p_prune)
+        self.gap = float(gap)
+        self.sides = sides
+        self.max_paths = None if max_paths is None else int(max_paths)
+        self.lag = max(m.lag for m in self.models.values())
+        self.signals = tuple(sorted({m.signal for m in self.models.values()}))
+        self._model_names = list(self.models)
+        self._membership = np.zeros((0, self.graph.n_nodes))
+        self.reset()
+
+    # -- state -----------------------------------------------------------------------
+    def reset(self) -> "Observer":
+        """Start over (6.4, initialisation steps 1-6)."""
+        self.n_seen_ = 0
+        self.events_: list[ChangeEvent] = []
+        self._started = False
+        self._next_id = 0
+        self._paths: list[_Path] = []
+        self._free_slots: list[int] = []
+        self._n_slots = 0
+        init = self.graph.initial
+        order = np.argsort(-init, kind="stable")
+        mass = 0.0
+        L = self.lag
+        self._hist = RowBuffer(1, t0=L)           # row t+1: path log-likelihoods after sample t
+        self._hist.extend_to(L + 1)
+        for k in order:                         # steps 2-3: largest first until mass > P_prune
+            if init[k] <= 0:
+                break
+            p = self._new_path(int(k), 0, math.log(init[k]), None)
+            self._hist.widen(self._n_slots)
+            self._hist.rows(L, L + 1)[0, p.slot] = p.init
+            mass += init[k]
+            if mass > self.p_prune:
+                break
+        self._ll = np.array([p.init for p in self._paths])
+        return self
+
+    def _new_path(self, node: int, start: int, init: float, prev: Segment | None) -> _Path:
+        slot = self._free_slots.pop() if self._free_slots else self._n_slots
+        if slot == self._n_slots:
+            self._n_slots += 1
+        p = _Path(self._next_id, node, start, init, Segment(node, start, prev), slot)
+        self._next_id += 1
+        self._paths.append(p)
+        return p
+
+    def _start(self, data: dict[str, np.ndarray]) -> None:
+        """First data: channel counts are known; build the banks and the initial instances."""
+        S = 1 if self.sides == "increase" else 2
+        self._channels = {s: data[s].shape[1] for s in self.signals}
+        self._banks = {}
+        for name, m in self.models.items():
+            try:
+                self._banks[name] = ModelBank(m, self._channels[m.signal])
+            except ValueError as exc:
+                raise ValueError(f"model {name!r}: {exc}") from None
+        self._buf = {s: RowBuffer(self._channels[s], t0=0) for s in self.signals}
+        self._act = RowBuffer(1, t0=0, dtype=np.int64)
+        self._u_path = np.empty(0, dtype=np.int64)
+        self._u_model = np.empty(0, dtype=np.int64)
+        self._u_dim = np.empty(0)
+        self._u_q = np.empty(0)
+        self._df = np.zeros((0, S))
+        self._lz = np.zeros((0, S), dtype=np.int64)
+        self._started = True
+        L = self.lag
+        for i, p in enumerate(self._paths):
+            for m in self.nodes[p.node].models:
+                starts, state = self._banks[m.name].new([p.start])
+                self._banks[m.name].extend(starts, state)
+                self._append_units([i], [self._model_names.index(m.name)],
+                                   np.zeros((1, S)), np.full((1, S), L - 1, dtype=np.int64))
+
+    def _append_units(self, paths, models, df, lz) -> None:
+        models = np.asarray(models, dtype=np.int64)
+        self._u_path = np.concatenate([self._u_path, np.asarray(paths, dtype=np.int64)])
+        self._u_model = np.concatenate([self._u_model, models])
+        dims = [self.models[self._model_names[k]].dim(
+            self._channels[self.models[self._model_names[k]].signal]) for k in models]
+        qs = [self.models[self._model_names[k]].change_size or self.change_size for k in models]
+        self._u_dim = np.concatenate([self._u_dim, np.asarray(dims, dtype=float)])
+        self._u_q = np.concatenate([self._u_q, np.asarray(qs, dtype=float)])
+        self._df = np.concatenate([self._df, df])
+        self._lz = np.concatenate([self._lz, lz])
+
+    @property
+    def buffer_len_(self) -> int:
+        """Samples held in the measurement buffer."""
+        if not self._started:
+            return 0
+        return max(len(b) for b in self._buf.values())
+
+    # -- input -----------------------------------------------------------------------
+    def _as_chunk(self, chunk) -> tuple[dict[str, np.ndarray], int]:
+        if not isinstance(chunk, Mapping):
+            if len(self.signals) != 1:
+                raise ValueError(f"this graph's models read {list(self.signals)}: pass a dict "
+                                 "{signal: array}")
+            chunk = {self.signals[0]: chunk}
+        out, n = {}, None
+        for s in self.signals:
+            if s not in chunk:
+                raise ValueError(f"chunk has no {s!r} signal (needed by the graph's models)")
+            a = np.asarray(chunk[s], dtype=np.float64)
+            if a.ndim == 0:
+                a = a.reshape(1, 1)
+            elif a.ndim == 1:
+                a = a[:, None] if (not self._started or self._channels[s] == 1) else a[None, :]
+            if a.ndim != 2:
+                raise ValueError(f"signal {s!r} must be (n,) or (n, C); got shape {a.shape}")
+            if self._started and a.shape[1] != self._channels[s]:
+                raise ValueError(f"signal {s!r} has {a.shape[1]} channels; earlier chunks had "
+                                 f"{self._channels[s]}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"signal {s!r} has NaN or infinite values")
+            if n is not None and a.shape[0] != n:
+                raise ValueError(f"signals have different lengths ({n} and {a.shape[0]})")
+            n = a.shape[0]
+            out[s] = a
+        return out, n
+
+    def _as_action(self, action, n: int) -> np.ndarray:
+        if action is None:
+            if self.graph.action_dependent:
+                raise ValueError(f"graph {self.graph.name!r} has action-dependent edges: "
+                                 "pass action=")
+            return np.full(n, -1, dtype=np.int64)
+        if isinstance(action, str) or np.ndim(action) == 0:
+            return np.full(n, self.graph.action_index(action if isinstance(action, str)
+                                                      else int(action)), dtype=np.int64)
+        a = np.asarray(action)
+        if a.shape != (n,):
+            raise ValueError(f"action must be a scalar or one code per sample ({n}); got {a.shape}")
+        return a.astype(np.int64)
+
+    # -- processing ------------------------------------------------------------------
+    def process(self, chunk, *, action=None) -> ObserverStep:
+        """Absorb ``n`` new samples; return the per-sample node probabilities and events.
+
+        ``chunk``: ``{signal: (n, C) or (n,)}`` or, when all models read one
+        signal, that array.  ``action``: the commanded action (name, code, or
+        one code per sample) for action-dependent graphs.
+        """
+        data, n = self._as_chunk(chunk)
+        acts = self._as_action(action, n)
+        if not self._started:
+            self._start(data)
+        t0 = self.n_seen_
+        end = t0 + n
+        for s in self.signals:
+            self._buf[s].append(data[s])
+        self._act.append(acts[:, None])
+        K = self.graph.n_nodes
+        node_prob = np.empty((n, K))
+        map_node = np.empty(n, dtype=np.int64)
+        n_events = len(self.events_)
+        w0 = min(max(t0, self.lag), end)
+        if w0 > t0:                              # warm-up: nothing scored yet
+            np_, mn = self._probabilities(self._ll[None, :])
+            node_prob[:w0 - t0] = np_
+            map_node[:w0 - t0] = mn
+        if w0 < end:
+            self._hist.extend_to(end + 1)
+            self._open_window(w0, end)
+            cur = w0
+            while cur < end:
+                r0 = cur - w0
+                trace = np.empty((end - cur, len(self._paths)))
+                stop = _advance(self._inc[r0:], self._xi[r0:], self._u_path, self._df, self._lz,
+                                self.threshold, self._ll, trace, cur, self.gap)
+                last = cur + min(stop + 1, end - cur)
+                self._write_hist(cur, trace[:last - cur])
+                upto = last if stop >= end - cur else last - 1
+                if upto > cur:
+                    np_, mn = self._probabilities(trace[:upto - cur])
+                    node_prob[cur - t0:upto - t0] = np_
+                    map_node[cur - t0:upto - t0] = mn
+                if stop < end - cur:
+                    ta = cur + stop
+                    self._handle_event(ta, end)
+                    np_, mn = self._probabilities(self._ll[None, :])
+                    node_prob[ta - t0] = np_[0]
+                    map_node[ta - t0] = mn[0]
+                cur = last
+        self.n_seen_ = end
+        self._trim()
+        return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
+
+    def _probabilities(self, ll: np.ndarray):
+        """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
+        nodes = np.array([p.node for p in self._paths], dtype=np.int64)
+        w = np.exp(ll - ll.max(axis=1, keepdims=True))
+        w /= w.sum(axis=1, keepdims=True)
+        M = np.zeros((len(nodes), self.graph.n_nodes))
+        M[np.arange(len(nodes)), nodes] = 1.0
+        return w @ M, nodes[np.argmax(ll, axis=1)]
+
+    def _write_hist(self, t_first: int, trace: np.ndarray) -> None:
+        if len(trace):
+            slots = np.array([p.slot for p in self._paths], dtype=np.int64)
+            self._hist.rows(t_first + 1, t_first + 1 + len(trace))[:, slots] = trace
+
+    def _x(self, model: FeatureModel, a: int, b: int) -> np.ndarray:
+        return self._buf[model.signal].rows(a - model.lag, b)
+
+    def _xi_of(self, chi2: np.ndarray, dim: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """(N, U, S) increments (6.14) for each side."""
+        qs = [q] if self.sides == "increase" else [q, 1.0 / q]
+        return np.stack([0.5 * (-dim * np.log(qq) + (1.0 - 1.0 / qq) * chi2) for qq in qs],
+                        axis=-1)
+
+    def _open_window(self, w0: int, end: int) -> None:
+        """Run every bank over the chunk: per-unit log-likelihoods and increments."""
+        U = len(self._u_path)
+        n = end - w0
+        self._w0 = w0
+        self._inc = np.zeros((n, U))
+        chi2 = np.zeros((n, U))
+        for k, name in enumerate(self._model_names):
+            cols = np.flatnonzero(self._u_model == k)
+            if cols.size == 0:
+                continue
+            bank = self._banks[name]
+            ll, c2 = bank.run(self._x(bank.model, w0, end), t0=w0)
+            self._inc[:, cols] = ll
+            chi2[:, cols] = c2
+        self._xi = np.ascontiguousarray(self._xi_of(chi2, self._u_dim, self._u_q))
+
+    # -- events ----------------------------------------------------------------------
+    def _handle_event(self, ta: int, end: int) -> None:
+        """6.4, "if a change in any model is detected": spawn, maximise, prune."""
+        over = (self._df > self.threshold).any(axis=1)
+        alarms = []
+        for u in np.flatnonzero(over):
+            side = int(np.argmax(np.where(self._df[u] > self.threshold, self._df[u], -np.inf)))
+            r = int(self._lz[u, side]) + 1
+            self._df[u] = 0.0                   # step 4: reset the spawning model's test
+            self._lz[u] = ta
+            alarms.append((int(self._u_path[u]), self._model_names[self._u_model[u]], r))
+        # candidates (step 1) with the maximisation over (node, start) (step 2)
+        cands: dict[tuple[int, int], tuple[float, Segment]] = {}
+        for pi, _, r in alarms:
+            p = self._paths[pi]
+            base = float(self._hist.rows(r, r + 1)[0, p.slot])     # path ll after sample r-1
+            a = int(self._act.rows(r, r + 1)[0, 0])
+            for j in self.graph.successors(p.node, None if a < 0 else a):
+                key = (j, r)
+                if key not in cands or base > cands[key][0]:
+                    cands[key] = (base, p.seg)
+        tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
+        spawned, merged = [], []
+        new = []
+        for (j, r), (init, prev) in cands.items():
+            if (j, r) in tracked:
+                i = tracked[(j, r)]
+                p = self._paths[i]
+                if init > p.init:
+                    delta = init - p.init
+                    self._ll[i] += delta
+                    self._hist.rows(r, ta + 2)[:, p.slot] += delta
+                    p.init = init
+                    p.seg = Segment(j, r, prev)
+                    merged.append((self.graph.nodes[j].name, r))
+            else:
+                new.append((j, r, init, prev))
+        if new:
+            self._spawn(new, ta, end)
+            spawned = [(self.graph.nodes[j].name, r) for j, r, _, _ in new]
+        self._prune(ta, alarms, spawned, merged)
+
+    def _spawn(self, new: list, ta: int, end: int) -> None:
+        """Step 3: new paths initialised at the spawning path's log-likelihood and caught up."""
+        S = self._df.shape[1]
+        first_unit = len(self._u_path)
+        unit_specs = []                          # (path index, model index, start) in unit order
+        paths = []
+        for j, r, init, prev in new:
+            p = self._new_path(j, r, init, prev)
+            paths.append(p)
+            for m in self.nodes[j].models:
+                unit_specs.append((len(self._paths) - 1, self._model_names.index(m.name), r))
+        self._hist.widen(self._n_slots)
+        n_new = len(unit_specs)
+        outs_ll: list = [None] * n_new
+        outs_c2: list = [None] * n_new
+        # one vectorised run per (model, start) group; bank rows appended in unit order
+        for k, name in enumerate(self._model_names):
+            idx = [i for i, s in enumerate(unit_specs) if s[1] == k]
+            if not idx:
+                continue
+            bank = self._banks[name]
+            states, order = [], []
+            for r in sorted({unit_specs[i][2] for i in idx}):
+                g = [i for i in idx if unit_specs[i][2] == r]
+                starts, state = bank.new([r] * len(g))
+                ll, c2 = bank.run(self._x(bank.model, r, end), t0=r, starts=starts, state=state)
+                for c, i in enumerate(g):
+                    outs_ll[i] = ll[:, c]
+                    outs_c2[i] = c2[:, c]
+                states.append(state)
+                order.extend(g)
+            perm = np.argsort(order, kind="stable")
+            merged_state = {key: np.concatenate([s[key] for s in states])[perm]
+                            for key in states[0]}
+            bank.extend(np.array([unit_specs[i][2] for i in idx], dtype=np.int64), merged_state)
+        # detectors and path log-likelihoods over the catch-up samples r..ta
+        dims = np.array([self.models[self._model_names[s[1]]].dim(
+            self._channels[self.models[self._model_names[s[1]]].signal]) for s in unit_specs],
+            dtype=float)
+        qs = np.array([self.models[self._model_names[s[1]]].change_size or self.change_size
+                       for s in unit_specs], dtype=float)
+        df = np.zeros((n_new, S))
+        lz = np.zeros((n_new, S), dtype=np.int64)
+        new_inc = np.zeros((end - self._w0, n_new))
+        new_c2 = np.zeros((end - self._w0, n_new))
+        for p in paths:
+            pi = self._paths.index(p)
+            us = [i for i, s in enumerate(unit_specs) if s[0] == pi]
+            r = p.start
+            inc = np.stack([outs_ll[i] for i in us], axis=1)
+            c2 = np.stack([outs_c2[i] for i in us], axis=1)
+            xi = np.ascontiguousarray(self._xi_of(c2, dims[us], qs[us]))
+            nc = ta - r + 1
+            traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), xi[:nc], p.init, r)
+            df[us], lz[us] = d, z
+            self._hist.rows(r, r + 1)[0, p.slot] = p.init
+            self._hist.rows(r + 1, ta + 2)[:, p.slot] = traj
+            self._ll = np.append(self._ll, traj[-1])
+            rest = slice(ta + 1 - self._w0, end - self._w0)
+            new_inc[rest, us] = inc[nc:]
+            new_c2[rest, us] = c2[nc:]
+        self._append_units([s[0] for s in unit_specs], [s[1] for s in unit_specs], df, lz)
+        self._inc = np.concatenate([self._inc, new_inc], axis=1)
+        self._xi = np.ascontiguousarray(np.concatenate(
+            [self._xi, self._xi_of(new_c2, dims, qs)], axis=1))
+        assert len(self._u_path) == first_unit + n_new
+
+    def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> None:
+        """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events."""
+        ll = self._ll
+        order = np.argsort(-ll, kind="stable")
+        w = np.exp(ll - ll[order[0]])
+        w /= w.sum()
+        cum = np.cumsum(w[order])
+        n_keep = int(np.searchsorted(cum, self.p_prune * (1 - 1e-12)) + 1)
+        keep = order[:min(n_keep, len(order))]
+        keep = keep[ll[keep] >= ll[order[0]] - self.gap]
+        if self.max_paths is not None:
+            keep = keep[:self.max_paths]
+        keep = np.sort(keep)
+        cand_ll = ll.copy()
+        if alarms:
+            for k, (pi, model, r) in enumerate(alarms):
+                p = self._paths[pi]
+                self.events_.append(ChangeEvent(
+                    ta, p.id, self.graph.nodes[p.node].name, model, r,
+                    spawned if k == 0 else [], merged if k == 0 else [], cand_ll, keep))
+        else:
+            self.events_.append(ChangeEvent(ta, None, None, None, None, [], [], cand_ll, keep))
+        if len(keep) == len(self._paths):
+            return
+        keep_set = set(keep.tolist())
+        for i, p in enumerate(self._paths):
+            if i not in keep_set:
+                self._free_slots.append(p.slot)
+        remap = -np.ones(len(self._paths), dtype=np.int64)
+        remap[keep] = np.arange(len(keep))
+        self._paths = [self._paths[i] for i in keep]
+        self._ll = self._ll[keep]
+        umask = remap[self._u_path] >= 0
+        for k, name in enumerate(self._model_names):
+            sel = self._u_model == k
+            if sel.any():
+                self._banks[name].keep(np.flatnonzero(umask[sel]))
+        self._u_path = remap[self._u_path[umask]]
+        self._u_model = self._u_model[umask]
+        self._u_dim = self._u_dim[umask]
+        self._u_q = self._u_q[umask]
+        self._df = self._df[umask]
+        self._lz = self._lz[umask]
+        self._inc = np.ascontiguousarray(self._inc[:, umask])
+        self._xi = np.ascontiguousarray(self._xi[:, umask])
+
+    def _trim(self) -> None:
+        """Shorten the buffers to the earliest change time still possible (6.4)."""
+        if not len(self._lz):
+            return
+        min_lz = int(self._lz.min())
+        for b in self._buf.values():
+            b.trim(min_lz + 1 - self.lag)
+        self._act.trim(min_lz + 1 - self.lag)
+        self._hist.trim(min_lz + 1)
+
+    # -- output ----------------------------------------------------------------------
+    def paths(self) -> list[PathInfo]:
+        """The active paths, most probable first."""
+        if not self._paths:
+            return []
+        w = np.exp(self._ll - self._ll.max())
+        w /= w.sum()
+        names = self.graph.node_names
+        out = [PathInfo(p.id, names[p.node], p.start, float(ll), float(q),
+                        [(names[n], s) for n, s in history(p.seg)])
+               for p, ll, q in zip(self._paths, self._ll, w)]
+        return sorted(out, key=lambda x: -x.loglik)
+
+    def node_probabilities(self) -> np.ndarray:
+        """(K,) current node probabilities."""
+        return self._probabilities(self._ll[None, :])[0][0]
+
+    def map_path(self) -> list[tuple[str, int]]:
+        """The most probable path: ``[(node name, start sample), ...]``."""
+        return self.paths()[0].history
+
+
+def labels_from_path(path: list[tuple[str, int]], n: int, node_names) -> np.ndarray:
+    """(n,) node index per sample along a path ``[(node, start), ...]``."""
+    names = list(node_names)
+    out = np.empty(n, dtype=np.int64)
+    for k, (node, start) in enumerate(path):
+        stop = path[k + 1][1] if k + 1 < len(path) else n
+        out[max(start, 0):max(min(stop, n), 0)] = names.index(node)
+    return out
+
+
+def observe(observer: Observer, data, *, action=None, chunk: int = 4096) -> ObserverResult:
+    """Run ``observer`` over a whole trace, ``chunk`` samples at a time (batch = a loop of
+    :meth:`Observer.process`).  ``data``/``action`` as for ``process`` with all samples."""
+    if isinstance(data, Mapping):
+        n = len(next(iter(data.values())))
+    else:
+        n = len(data)
+    if chunk < 1:
+        raise ValueError(f"chunk must be >= 1; got {chunk!r}")
+    probs, maps, events = [], [], []
+    for a in range(0, n, chunk):
+        b = min(a + chunk, n)
+        part = ({k: np.asarray(v)[a:b] for k, v in data.items()} if isinstance(data, Mapping)
+                else np.asarray(data)[a:b])
+        act = action if (action is None or isinstance(action, str) or np.ndim(action) == 0) \
+            else np.asarray(action)[a:b]
+        step = observer.process(part, action=act)
+        probs.append(step.node_prob)
+        maps.append(step.map_node)
+        events.extend(step.events)
+    K = observer.graph.n_nodes
+    path = observer.map_path()
+    return ObserverResult(observer.graph.node_names,
+                          np.concatenate(probs) if probs else np.zeros((0, K)),
+                          np.concatenate(maps) if maps else np.zeros(0, dtype=np.int64),
+                          events, path, labels_from_path(path, n, observer.graph.node_names),
+                          observer.paths())
