@@ -7,6 +7,7 @@ import click
 
 from contactlab import __version__
 from contactlab.cli.common import ContactlabGroup, not_available
+from contactlab.cli.estimate import estimate
 from contactlab.cli.graph import graph
 from contactlab.cli.acquire import acquire
 from contactlab.cli.import_ import import_cmd
@@ -42,5 +43,5 @@ main.add_command(segment)
 main.add_command(graph)
 main.add_command(train)
 main.add_command(label)
-main.add_command(not_available("estimate", "Constraint estimation"))
+main.add_command(estimate)
 main.add_command(not_available("recognize", "Feature graphs and observer"))

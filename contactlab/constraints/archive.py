@@ -1,0 +1,214 @@
+"""Per-segment constraint estimation of archive trials (``contactlab estimate``).
+
+Each trial's force (``wrench[:, :3]``), position and, when present,
+velocity are lowpassed and decimated to 250 Hz as in 7.1
+(:func:`contactlab.conditioning.lowpass_decimate`, cutoff fs/8, 4:1).  The
+trial is cut into segments -- the ground truth, the automatic segmentation of
+:mod:`contactlab.segmentation`, or the boundaries a results stage holds -- and
+optionally each segment into blocks of ``block`` samples; every piece gets a
+:class:`~contactlab.constraints.CartesianConstraint` fit with a degree
+decision.  Where the archive holds the true contact normals, the angular error
+of the estimate is reported beside it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contactlab.constraints.alignment import angular_error_deg
+from contactlab.constraints.cartesian import CartesianConstraint, min_samples
+from contactlab.errors import DataError, UsageError
+
+__all__ = ["MODELS", "estimate_archive", "trial_signals", "segment_table"]
+
+MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB")
+FACTOR = 4
+
+
+def trial_signals(trial):
+    """``(times, position, force, velocity_or_None)`` at 250 Hz (7.1 conditioning)."""
+    from contactlab.conditioning import lowpass_decimate
+
+    tid = trial.id
+    fs = float(trial.rate_hz)
+    for name in ("wrench", "position"):
+        if getattr(trial, name) is None:
+            raise DataError("missing dataset (needed for constraint estimation)",
+                            field=f"/trials/{tid}/measurements/{name}")
+    kw = dict(fs=fs, cutoff_hz=fs / 8.0, factor=FACTOR)
+    force = lowpass_decimate(np.asarray(trial.wrench, dtype=np.float64)[:, :3], **kw)
+    position = lowpass_decimate(np.asarray(trial.position, dtype=np.float64), **kw)
+    velocity = None
+    if trial.velocity is not None:
+        velocity = lowpass_decimate(np.asarray(trial.velocity, dtype=np.float64), **kw)
+    times = np.asarray(trial.time, dtype=np.float64)[FACTOR * np.arange(len(force))]
+    return times, position, force, velocity
+
+
+def segment_table(trial, segments: str, times: np.ndarray):
+    """``(starts_s, ends_s, labels, source)`` of the pieces to estimate."""
+    end = float(times[-1]) + 1e-9 if len(times) else 0.0
+    if segments == "truth":
+        seg = trial.segments
+        if seg is None or len(seg) == 0:
+            raise DataError("no ground-truth segments (use --segments auto)",
+                            field=f"/trials/{trial.id}/ground_truth/segments")
+        return (seg["start_s"].to_numpy(float), seg["end_s"].to_numpy(float),
+                [None if lab is None else str(lab) for lab in seg["label"]], "truth")
+    if segments == "auto":
+        from contactlab.segmentation import segment_trial
+
+        signal = "strain" if trial.strain is not None else "wrench"
+        b = segment_trial(trial, signal=signal).boundaries_s
+        source = f"auto ({signal})"
+    else:
+        res = trial.results(segments)
+        if "boundaries_s" not in res:
+            raise DataError("results stage has no boundaries_s",
+                            field=f"/trials/{trial.id}/results/{segments}/boundaries_s")
+        b = np.asarray(res["boundaries_s"], dtype=np.float64).reshape(-1)
+        source = f"results/{segments}"
+    t0 = float(times[0]) if len(times) else 0.0
+    edges = np.concatenate([[t0], np.sort(b), [end]])
+    return edges[:-1], edges[1:], [None] * (len(edges) - 1), source
+
+
+def _true_normals(trial, start_s: float, end_s: float):
+    """Normals (3, m) of the surfaces in contact for most of [start, end), or None."""
+    contact = trial.truth("contact")
+    normals = trial.truth("contact_normals")
+    if contact is None or normals is None:
+        return None
+    t = np.asarray(trial.time, dtype=np.float64)
+    sel = (t >= start_s) & (t < end_s)
+    if not sel.any():
+        return None
+    c = np.asarray(contact)[sel]
+    c = c[:, None] if c.ndim == 1 else c
+    active = c.mean(axis=0) > 0.5
+    mid = np.flatnonzero(sel)[sel.sum() // 2]
+    nrm = np.asarray(normals)[mid][active]
+    nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    if len(nrm):
+        q, r = np.linalg.qr(nrm.T)
+        nrm = q[:, np.abs(np.diag(r)) > 1e-9].T
+    return nrm.T
+
+
+def estimate_archive(path, *, model: str = "cartesian", segments: str | None = None,
+                     block: int | None = None, trials=None, friction: bool = True,
+                     motion: str = "position", quiet: bool = True, write: bool = True,
+                     estimator: CartesianConstraint | None = None) -> dict:
+    """Estimate the constraint of every segment of every trial of archive ``path``.
+
+    ``segments``: "truth", "auto", a results stage name, or None (truth when the
+    trial has it, else auto).  ``block``: estimate consecutive blocks of this
+    many 250 Hz samples inside each segment instead of whole segments.
+    Writes ``results/estimate`` of each trial when ``write``.  Returns
+    ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
+    """
+    from contactlab.archive import open_archive, write_results
+    from contactlab.progress import progress
+
+    if model not in MODELS:
+        raise UsageError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
+    if model != "cartesian":
+        raise UsageError(f"model {model!r} is not available yet (planar polygon estimators "
+                         "land later); use --model cartesian")
+    if block is not None and block < min_samples(3):
+        raise UsageError(f"block must be >= {min_samples(3)} samples; got {block}")
+    est = estimator or CartesianConstraint(friction=friction, motion=motion)
+    out: dict = {}
+    results: dict = {}
+    with open_archive(path) as archive:
+        ids = list(trials) if trials else list(archive.trial_ids)
+        for tid in ids:
+            if tid not in archive:
+                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        for tid in progress(ids, desc="estimate", quiet=quiet, unit="trial"):
+            trial = archive.trial(tid)
+            try:
+                rows, arrays = _estimate_trial(trial, est, segments, block)
+            except DataError as err:
+                raise DataError(err.message, file=str(path), field=err.field) from None
+            out[tid] = {"segments": rows}
+            results[tid] = arrays
+    if write:
+        for tid, arrays in results.items():
+            datasets, source = arrays
+            write_results(path, tid, "estimate", datasets=datasets,
+                          attrs={"model": model, "segments": source,
+                                 "normals": "normals[i, :, j]: unit normal j of piece i "
+                                            "(NaN padded); log_likelihoods: 8.18 per "
+                                            "degree 0..3"},
+                          parameters={**est.get_params(), "block": block, "model": model})
+    return {"trials": out, "summary": _summary(out)}
+
+
+def _estimate_trial(trial, est, segments, block):
+    times, position, force, velocity = trial_signals(trial)
+    mode = segments or ("truth" if trial.segments is not None and len(trial.segments) else "auto")
+    starts, ends, labels, source = segment_table(trial, mode, times)
+    pieces = []
+    for s, e, lab in zip(starts, ends, labels):
+        idx = np.flatnonzero((times >= s) & (times < e))
+        if block:
+            for j in range(0, len(idx) - block + 1, block):
+                pieces.append((idx[j:j + block], lab))
+            if len(idx) < block:
+                pieces.append((idx, lab))
+        else:
+            pieces.append((idx, lab))
+    rows = []
+    k = 3
+    S = len(pieces)
+    deg = np.full(S, -1, dtype=np.int64)
+    ll = np.full((S, k + 1), np.nan)
+    normals = np.full((S, k, k), np.nan)
+    sd = np.full(S, np.nan)
+    err = np.full(S, np.nan)
+    st, en, nn = np.zeros(S), np.zeros(S), np.zeros(S, dtype=np.int64)
+    for i, (idx, lab) in enumerate(pieces):
+        row = {"start_s": float(times[idx[0]]) if len(idx) else None,
+               "end_s": float(times[idx[-1]]) if len(idx) else None, "label": lab,
+               "n": int(len(idx))}
+        st[i] = row["start_s"] if len(idx) else np.nan
+        en[i] = row["end_s"] if len(idx) else np.nan
+        nn[i] = len(idx)
+        if len(idx) < min_samples(k):
+            row.update(status="too short", degree=None, normals=[], log_likelihoods=None)
+            rows.append(row)
+            continue
+        fit = est.fit(position[idx], force[idx], None if velocity is None else velocity[idx])
+        row.update(status=fit.status_, reason=fit.reason_, degree=fit.degree_,
+                   normals=fit.normals_.T.tolist(),
+                   log_likelihoods=fit.log_likelihoods_.tolist(),
+                   angle_sd_deg=fit.angle_sd_deg_)
+        ll[i] = fit.log_likelihoods_
+        sd[i] = fit.angle_sd_deg_
+        if fit.degree_ is not None and fit.determined_:
+            deg[i] = fit.degree_
+            normals[i, :, :fit.degree_] = fit.normals_
+        truth = _true_normals(trial, float(times[idx[0]]), float(times[idx[-1]]) + 1e-9)
+        if truth is not None:
+            row["true_degree"] = int(truth.shape[1])
+            if fit.determined_ and fit.degree_ == truth.shape[1]:
+                err[i] = float(angular_error_deg(fit.normals_, truth))
+                row["angle_error_deg"] = err[i]
+        rows.append(row)
+    datasets = {"start_s": st, "end_s": en, "n": nn, "degree": deg, "log_likelihoods": ll,
+                "normals": normals, "angle_sd_deg": sd, "angle_error_deg": err}
+    return rows, (datasets, source)
+
+
+def _summary(out: dict) -> dict:
+    rows = [r for t in out.values() for r in t["segments"]]
+    decided = [r for r in rows if r.get("degree") is not None and r.get("status") == "ok"]
+    with_truth = [r for r in decided if "true_degree" in r]
+    errs = [r["angle_error_deg"] for r in decided if r.get("angle_error_deg") is not None]
+    return {"pieces": len(rows), "decided": len(decided),
+            "undetermined": sum(r.get("status") == "undetermined" for r in rows),
+            "too_short": sum(r.get("status") == "too short" for r in rows),
+            "degree_correct": (sum(r["degree"] == r["true_degree"] for r in with_truth)
+                               / len(with_truth)) if with_truth else None,
+            "median_angle_error_deg": float(np.median(errs)) if errs else None}
