@@ -5,15 +5,15 @@ from __future__ import annotations
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
-
-MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB")
+from contactlab.constraints.archive import MODELS
 
 
 @click.command()
 @archive_argument
 @click.option("--model", type=click.Choice(MODELS), default="cartesian", show_default=True,
-              help="Constraint model: Cartesian linear constraints in R^3 (8.1.1); the "
-                   "planar polygon models are not available yet.")
+              help="Constraint model: Cartesian linear constraints in R^3 (8.1.1), or a "
+                   "planar polygon contact (8.1.2-8.1.3; needs position columns x, y, "
+                   "theta and wrench columns fx, fy, tz).")
 @click.option("--segments", default=None, metavar="truth|auto|STAGE",
               help="Pieces to estimate: ground-truth segments, automatic segmentation "
                    "(7.2.1), or the boundaries_s of a results stage.  [default: truth when "
@@ -43,17 +43,18 @@ def estimate(archive, model, segments, block, motion, no_friction, trials, as_js
       contactlab estimate runs.h5
       contactlab estimate runs.h5 --segments auto --json
       contactlab estimate runs.h5 --block 25 --trial cartesian-004 --json
+      contactlab estimate planar.h5 --model polygon-B --json
     """
     from contactlab.constraints.archive import estimate_archive
 
-    if model != "cartesian":
-        raise click.UsageError(f"--model {model} is not available yet (the planar polygon "
-                               "estimators land later); use --model cartesian")
     summary = estimate_archive(archive, model=model, segments=segments, block=block,
                                trials=list(trials) or None, friction=not no_friction,
                                motion=motion, quiet=quiet)
     if as_json:
         echo_json(summary)
+        return
+    if model != "cartesian":
+        _echo_polygon(summary, archive)
         return
     for tid, entry in summary["trials"].items():
         for r in entry["segments"]:
@@ -69,6 +70,21 @@ def estimate(archive, model, segments, block, motion, no_friction, trials, as_js
     click.echo(f"{s['pieces']} pieces: {s['decided']} decided, {s['undetermined']} "
                f"undetermined, {s['too_short']} too short; results written to {archive} "
                f"(results/estimate)")
+
+
+def _echo_polygon(summary, archive):
+    for tid, entry in summary["trials"].items():
+        for r in entry["segments"]:
+            head = f"{tid} [{_s(r['start_s'])}, {_s(r['end_s'])}] s n={r['n']}"
+            if r["status"] != "ok":
+                click.echo(f"{head}: {r['status']} {r.get('reason', '')}".rstrip())
+                continue
+            par = ", ".join(f"{k} {v:.4g} +- {r['standard_errors'].get(k) or float('nan'):.2g}"
+                            for k, v in r["parameters"].items() if v is not None)
+            click.echo(f"{head}: {r['kind']} {par} ({r['iterations']} iterations)")
+    s = summary["summary"]
+    click.echo(f"{s['pieces']} pieces: {s['decided']} estimated, {s['undetermined']} "
+               f"undetermined; results written to {archive} (results/estimate)")
 
 
 def _s(v):

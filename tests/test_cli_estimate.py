@@ -2,6 +2,8 @@
 
 import shutil
 
+import numpy as np
+
 import pytest
 
 from contactlab.archive import open_archive
@@ -73,8 +75,9 @@ def test_auto_segments(archive):
 
 
 def test_errors_are_one_line(archive, tmp_path):
-    res = run_cli("estimate", archive, "--model", "polygon-A")
-    assert res.exit_code == 2 and "not available yet" in res.output
+    res = run_cli("estimate", archive, "--model", "polygon-A", "--quiet")
+    assert res.exit_code == 1 and "position/columns" in res.output     # not a planar trace
+    assert len(res.output.strip().splitlines()) == 1
     res = run_cli("estimate", tmp_path / "missing.h5")
     assert res.exit_code == 1 and len(res.output.strip().splitlines()) == 1
     res = run_cli("estimate", archive, "--segments", "nostage", "--quiet")
@@ -82,3 +85,41 @@ def test_errors_are_one_line(archive, tmp_path):
     res = run_cli("estimate", archive, "--trial", "nope", "--quiet")
     assert res.exit_code == 1 and "/trials/nope" in res.output
     assert "Example" in run_cli("estimate", "--help").output
+
+
+def _planar_archive(path, contact, *, n=2000, rate_hz=1000.0):
+    """A smooth planar motion against ``contact`` solved exactly (x, y, theta columns)."""
+    from contactlab.archive import create_archive
+    from contactlab.planar.simulate import solve_constrained
+
+    t = np.arange(n) / rate_hz
+    desired = np.column_stack([1.5 * np.sin(2 * np.pi * 0.7 * t), 1.5 * np.sin(2 * np.pi * 0.45 * t),
+                               0.25 * np.sin(2 * np.pi * 1.1 * t)])
+    desired[:, :2] -= 0.5 * np.asarray(contact.normal)          # pressed into the edge
+    x, _, _ = solve_constrained((contact,), desired, stiffness=(1.0, 1.0, 1.0))
+    w = x - desired                                             # K (x - x_d), K = I
+    wrench = np.column_stack([w[:, 0], w[:, 1], np.zeros((n, 3)), w[:, 2]])
+    with create_archive(path, title="planar") as archive:
+        trial = archive.add_trial("planar-000", rate_hz=rate_hz, source="simulator",
+                                  position_columns=["x", "y", "theta"])
+        trial.append(time=t, wrench=wrench, position=x)
+        trial.set_ground_truth(labels=np.zeros(n, np.int16), names=["contact"],
+                               segments=[(t[0], t[-1], "contact")])
+        trial.close()
+
+
+def test_polygon_model_on_a_planar_trace(tmp_path):
+    """--model polygon-B recovers the edge of a vertex-on-edge contact from an archive."""
+    from contactlab.planar import Contact
+    from contactlab.planar.geometry import unit
+
+    truth = Contact.touching("B", normal=unit(0.4), point=2.0 * unit(2.0))
+    path = tmp_path / "planar.h5"
+    _planar_archive(path, truth)
+    res = run_cli("estimate", path, "--model", "polygon-B", "--json", "--quiet")
+    assert res.exit_code == 0, res.output
+    (row,) = one_json_object(res.stdout)["trials"]["planar-000"]["segments"]
+    assert row["status"] == "ok", row
+    (c,) = row["contacts"]
+    assert np.degrees(np.arccos(min(1.0, abs(np.dot(c["normal"], truth.normal))))) < 1.0
+    assert np.linalg.norm(np.subtract(c["point"], truth.point)) / 2.0 < 0.02

@@ -113,12 +113,14 @@ class ArchiveWriter:
                   environment: str = "", seed: int = -1, source: str = "", description: str = "",
                   strain_channels: int | None = None, calibration=None,
                   command_columns: list[str] | None = None, action_names: list[str] | None = None,
-                  strain_units: str | None = None, command_units: str | None = None
-                  ) -> TrialWriter:
+                  strain_units: str | None = None, command_units: str | None = None,
+                  position_columns: list[str] | None = None) -> TrialWriter:
         """Start trial ``trial_id``; returns its :class:`TrialWriter`.
 
         ``strain_channels`` fixes the strain width (else the first append or
         ``calibration``, a 6 x c matrix with wrench = calibration @ strain, does).
+        ``position_columns`` renames the position columns (default x y z; a
+        planar trace uses x y theta, theta in rad, for the polygon models).
         ``command_columns`` names the command columns; ``command_units`` is
         required when commands are appended. ``strain_units`` defaults to the
         schema's default (V).
@@ -144,7 +146,8 @@ class ArchiveWriter:
             trial = TrialWriter(self, group, strain_channels=strain_channels,
                                 calibration=calibration, command_columns=command_columns,
                                 action_names=action_names, strain_units=strain_units,
-                                command_units=command_units)
+                                command_units=command_units,
+                                position_columns=position_columns)
         except BaseException:
             del self._trials_group[trial_id]
             raise
@@ -246,7 +249,7 @@ class TrialWriter:
 
     def __init__(self, archive: ArchiveWriter, group: h5py.Group, *, strain_channels=None,
                  calibration=None, command_columns=None, action_names=None, strain_units=None,
-                 command_units=None):
+                 command_units=None, position_columns=None):
         self._archive = archive
         self._group = group
         self.id = group.name.rsplit("/", 1)[-1]
@@ -266,6 +269,10 @@ class TrialWriter:
             self._widths["command"] = len(command_columns)
         self._calibration = calibration
         self._command_columns = None if command_columns is None else list(command_columns)
+        if position_columns is not None and len(position_columns) != 3:
+            raise self._error(f"position_columns has {len(position_columns)} names, expected 3",
+                              "position")
+        self._position_columns = None if position_columns is None else list(position_columns)
         self._action_names = None if action_names is None else list(action_names)
         self._strain_units = strain_units or spec.default_attr(spec.MEASUREMENTS, "strain", "units")
         self._command_units = command_units
@@ -481,6 +488,8 @@ class TrialWriter:
         columns = spec.default_attr(spec.MEASUREMENTS, name, "columns")
         if name == "command":
             columns = self._command_columns or [f"c{i}" for i in range(arr.shape[1])]
+        if name == "position" and self._position_columns is not None:
+            columns = self._position_columns
         if columns is not None:
             ds.attrs["columns"] = spec.string_array(columns)
         if name == "strain" and self._calibration is not None:

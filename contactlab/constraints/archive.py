@@ -21,7 +21,8 @@ from contactlab.errors import DataError, UsageError
 
 __all__ = ["MODELS", "estimate_archive", "trial_signals", "segment_table"]
 
-MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB")
+MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB",
+          "polygon-line-line")
 FACTOR = 4
 
 
@@ -112,9 +113,6 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
 
     if model not in MODELS:
         raise UsageError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
-    if model != "cartesian":
-        raise UsageError(f"model {model!r} is not available yet (planar polygon estimators "
-                         "land later); use --model cartesian")
     if block is not None and block < min_samples(3):
         raise UsageError(f"block must be >= {min_samples(3)} samples; got {block}")
     est = estimator or CartesianConstraint(friction=friction, motion=motion)
@@ -128,7 +126,11 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
         for tid in progress(ids, desc="estimate", quiet=quiet, unit="trial"):
             trial = archive.trial(tid)
             try:
-                rows, arrays = _estimate_trial(trial, est, segments, block)
+                if model == "cartesian":
+                    rows, arrays = _estimate_trial(trial, est, segments, block)
+                else:
+                    rows, arrays = _estimate_trial_polygon(trial, model[len("polygon-"):],
+                                                           segments, block)
             except DataError as err:
                 raise DataError(err.message, file=str(path), field=err.field) from None
             out[tid] = {"segments": rows}
@@ -141,7 +143,8 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
                                  "normals": "normals[i, :, j]: unit normal j of piece i "
                                             "(NaN padded); log_likelihoods: 8.18 per "
                                             "degree 0..3"},
-                          parameters={**est.get_params(), "block": block, "model": model})
+                          parameters={**(est.get_params() if model == "cartesian" else {}),
+                                      "block": block, "model": model})
     return {"trials": out, "summary": _summary(out)}
 
 
@@ -201,8 +204,74 @@ def _estimate_trial(trial, est, segments, block):
     return rows, (datasets, source)
 
 
+def planar_signals(trial):
+    """``(times, configuration [x, y, theta], wrench [fx, fy, tau])`` at 250 Hz.
+
+    The polygon models of 8.1.2 need a planar configuration with an angle, so the
+    trial's position columns must name ``x``, ``y`` and ``theta`` (an imported
+    planar trace); the wrench columns ``fx``, ``fy`` and a torque about z
+    (``tz``/``mz``/``tau``) are taken by name.
+    """
+    from contactlab.conditioning import lowpass_decimate
+
+    tid = trial.id
+    for name in ("wrench", "position"):
+        if getattr(trial, name) is None:
+            raise DataError("missing dataset (needed for constraint estimation)",
+                            field=f"/trials/{tid}/measurements/{name}")
+    pcols = [str(c) for c in trial.dataset_attrs("position").get("columns", [])]
+    if not {"x", "y", "theta"} <= set(pcols):
+        raise DataError("polygon models need a planar configuration: position columns "
+                        f"x, y, theta (these are {', '.join(pcols) or 'unnamed'})",
+                        field=f"/trials/{tid}/measurements/position/columns")
+    wcols = [str(c).lower() for c in trial.dataset_attrs("wrench").get("columns", [])]
+    torque = next((c for c in ("tz", "mz", "tau") if c in wcols), None)
+    if not ({"fx", "fy"} <= set(wcols) and torque):
+        raise DataError("polygon models need wrench columns fx, fy and tz",
+                        field=f"/trials/{tid}/measurements/wrench/columns")
+    fs = float(trial.rate_hz)
+    kw = dict(fs=fs, cutoff_hz=fs / 8.0, factor=FACTOR)
+    position = np.asarray(trial.position, dtype=np.float64)
+    wrench = np.asarray(trial.wrench, dtype=np.float64)
+    config = lowpass_decimate(position[:, [pcols.index(c) for c in ("x", "y", "theta")]], **kw)
+    w = lowpass_decimate(wrench[:, [wcols.index(c) for c in ("fx", "fy", torque)]], **kw)
+    times = np.asarray(trial.time, dtype=np.float64)[FACTOR * np.arange(len(config))]
+    return times, config, w
+
+
+def _estimate_trial_polygon(trial, kind: str, segments, block):
+    """Per segment (or block) :func:`contactlab.planar.estimate_polygon` of ``kind``."""
+    from contactlab.planar import estimate_polygon
+
+    times, config, wrench = planar_signals(trial)
+    mode = segments or ("truth" if trial.segments is not None and len(trial.segments) else "auto")
+    starts, ends, labels, source = segment_table(trial, mode, times)
+    rows = []
+    st, en, ll, it = [], [], [], []
+    for s, e, lab in zip(starts, ends, labels):
+        idx = np.flatnonzero((times >= s) & (times < e))
+        pieces = ([idx[j:j + block] for j in range(0, len(idx) - block + 1, block)] or [idx]
+                  if block else [idx])
+        for piece in pieces:
+            if len(piece) == 0:
+                continue
+            fit = estimate_polygon(configuration=config[piece], wrench=wrench[piece], kind=kind)
+            rows.append({"start_s": float(times[piece[0]]), "end_s": float(times[piece[-1]]),
+                         "label": lab, "n": int(len(piece)), **fit.to_dict()})
+            st.append(rows[-1]["start_s"])
+            en.append(rows[-1]["end_s"])
+            ll.append(fit.log_likelihood)
+            it.append(fit.iterations)
+    datasets = {"start_s": np.asarray(st, float), "end_s": np.asarray(en, float),
+                "log_likelihood": np.asarray(ll, float), "iterations": np.asarray(it, np.int64)}
+    return rows, (datasets, source)
+
+
 def _summary(out: dict) -> dict:
     rows = [r for t in out.values() for r in t["segments"]]
+    if rows and "kind" in rows[0]:                     # polygon models
+        return {"pieces": len(rows), "decided": sum(r["status"] == "ok" for r in rows),
+                "undetermined": sum(r["status"] == "undetermined" for r in rows)}
     decided = [r for r in rows if r.get("degree") is not None and r.get("status") == "ok"]
     with_truth = [r for r in decided if "true_degree" in r]
     errs = [r["angle_error_deg"] for r in decided if r.get("angle_error_deg") is not None]
