@@ -73,8 +73,9 @@ def test_impact_impulse_is_along_the_normal_and_removes_normal_momentum():
     # gains, no friction) and a damped z loop holds a target 2 mm below the surface.  The
     # PHANToM's own losses (Coulomb backdrive friction, viscous back-EMF damping) are
     # disabled: (4.50) is about a lossless coasting robot, and the tangential momentum must
-    # be kept exactly.
-    app = Apparatus(robot_friction=0.0, robot_damping=0.0)
+    # be kept exactly.  The motors' commutation ripple is disabled too: the impulse balance
+    # below uses the commanded control wrench as the force the motors deliver.
+    app = Apparatus(robot_friction=0.0, robot_damping=0.0, commutation_events=0)
     slick = Material(name="slick", youngs_modulus=69e9, poisson_ratio=0.33, mu_static=0.0, mu_kinetic=0.0,
                      mu_variation=0.0, roughness_rms=0.0, wavelength_min=1e-4, wavelength_max=1e-3,
                      restitution=0.7)

@@ -68,6 +68,43 @@ Bearing viscous friction is smaller still (~0.005 N s/m at the tip).  So this te
 is tiny (0.04 % of critical at the ~250 Hz robot-on-sensor mode): the PHANToM's own
 dissipation is dominated by ROBOT_BACKDRIVE_FRICTION."""
 
+MOTOR_RAD_PER_TIP_M = 80.0
+"""datasheet + physics: motor-shaft rotation per metre of tip travel, rad/m, per Cartesian
+axis.  The PHANToM 1.0 drives each joint through a capstan cable reduction of about 11:1
+on links of about 0.14 m (Massie & Salisbury 1994; quoted from memory, as in
+ROBOT_BACKDRIVE_FRICTION), so 11 / 0.14 m ~ 80 rad/m.  Cross-check against
+ENCODER_RESOLUTION: a 500-line (2000 counts/rev quadrature) motor encoder of the
+HEDS-5540 class then resolves 2 pi / 2000 / 80 = 0.039 mm at the tip, the datasheet's
+"> 1000 dpi" (0.025-0.03 mm) to within the accuracy of these figures.  The simulator
+treats each Cartesian axis as driven by one motor through this ratio (the real linkage
+mixes the three motors by its Jacobian, which is near-diagonal with entries of this
+order at the workspace centre)."""
+
+COMMUTATOR_SEGMENTS = 11
+"""datasheet: number of commutator segments of the PHANToM's brushed motors, Maxon RE 25
+class (20 W, graphite brushes; the maxon catalogue lists "Number of commutator segments"
+per motor, 11 for the RE 25 -- quoted from memory of the catalogue, not from a document
+we could check here; the RE series ranges from 7 to 13).  Sets the frequency and the
+depth of the commutation torque ripple (COMMUTATION_RIPPLE_PP)."""
+
+COMMUTATION_EVENTS_PER_REV = (2 * COMMUTATOR_SEGMENTS if COMMUTATOR_SEGMENTS % 2
+                              else COMMUTATOR_SEGMENTS)
+"""physics: commutation events per shaft revolution.  With an odd number K of segments and
+two brushes the two brushes commutate alternately, 2K events per revolution; with an even
+K they commutate together, K events.  The ripple frequency is this times the shaft speed
+in rev/s (22 x 1.27 rev/s = 28 Hz at 0.1 m/s tip speed)."""
+
+COMMUTATION_RIPPLE_PP = 1.0 - math.cos(math.pi / COMMUTATION_EVENTS_PER_REV)
+"""physics: peak-to-peak commutation torque ripple of a brushed, ironless (no cogging)
+motor under current control, as a fraction of its torque.  Between two commutation
+events the armature current pattern is fixed on the rotor, so its magnetic axis turns
+with the rotor through 2 pi / n_events; the torque goes as the cosine of its angle to
+the ideal (quadrature) axis, which the brushes hold within +-pi / n_events.  So
+k(theta) = cos(phi) with phi sawtoothing over [-pi/n, pi/n): a cusped waveform between
+cos(pi/n) and 1, 1 - cos(pi/22) = 1.0 % peak-to-peak for 11 segments.  (The current
+amplifier holds the current constant, so there is no extra current ripple from the
+back-EMF; brush-bridging of a coil during commutation is neglected.)"""
+
 FORCE_DYNAMIC_RANGE = 100.0
 """thesis 3.4: "high force dynamic range (around 100:1)"."""
 

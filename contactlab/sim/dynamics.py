@@ -58,6 +58,13 @@ by the current amplifiers (``constants.ROBOT_VISCOUS_DAMPING``).  Friction
 decays a ringing amplitude linearly, by 4 F_c of spring force per cycle, and holds
 a robot whose net drive is below F_c: that is what makes a resting contact quiet.
 
+Motors.  The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
+deliver the commanded force times a commutation ripple that depends on the shaft angle
+(:func:`commutation_gain`; ``constants.COMMUTATOR_SEGMENTS``, ``COMMUTATION_RIPPLE_PP``):
+each Cartesian axis is taken as one motor turning ``constants.MOTOR_RAD_PER_TIP_M`` rad per
+metre of robot travel, so the ripple is a fixed pattern in position -- a static force
+error at rest and a vibration at n_events x shaft rev/s while moving (28 Hz at 0.1 m/s).
+
 Servo.  The controller runs at the 1 kHz servo rate on what the controller
 declares it feeds back (``controllers.FEEDBACK``): by default the encoder-
 quantised robot position and a differenced, lowpassed velocity, as on the real
@@ -96,6 +103,12 @@ class Apparatus:
     servo_rate_hz: float = C.SERVO_RATE_HZ
     robot_friction: float = C.ROBOT_BACKDRIVE_FRICTION
     robot_damping: float = C.ROBOT_VISCOUS_DAMPING
+    # commutation torque ripple is opt-in (C.COMMUTATION_EVENTS_PER_REV to enable): on by
+    # default it tips the encoder-feedback integral force loop against the maze walls into a
+    # ~113 Hz limit cycle that lifts the finger off (a servo-margin problem it exposes, not
+    # resolved yet), while its own vibration is ~0.1 mN at 7-28 Hz, invisible in y_h
+    commutation_events: int = 0
+    motor_rad_per_m: float = C.MOTOR_RAD_PER_TIP_M
 
     @property
     def total_mass(self) -> float:
@@ -156,6 +169,20 @@ def _smoothstep(t):
 
 
 @numba.njit(cache=True)
+def commutation_gain(theta, n_events):
+    """Torque per unit current of a brushed, ironless motor at shaft angle ``theta`` (rad),
+    relative to its mean, with ``n_events`` commutation events per revolution (0: ideal,
+    1.0).  Between events the current pattern turns with the rotor, its axis sweeping
+    +-pi/n about quadrature: cos of that angle, a cusped ripple of 1 - cos(pi/n) peak-to-peak
+    (``constants.COMMUTATION_RIPPLE_PP``), normalised by its mean sin(a)/a, a = pi/n."""
+    if n_events <= 0:
+        return 1.0
+    half = math.pi / n_events
+    u = (n_events * theta) % (2.0 * math.pi)
+    return math.cos((u - math.pi) / n_events) * half / math.sin(half)
+
+
+@numba.njit(cache=True)
 def _ratchet(mu, slope):
     # Coulomb friction mu on an asperity flank rising by ``slope`` (tan theta) along the
     # sliding direction: apparent macroscopic coefficient (mu + t) / (1 - mu t), >= 0.
@@ -172,6 +199,8 @@ def _ratchet(mu, slope):
 def integrate(n_out, n_sub, dt,
               # apparatus
               mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br,
+              # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
+              n_comm, motor_gain, comm_phase,
               # environment
               n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar,
               # controller (per servo tick)
@@ -426,7 +455,12 @@ def integrate(n_out, n_sub, dt,
                 for a in range(3):
                     vt_old[p, a] = v[a] - d * nrm[p, a]
         for a in range(3):
-            vr[a] += dt * ((wr[a] + fs[a]) / mr + gvec[a])
+            # the motors deliver the commanded force times the commutation ripple of their
+            # current shaft angle (module docstring, "Motors")
+            fm = wr[a]
+            if n_comm > 0:
+                fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
+            vr[a] += dt * ((fm + fs[a]) / mr + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
         # the PHANToM's own losses on the robot mass, implicitly (backward Euler): viscous
         # back-EMF damping, then Coulomb backdrive friction as a set-valued law -- if the

@@ -144,7 +144,10 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
     start = np.asarray(environment.start if start is None else start, float)
     sa = controller.servo_arrays(start, t_ticks)
     ss = np.random.SeedSequence(int(seed))
-    rng_ctrl, rng_sensor = (np.random.default_rng(s) for s in ss.spawn(2))
+    # a third child stream (spawning more children leaves the first two unchanged)
+    rng_ctrl, rng_sensor, rng_motor = (np.random.default_rng(s) for s in ss.spawn(3))
+    # the motors' shaft angles at the start position are unknown: uniform over a revolution
+    comm_phase = rng_motor.uniform(0.0, 2.0 * math.pi, 3)
     noise = rng_ctrl.normal(0.0, app.control_error_std, (n_ticks, 3)) if control_noise else np.zeros((n_ticks, 3))
 
     pk = environment.pack(app.radius)
@@ -160,6 +163,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
                     app.robot_mass, app.shell_mass, app.sensor_stiffness, app.sensor_damping, app.radius,
                     app.origin_offset, app.gravity, app.servo_rate_hz,
                     app.robot_friction, app.robot_damping,
+                    int(app.commutation_events), float(app.motor_rad_per_m), comm_phase,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
                     pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"], pk["e_tab"], pk["e_par"],
