@@ -6,15 +6,16 @@ from __future__ import annotations
 import click
 
 from contactlab import __version__
-from contactlab.cli.common import ContactlabGroup, not_available
+from contactlab.cli.acquire import acquire
+from contactlab.cli.common import ContactlabGroup
 from contactlab.cli.estimate import estimate
 from contactlab.cli.graph import graph
-from contactlab.cli.acquire import acquire
 from contactlab.cli.import_ import import_cmd
 from contactlab.cli.info import info
+from contactlab.cli.label import label
+from contactlab.cli.recognize import recognize
 from contactlab.cli.report import report
 from contactlab.cli.reproduce import reproduce
-from contactlab.cli.label import label
 from contactlab.cli.segment import segment
 from contactlab.cli.train import train
 from contactlab.cli.validate import validate
@@ -33,15 +34,7 @@ def main(debug: bool) -> None:
     """
 
 
-main.add_command(validate)
-main.add_command(info)
-main.add_command(import_cmd)
-main.add_command(report)
-main.add_command(reproduce)
-main.add_command(acquire)
-main.add_command(segment)
-main.add_command(graph)
-main.add_command(train)
-main.add_command(label)
-main.add_command(estimate)
-main.add_command(not_available("recognize", "Feature graphs and observer"))
+# In pipeline order: data in, the analysis stages, then reporting.
+for _command in (acquire, import_cmd, validate, info, segment, train, label, estimate,
+                 recognize, report, reproduce, graph):
+    main.add_command(_command)

@@ -27,11 +27,18 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--classes", default=None, metavar="A,B,...",
               help="Train only these labels (default: every label with enough blocks).")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--graph", "graph_file", default=None, metavar="GRAPH",
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="Train every model this feature graph names (temporal models, impact-decay "
+                   "priors) from the ground truth; the graph's models give the signal.")
+@click.option("--reduce", type=click.Choice(["none", "mean"]), default="none",
+              show_default=True,
+              help="With --graph: model every channel of the signal (none) or their mean.")
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @json_option
 @quiet_option
-def train(archive, labels, out, signal, order, mean, block, classes, trials, force, as_json,
-          quiet):
+def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file, reduce,
+          force, as_json, quiet):
     """Train one temporal model per class of ARCHIVE and write them to --out.
 
     Every labelled run of the conditioned signal is cut into blocks; per
@@ -46,6 +53,13 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, for
       contactlab train runs.h5 --labels truth --out models.h5
       contactlab train runs.h5 --labels segment --classes sanded,polished --out m.h5
       contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --json
+      contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \
+          --order 1 --mean --reduce mean --out hf-models.h5
+
+    With --graph GRAPH every model the graph names is trained from the
+    ground-truth labels its declarations name (temporal: the prior above on
+    the model's signal; impact: the linear-decay prior of 7.1 over every
+    labelled impact) and stored with provenance in one models file.
     """
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal
@@ -55,6 +69,14 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, for
     if block < 1:
         raise click.BadParameter(f"must be >= 1; got {block}", param_hint="'--block'")
     check_writable(out, force=force)
+    if graph_file is not None:
+        _train_graph(archive, graph_file, out=out, labels=labels, signal=signal, order=order,
+                     mean=mean, block=block, classes=classes, trials=trials, reduce=reduce,
+                     force=force, as_json=as_json, quiet=quiet)
+        return
+    if click.get_current_context().get_parameter_source("reduce") \
+            is not click.core.ParameterSource.DEFAULT:
+        raise click.UsageError("--reduce needs --graph")
     names = None if classes is None else [c.strip() for c in classes.split(",") if c.strip()]
     if names is not None and not names:
         raise click.BadParameter("expected comma-separated labels", param_hint="'--classes'")
@@ -75,4 +97,36 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, for
     for k, n in summary["skipped"].items():
         click.echo(f"{k}: skipped ({n} blocks; a covariance of {order + int(mean)} "
                    "parameters needs more)")
+    click.echo(f"models written to {out}")
+
+
+def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block, classes,
+                 trials, reduce, force, as_json, quiet):
+    """``train --graph``: every model the graph names, one models file."""
+    from contactlab.observer.training import train_graph
+
+    ctx = click.get_current_context()
+    for opt, name in (("signal", "--signal"), ("classes", "--classes")):
+        if ctx.get_parameter_source(opt) is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError(f"{name} cannot be used with --graph (the graph's models "
+                                   "name their signals and labels)")
+    if labels != "truth":
+        raise click.UsageError("--graph trains from the ground truth (--labels truth)")
+    gm = train_graph(archive, graph_file, order=order, mean=mean, block=block, reduce=reduce,
+                     trials=list(trials) or None, quiet=quiet,
+                     command=" ".join(["contactlab"] + sys.argv[1:]))
+    gm.save(out, force=force)
+    summary = {"out": str(out), "graph": str(graph_file), "signal": gm.signal, "fs": gm.fs,
+               "reduce": gm.reduce, "labels": gm.labels,
+               "blocks": {k: m.n_blocks for k, m in gm.temporal.items()},
+               "impact_segments": {k: getattr(m, "n_segments_", None)
+                                   for k, m in gm.impacts.items()},
+               "order": order, "mean": mean, "block": block}
+    if as_json:
+        echo_json(summary)
+        return
+    for k, m in gm.temporal.items():
+        click.echo(f"{k}: temporal, {m.n_blocks} blocks, {m.channels} channels")
+    for k, n in summary["impact_segments"].items():
+        click.echo(f"{k}: impact decay, {n} impacts")
     click.echo(f"models written to {out}")

@@ -22,6 +22,8 @@ from contactlab.observer.models import (CompositeNode, FeatureModel, FixedVeloci
 from contactlab.observer.observer import (Observer, ObserverResult, ObserverStep, labels_from_path,
                                           observe)
 from contactlab.observer.paths import ChangeEvent, PathInfo
+from contactlab.observer.recognize import recognize_archive, recognize_trial
+from contactlab.observer.training import GraphModels, train_graph, trial_signals
 
 __all__ = [
     "FeatureGraph", "ModelSpec", "Node", "load_graph", "parse_graph",
@@ -29,4 +31,5 @@ __all__ = [
     "MovingVelocity", "CompositeNode", "build_models", "node_models",
     "Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path",
     "ChangeEvent", "PathInfo",
+    "recognize_archive", "recognize_trial", "GraphModels", "train_graph", "trial_signals",
 ]

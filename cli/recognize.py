@@ -1,0 +1,100 @@
+"""contactlab recognize: the 6.4 contact-state observer over an archive (7.3.1-7.3.3)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+
+
+@click.command()
+@archive_argument
+@click.option("--graph", "graph_file", required=True, metavar="GRAPH",
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="Feature-graph TOML file (datasets_spec/GRAPHS.md).")
+@click.option("--models", "models_file", required=True, metavar="MODELS",
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="Models file from 'contactlab train --graph' (datasets_spec/MODELS.md).")
+@click.option("--action", default=None, metavar="A",
+              help="Commanded action (name or code) for every sample, overriding the "
+                   "archive's action channel (action-dependent graphs).")
+@click.option("--threshold", type=float, default=8.0, show_default=True,
+              help="Page-Hinkley decision threshold T^2 (7.3.1).")
+@click.option("--change-size", type=float, default=2.0, show_default=True,
+              help="Change magnitude q of the detectors (7.3.1).")
+@click.option("--prune", "p_prune", type=float, default=0.999, show_default=True,
+              help="Probability mass P_prune kept when pruning paths (6.4).")
+@click.option("--gap", type=float, default=20.0, show_default=True,
+              help="Drop paths this far below the best log-likelihood (9.1.1).")
+@click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
+              show_default=True, help="Detect covariance increases only (the thesis) or both.")
+@click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
+@json_option
+@quiet_option
+def recognize(archive, graph_file, models_file, action, threshold, change_size, p_prune, gap,
+              sides, trials, no_write, as_json, quiet):
+    """Recognise the contact state of every trial of ARCHIVE along a feature graph.
+
+    Per trial the observer of 6.4 runs over the graph's signals; the
+    per-sample node probabilities, the on-line MAP node, the final MAP path
+    with its event times and the change history are written to each
+    trial's results/recognize.  With ground truth named like the graph's
+    nodes: the point-level confusion matrix and accuracy of the MAP path,
+    and the table of detection delays (7.3.2).
+
+    \b
+    Examples:
+      contactlab train train.h5 --graph datasets_spec/graphs/hf-context-free.toml --out m.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml --models m.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml --models m.h5 --json
+    """
+    from contactlab.observer.recognize import DELAY_BINS, recognize_archive
+
+    if not (threshold > 0):
+        raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
+    if not change_size > 1:
+        raise click.BadParameter(f"must be > 1; got {change_size}", param_hint="'--change-size'")
+    if not 0 < p_prune <= 1:
+        raise click.BadParameter(f"must be in (0, 1]; got {p_prune}", param_hint="'--prune'")
+    if not gap > 0:
+        raise click.BadParameter(f"must be > 0; got {gap}", param_hint="'--gap'")
+    act = action
+    if action is not None and action.lstrip("-").isdigit():
+        act = int(action)
+    if not archive.is_file():
+        from contactlab.errors import DataError
+        raise DataError("no such file", file=str(archive))
+    from contactlab.observer.graph import load_graph
+
+    g = load_graph(graph_file)
+    if act is not None:
+        try:
+            g.action_index(act)
+        except KeyError as exc:
+            raise click.BadParameter(str(exc.args[0]), param_hint="'--action'") from None
+    summary = recognize_archive(archive, graph=g, models=models_file, action=act,
+                                threshold=threshold, change_size=change_size, p_prune=p_prune,
+                                gap=gap, sides=sides, trials=list(trials) or None,
+                                write=not no_write, quiet=quiet)
+    if as_json:
+        echo_json(summary)
+        return
+    for tid, e in summary["trials"].items():
+        path = " -> ".join(f"{n}@{s:.3f}s" for n, s in e["merged_path"])
+        acc = "" if e["accuracy"] is None else f" ({100 * e['accuracy']:.1f} % correct)"
+        click.echo(f"{tid}: {path}{acc}")
+    if summary["accuracy"] is not None:
+        labels = summary["confusion"]["labels"]
+        click.echo(f"points marked correctly: {100 * summary['accuracy']:.1f} % "
+                   f"(on-line MAP node: {100 * summary['accuracy_online']:.1f} %)")
+        click.echo("confusion (rows true, columns chosen): " + " ".join(labels))
+        for name, row in zip(labels, summary["confusion"]["matrix"]):
+            click.echo(f"  {name}: {row}")
+        d = summary["delays"]
+        click.echo("delays (samples): " + " ".join(f"{b}:{d['counts'][b]}" for b in DELAY_BINS)
+                   + f"  missed {d['missed']}, extra marks {d['extra']}")
+    if summary["written"]:
+        click.echo(f"results written to {archive} (results/recognize)")

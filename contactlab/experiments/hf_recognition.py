@@ -1,0 +1,348 @@
+"""hf-recognition: recognising the four high-frequency hypotheses on-line (7.3.1-7.3.3, fig 7.10).
+
+The 15 training runs (datasets_spec/hf-train.toml) and 12 test runs
+(hf-test.toml) are simulated through the acquire path into ``out_dir/tmp``
+(deleted after).  ``contactlab train --graph`` fits the models the graph
+names: H0-H2 AR(1) with a mean on y_h, units of 100 (7.3), the trained
+orthogonal prior and mean driving variance used in the orthogonal square-root
+Kalman filter (7.3.1); H3 the linear-decay impact prior (7.1).  The observer
+of 6.4 runs with change size 2.0 and threshold 8.0 (7.3.1):
+
+1. context free (datasets_spec/graphs/hf-context-free.toml: any transition,
+   equal initial probabilities) on the training and the test runs (7.3.2);
+2. with context (hf-context.toml: the transitions the commanded action allows,
+   initial state H0) on the test runs (7.3.3).
+
+Peer: a Gaussian HMM (hmmlearn) over the same four states and the same
+signal, trained supervised on the same runs (per-state mean and variance of
+the labelled points, transitions and initial probabilities from label
+counts) and decoded with Viterbi -- the approach of Hannaford and Lee that
+the thesis argues against (1.x, 6).
+
+Signal: y_h, the channel mean over the 8 strain gauges (the choice of
+hf-models), log floor at half the quantisation step.  The 8-channel variant
+(channels independent) is reported as a check.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from contactlab.fileio import write_text_atomic  # noqa: E402
+from contactlab.observer.draw import plot_graph  # noqa: E402
+from contactlab.observer.graph import load_graph  # noqa: E402
+from contactlab.observer.recognize import (DELAY_BINS, confusion, merge_path,  # noqa: E402
+                                           recognize_archive)
+from contactlab.observer.training import (SIGNAL_WINDOW, train_graph, trial_signals,  # noqa: E402
+                                          truth_codes)
+from contactlab.progress import bar  # noqa: E402
+from contactlab.report.page import ReportPage  # noqa: E402
+
+GRAPHS = Path(__file__).resolve().parents[2] / "datasets_spec" / "graphs"
+STATES = ("H0", "H1", "H2", "H3")
+ORDER, MEAN, BLOCK = 1, True, 100          # 7.3: a mean and one AR coefficient, units of 100
+THRESHOLD, CHANGE_SIZE = 8.0, 2.0          # 7.3.1
+THESIS = {
+    "train_cf": {"accuracy": 0.81, "confusion": [[6175, 119, 1508, 0], [19, 2859, 159, 0],
+                                                 [654, 621, 4279, 208], [0, 7, 12, 981]],
+                 "delays": [28, 8, 1, 3, 15]},
+    "test_cf": {"accuracy": 0.66, "confusion": [[4769, 86, 3302, 0], [35, 2904, 222, 0],
+                                                [794, 1014, 2774, 101], [0, 49, 12, 405]],
+                "delays": [22, 1, 2, 0, 14]},
+    "test_ctx": {"accuracy": 0.95, "confusion": [[7981, 176, 0, 0], [18, 3142, 0, 1],
+                                                 [0, 636, 3946, 101], [0, 47, 2, 405]],
+                 "delays": None},
+}
+TITLES = {"train_cf": "training runs, context free (7.3.2)",
+          "test_cf": "test runs, context free (7.3.2)",
+          "test_ctx": "test runs, with context (7.3.3)"}
+
+
+# ---------------------------------------------------------------------------
+# the HMM peer
+# ---------------------------------------------------------------------------
+def labelled_points(archive, *, reduce: str = "mean") -> list[dict]:
+    """Per trial: ``y`` (n, C) y_h, ``truth`` (n,) state index of the newest input sample
+    (-1 unlabelled), ``pure`` (n,) the same only where the whole input window is one label."""
+    from contactlab.archive import open_archive
+
+    out = []
+    with open_archive(archive) as arc:
+        for trial in arc:
+            data, index, _ = trial_signals(trial, ["hf"], reduce=reduce)
+            out.append({"id": trial.id, "y": data["hf"],
+                        "truth": truth_codes(trial, index, STATES),
+                        "pure": truth_codes(trial, index, STATES, window=SIGNAL_WINDOW["hf"])})
+    return out
+
+
+def fit_hmm(train: list[dict], *, pseudo: float = 1.0):
+    """A supervised Gaussian HMM: per-state mean/covariance of the pure labelled points,
+    transition and start probabilities from label counts (+ ``pseudo`` per allowed cell)."""
+    from hmmlearn.hmm import GaussianHMM
+
+    K = len(STATES)
+    C = train[0]["y"].shape[1]
+    means, covs = np.zeros((K, C)), np.zeros((K, C, C))
+    for k in range(K):
+        y = np.concatenate([t["y"][t["pure"] == k] for t in train])
+        means[k] = y.mean(axis=0)
+        covs[k] = np.atleast_2d(np.cov(y, rowvar=False)) + 1e-9 * np.eye(C)
+    trans = np.full((K, K), pseudo)
+    start = np.full(K, pseudo)
+    for t in train:
+        lab = t["truth"][t["truth"] >= 0]          # unlabelled gaps skipped
+        np.add.at(trans, (lab[:-1], lab[1:]), 1.0)
+        start[lab[0]] += 1.0
+    model = GaussianHMM(n_components=K, covariance_type="full", init_params="", params="")
+    model.n_features = C
+    model.startprob_ = start / start.sum()
+    model.transmat_ = trans / trans.sum(axis=1, keepdims=True)
+    model.means_ = means
+    model.covars_ = covs
+    return model
+
+
+def decode_hmm(model, runs: list[dict]) -> tuple[np.ndarray, float, list[np.ndarray]]:
+    """Viterbi state sequences; pooled confusion counts and decoding time (s)."""
+    K = len(STATES)
+    total = np.zeros((K, K), np.int64)
+    states = []
+    t0 = time.perf_counter()
+    for r in runs:
+        _, s = model.decode(r["y"], algorithm="viterbi")
+        states.append(s)
+    dt = time.perf_counter() - t0
+    for r, s in zip(runs, states):
+        total += confusion(r["truth"], s, K)
+    return total, dt, states
+
+
+# ---------------------------------------------------------------------------
+# run
+# ---------------------------------------------------------------------------
+def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
+    """Simulate, train, recognise (3 settings + HMM + 8-channel check); write the page."""
+    from contactlab.experiments.labelling_blocks import record_spec
+
+    out_dir = Path(out_dir)
+    tmp = out_dir / "tmp"
+    tmp.mkdir(parents=True, exist_ok=True)
+    cf = load_graph(GRAPHS / "hf-context-free.toml")
+    ctx = load_graph(GRAPHS / "hf-context.toml")
+    try:
+        with bar(total=7, desc="hf-recognition", quiet=quiet, unit="step") as pbar:
+            train = record_spec("hf-train", tmp / "hf-train.h5", seed=seed)
+            test = record_spec("hf-test", tmp / "hf-test.h5", seed=seed + 1)
+            pbar.update(1)
+            models = {}
+            for reduce in ("mean", "none"):
+                gm = train_graph(train, cf, order=ORDER, mean=MEAN, block=BLOCK, reduce=reduce)
+                gm.save(tmp / f"models-{reduce}.h5", force=True)
+                models[reduce] = gm
+            pbar.update(1)
+            kw = dict(threshold=THRESHOLD, change_size=CHANGE_SIZE, write=False, keep=True)
+            res, secs = {}, {}
+            for key, arc, g in (("train_cf", train, cf), ("test_cf", test, cf),
+                                ("test_ctx", test, ctx)):
+                t0 = time.perf_counter()
+                res[key] = recognize_archive(arc, graph=g, models=models["mean"], **kw)
+                secs[key] = time.perf_counter() - t0
+                pbar.update(1)
+            check = {key: recognize_archive(arc, graph=g, models=models["none"], **kw)
+                     for key, arc, g in (("test_cf", test, cf), ("test_ctx", test, ctx))}
+            pbar.update(1)
+            tr_pts, te_pts = labelled_points(train), labelled_points(test)
+            hmm = fit_hmm(tr_pts)
+            hmm_res = {"train": decode_hmm(hmm, tr_pts), "test": decode_hmm(hmm, te_pts)}
+            pbar.update(1)
+        with plt.rc_context({"figure.max_open_warning": 0}):
+            return _report(res, secs, check, hmm, hmm_res, models["mean"], te_pts, cf, ctx,
+                           out_dir=out_dir, seed=seed)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+# ---------------------------------------------------------------------------
+# report
+# ---------------------------------------------------------------------------
+def _acc(m) -> float:
+    m = np.asarray(m)
+    return float(np.trace(m) / m.sum()) if m.sum() else float("nan")
+
+
+def _conf_rows(label, m) -> list[list]:
+    return [[f"{label}: {s}"] + [int(x) for x in row] + [f"{100 * row[i] / max(sum(row), 1):.0f} %"]
+            for i, (s, row) in enumerate(zip(STATES, np.asarray(m).tolist()))]
+
+
+def fig_run(rec, graph, y, *, title: str, hmm_states=None):
+    """Fig 7.10 for one run: data with truth, graph with final node probabilities,
+    node probability traces, and the final MAP path against truth (and the HMM)."""
+    r = rec.result
+    t = rec.times - rec.times[0]
+    fig = plt.figure(figsize=(10, 6.2))
+    gs = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
+    ax = fig.add_subplot(gs[0, 0])
+    # data: channel-mean y_h, truth as background colour
+    ax.plot(t, np.asarray(y)[:, 0], color="k", lw=0.6)
+    if rec.truth is not None:
+        for k in range(len(STATES)):
+            m = rec.truth == k
+            if m.any():
+                ax.fill_between(t, 0, 1, where=m, color=f"C{k}", alpha=0.15, step="post",
+                                transform=ax.get_xaxis_transform(), label=f"truth {STATES[k]}")
+    ax.set_ylabel("y_h (channel mean)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, ncol=4, loc="upper right")
+    axg = fig.add_subplot(gs[0, 1])
+    plot_graph(graph, axg, probabilities=r.node_prob[-1])
+    axg.set_title("graph, final node probabilities", fontsize=8)
+    axp = fig.add_subplot(gs[1, 0], sharex=ax)
+    for k in range(len(STATES)):
+        axp.plot(t, r.node_prob[:, k], color=f"C{k}", lw=0.9, label=STATES[k])
+    axp.set_ylabel("P(node)")
+    axp.set_xlabel("time (s)")
+    axp.legend(fontsize=7, ncol=4)
+    axl = fig.add_subplot(gs[1, 1])
+    rows = [("truth", rec.truth), ("MAP path", r.labels), ("on-line MAP", r.map_node)]
+    if hmm_states is not None:
+        rows.append(("HMM Viterbi", hmm_states))
+    for i, (name, lab) in enumerate(rows):
+        if lab is None:
+            continue
+        lab = np.asarray(lab)
+        for k in range(len(STATES)):
+            m = lab == k
+            axl.fill_between(t, i + 0.1, i + 0.9, where=m, color=f"C{k}", step="post")
+    axl.set_yticks(np.arange(len(rows)) + 0.5, [n for n, _ in rows], fontsize=7)
+    axl.set_xlabel("time (s)")
+    hist = " -> ".join(f"{n}@{t[min(max(s, 0), len(t) - 1)]:.2f}"
+                       for n, s in merge_path(r.map_path))
+    axl.set_title("paths; MAP: " + (hist if len(hist) < 60 else hist[:57] + "..."), fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, seed) -> dict:
+    page = ReportPage(title="hf-recognition: recognising high-frequency events (7.3.1-7.3.3, "
+                            "fig 7.10)", out_dir=out_dir)
+    blocks = {k: m.n_blocks for k, m in gm.temporal.items()}
+    page.paragraph(
+        f"Training: the 15 runs of hf-train.toml (seed {seed}); test: the 12 runs of "
+        f"hf-test.toml (seed {seed + 1}). Models from 'contactlab train --graph' on the "
+        f"channel-mean y_h: AR({ORDER}) with a mean in units of {BLOCK} (blocks per class "
+        f"{blocks}), and the H3 linear-decay prior from "
+        f"{gm.impacts['H3'].n_segments_} labelled impacts. Observer (6.4): change size "
+        f"{CHANGE_SIZE}, threshold {THRESHOLD}, P_prune 0.999, gap 20. Points are the 250 Hz "
+        "samples of y_h; a point's truth is the simulator's label; unlabelled points are left "
+        "out. 'Points marked correctly' uses the final MAP path (the labelling the program "
+        "ends with); the on-line column uses the MAP node after each sample.")
+    page.note(
+        "Choices where the thesis is silent: the channel mean of the 8 strain gauges as y_h "
+        "(as hf-models); simulator ground truth instead of hand segmentation; the action "
+        "channel for the context graph is 'move' while the commanded position changes (the "
+        "simulator records no action); the context graph is one network for all test runs "
+        "(the union of the impact and free-space guarded moves), where the thesis gave each "
+        "run 'the appropriately constrained network'; delays match each truth transition "
+        "to the nearest MAP-path change into the same node within 50 samples (0.2 s).")
+    rows = []
+    for key in ("train_cf", "test_cf", "test_ctx"):
+        s = res[key]
+        hm = hmm_res["train" if key == "train_cf" else "test"][0]
+        rows.append([TITLES[key], f"{100 * THESIS[key]['accuracy']:.0f} %",
+                     f"{100 * s['accuracy']:.1f} %", f"{100 * s['accuracy_online']:.1f} %",
+                     f"{100 * check[key]['accuracy']:.1f} %" if key in check else "-",
+                     f"{100 * _acc(hm):.1f} %" if key != "test_ctx" else "(same as above)"])
+    page.table(rows, columns=["setting", "thesis", "ours (MAP path)", "ours (on-line)",
+                              "ours, 8 channels", "HMM Viterbi"],
+               caption="Points marked correctly. 'ours, 8 channels': the same pipeline with "
+                       "the 8 gauges' y_h as independent channels. The HMM has no context "
+                       "graph; its row is the same for both test settings.")
+    for key in ("train_cf", "test_cf", "test_ctx"):
+        m = np.asarray(res[key]["confusion"]["matrix"])
+        page.table(_conf_rows("thesis", THESIS[key]["confusion"]) + _conf_rows("ours", m),
+                   columns=["true", *STATES, "row correct"],
+                   caption=f"Point confusion, {TITLES[key]} (rows true, columns chosen).")
+    for key in ("train", "test"):
+        page.table(_conf_rows("HMM", hmm_res[key][0]), columns=["true", *STATES, "row correct"],
+                   caption=f"Point confusion of the Gaussian HMM (Viterbi), {key} runs.")
+    rows = []
+    for key in ("train_cf", "test_cf", "test_ctx"):
+        d = res[key]["delays"]
+        th = THESIS[key]["delays"]
+        if th:
+            rows.append([f"thesis, {TITLES[key]}", *th, "-", "-", "-"])
+        rows.append([f"ours, {TITLES[key]}", *[d["counts"][b] for b in DELAY_BINS],
+                     d["missed"], d["extra"], d["transitions"]])
+    page.table(rows, columns=["", *[f"delay {b}" for b in DELAY_BINS], "missed",
+                              "extra marks", "true transitions"],
+               caption="Detection delays (samples at 250 Hz) of the marked transitions (7.3.2).")
+    page.table([[k, f"{v:.2f} s"] for k, v in secs.items()],
+               columns=["setting", "recognition time (incl. conditioning)"],
+               caption="Runtime on this machine (one core).")
+    # figures: every test run, with context; and context free
+    hmm_states = dict(zip([p["id"] for p in te_pts], hmm_res["test"][2]))
+    ys = {p["id"]: p["y"] for p in te_pts}
+    for key, g in (("test_ctx", ctx), ("test_cf", cf)):
+        for rec in res[key]["_runs"]:
+            fig = fig_run(rec, g, ys[rec.trial_id], title=f"{rec.trial_id}: {TITLES[key]}",
+                          hmm_states=hmm_states.get(rec.trial_id))
+            page.figure(fig, name=f"fig-7-10-{key}-{rec.trial_id}",
+                        caption=f"Fig 7.10 (ours), {TITLES[key]}, {rec.trial_id}: y_h with the "
+                                "truth shaded; the graph with its final node probabilities; "
+                                "node probabilities over time; truth, final MAP path, on-line "
+                                "MAP node and the HMM's Viterbi path.")
+    page.heading("Where ours differ and why")
+    for text in _differences(res, hmm_res, gm):
+        page.paragraph(text)
+    paths = page.write()
+    summary = {"experiment": "hf-recognition", "seed": seed,
+               "accuracy": {k: res[k]["accuracy"] for k in res},
+               "accuracy_online": {k: res[k]["accuracy_online"] for k in res},
+               "accuracy_8_channels": {k: check[k]["accuracy"] for k in check},
+               "accuracy_hmm": {k: _acc(v[0]) for k, v in hmm_res.items()},
+               "confusion": {k: res[k]["confusion"]["matrix"] for k in res},
+               "confusion_hmm": {k: v[0].tolist() for k, v in hmm_res.items()},
+               "delays": {k: res[k]["delays"] for k in res},
+               "thesis": THESIS, "seconds": secs,
+               "hmm_decode_s": {k: v[1] for k, v in hmm_res.items()},
+               "paths": {k: {tid: e["merged_path"] for tid, e in res[k]["trials"].items()}
+                         for k in res},
+               "report": {k: str(v) for k, v in paths.items()}}
+    write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def _differences(res, hmm_res, gm) -> list[str]:
+    means = {k: float(m.theta_mean[0, 0]) for k, m in gm.temporal.items()}
+    out = [
+        "The stationary classes: the trained means of the LPC mean coefficient are "
+        + ", ".join(f"{k} {v:.3f}" for k, v in means.items())
+        + ". Where these are close (hf-models found the simulated H0, H1 and H2 nearly "
+        "indistinguishable in y_h) no recogniser on y_h alone can separate them, and the "
+        "confusions between H0, H1 and H2 above say more about the simulator than about the "
+        "observer; the numbers will change when motion-induced vibration lands in the "
+        "simulator. The pipeline (train --graph, recognize, this page) is not tuned to them.",
+        "H3 (impact): the linear-decay model with a trained prior on (mu, a) can also follow a "
+        "flat y_h (slope near 0 lies inside its prior), and a transient node has no forced "
+        "exit in 6.4, so a path that enters H3 can stay there; points after an impact then "
+        "count as H3 instead of H2. The thesis's H3 row is small (about 1000 points in 15 "
+        "runs); ours shows how often this happens.",
+        f"The HMM peer marks {100 * _acc(hmm_res['test'][0]):.1f} % of the test points "
+        f"correctly against the observer's {100 * res['test_cf']['accuracy']:.1f} % "
+        "(context free). The HMM sees every point with fixed per-state Gaussians and "
+        "label-count transitions; the observer re-estimates each segment's AR parameters "
+        "from its prior and only changes node when a detector fires, so it carries a "
+        "detection delay and can stay in a wrong node that fits well enough.",
+    ]
+    return out

@@ -1,0 +1,281 @@
+"""Recognition over an archive (``contactlab recognize``, 7.3.1-7.3.3).
+
+Per trial: the observer of 6.4 (:class:`~contactlab.observer.Observer`) over
+the trial's measurement streams (:func:`~contactlab.observer.training.trial_signals`,
+with the models file's channel reduction); the per-sample node probabilities,
+the on-line MAP node, the final MAP path with its event times and the
+path/change history are written to ``results/recognize``.
+
+With ground truth (labels named like the graph's nodes): the point-level
+confusion of the final MAP path's labels (the thesis's "points marked
+correctly", 7.3.2), its accuracy, the on-line accuracy (MAP node after each
+sample), and the table of detection delays of 7.3.2.
+
+Choices where 7.3 is silent (also in the report):
+
+* Points are the 250 Hz conditioned samples; a point's truth is the label of
+  its newest input sample; unlabelled points (-1, or a label not in the
+  graph) are left out of the confusion.
+* Delays: every truth transition (label change, unlabelled gaps skipped) is
+  matched to the nearest change of the merged MAP path into the same node
+  within ``delay_window`` samples; the table counts |delay| 0, 1, 2, 3, >3
+  samples, plus missed transitions and extra marks (changes matching none).
+* Action-dependent graphs read the trial's ``action`` channel; a trial
+  without one but with a ``command`` gets ``move`` where the commanded
+  position changes and ``rest`` elsewhere (the simulator records no action
+  channel), if the graph declares those two actions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from contactlab.errors import DataError
+from contactlab.observer.graph import FeatureGraph, load_graph
+from contactlab.observer.models.composite import build_models
+from contactlab.observer.observer import Observer, ObserverResult, observe
+from contactlab.observer.training import GraphModels, trial_signals, truth_codes
+
+__all__ = ["recognize_archive", "recognize_trial", "TrialRecognition", "confusion",
+           "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]
+
+STAGE = "recognize"
+DELAY_BINS = ("0", "1", "2", "3", ">3")
+
+
+@dataclass(frozen=True)
+class TrialRecognition:
+    """One trial's recognition: the observer result, the time base, truth (or None)."""
+
+    trial_id: str
+    result: ObserverResult
+    times: np.ndarray
+    truth: np.ndarray | None
+    fs: float
+
+
+def merge_path(path) -> list[tuple[str, int]]:
+    """A path ``[(node, start), ...]`` with consecutive segments of one node merged."""
+    out: list[tuple[str, int]] = []
+    for node, s in path:
+        if not out or out[-1][0] != node:
+            out.append((node, int(s)))
+    return out
+
+
+def confusion(truth, chosen, n: int) -> np.ndarray:
+    """(n, n) counts: rows true node, columns chosen node (truth < 0 left out)."""
+    truth = np.asarray(truth, np.int64)
+    chosen = np.asarray(chosen, np.int64)
+    ok = truth >= 0
+    m = np.zeros((n, n), np.int64)
+    np.add.at(m, (truth[ok], chosen[ok]), 1)
+    return m
+
+
+def detection_delays(truth, path, node_names, *, window: int = 50) -> dict:
+    """Delay table of 7.3.2 for one trial (see the module notes).
+
+    Returns ``{"counts": {bin: n}, "missed": n, "extra": n, "delays": [signed]}``.
+    """
+    names = list(node_names)
+    t = np.asarray(truth, np.int64)
+    idx = np.flatnonzero(t >= 0)
+    lab = t[idx]
+    ch = np.flatnonzero(np.diff(lab) != 0) + 1
+    true_tr = [(int(lab[c]), int(idx[c])) for c in ch]
+    marks = [(names.index(n), s) for n, s in merge_path(path)[1:]]
+    used = set()
+    counts = dict.fromkeys(DELAY_BINS, 0)
+    delays, missed = [], 0
+    for node, s in true_tr:
+        best = None
+        for k, (mn, ms) in enumerate(marks):
+            if mn == node and k not in used and abs(ms - s) <= window:
+                if best is None or abs(ms - s) < abs(marks[best][1] - s):
+                    best = k
+        if best is None:
+            missed += 1
+            continue
+        used.add(best)
+        d = marks[best][1] - s
+        delays.append(int(d))
+        counts[str(abs(d)) if abs(d) <= 3 else ">3"] += 1
+    return {"counts": counts, "missed": missed, "extra": len(marks) - len(used),
+            "delays": delays, "transitions": len(true_tr)}
+
+
+def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray | None:
+    """Action code per conditioned sample for an action-dependent graph (None otherwise)."""
+    if not graph.action_dependent:
+        return None
+    act = trial.action
+    if act is not None:
+        a = np.asarray(act, np.int64)[np.asarray(index)]
+        names = trial.dataset_attrs("action").get("names")
+        if names:                          # archive codes -> the graph's action codes
+            names = [str(n) for n in names]
+            table = np.array([graph.actions.index(n) if n in graph.actions else -1
+                              for n in names] + [-1])
+            a = table[np.where((a >= 0) & (a < len(names)), a, -1)]
+        return a
+    cmd = trial.command
+    if cmd is not None and {"rest", "move"} <= set(graph.actions):
+        c = np.asarray(cmd, np.float64).reshape(len(cmd), -1)
+        moving = np.r_[False, np.any(np.diff(c, axis=0) != 0, axis=1)]
+        code = np.where(moving, graph.actions.index("move"), graph.actions.index("rest"))
+        return code[np.asarray(index)]
+    raise DataError(f"graph {graph.name!r} has action-dependent edges but the trial has no "
+                    "action channel (pass --action)", file=str(path) if path else None,
+                    field=f"/trials/{trial.id}/measurements/action")
+
+
+def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
+                    action=None, observer_kw: dict | None = None, chunk: int = 4096,
+                    path=None) -> TrialRecognition:
+    """Run the observer over one archive trial (``models``: built model objects)."""
+    obs = Observer(graph, models, **(observer_kw or {}))
+    data, index, fs = trial_signals(trial, obs.signals, reduce=reduce, path=path)
+    act = action if action is not None else trial_actions(trial, graph, index, path=path)
+    if act is not None and not isinstance(act, str) and np.ndim(act) == 1 \
+            and np.any(np.asarray(act) < 0):
+        raise DataError("action codes not declared by the graph", file=str(path) if path
+                        else None, field=f"/trials/{trial.id}/measurements/action")
+    res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act,
+                  chunk=chunk)
+    truth = truth_codes(trial, index, graph.node_names)
+    times = np.asarray(trial.time, np.float64)[index]
+    return TrialRecognition(trial.id, res, times, truth, fs)
+
+
+def _load(graph, models):
+    if not isinstance(graph, FeatureGraph):
+        graph = load_graph(graph)
+    if not isinstance(models, GraphModels):
+        models = GraphModels.load(models)
+    try:
+        built = build_models(graph, models.trained, source=models.source)
+    except DataError as err:
+        if "no trained model" in err.message:
+            raise DataError(f"{err.message}: graph {graph.source or graph.name} names a "
+                            f"model the models file {models.source} lacks",
+                            file=models.source, field=err.field) from None
+        raise
+    return graph, models, built
+
+
+def _trial_datasets(rec: TrialRecognition, graph: FeatureGraph) -> tuple[dict, dict]:
+    r = rec.result
+    t = rec.times
+    tt = lambda s: float(t[min(max(s, 0), len(t) - 1)]) if len(t) else 0.0  # noqa: E731
+    merged = merge_path(r.map_path)
+    ev = [e for e in r.events if e.model is not None]
+    ds = {
+        "time_s": t, "node_prob": r.node_prob, "map_node": r.map_node, "labels": r.labels,
+        "path/node": np.array([n for n, _ in r.map_path], dtype=object),
+        "path/start_s": np.array([tt(s) for _, s in r.map_path]),
+        "path/start": np.array([s for _, s in r.map_path], dtype=np.int64),
+        "events/time_s": np.array([tt(e.time) for e in ev]),
+        "events/change_time_s": np.array([tt(e.change_time) for e in ev]),
+        "events/node": np.array([e.node for e in ev], dtype=object),
+        "events/model": np.array([e.model for e in ev], dtype=object),
+        "events/n_spawned": np.array([len(e.spawned) for e in ev], dtype=np.int64),
+        "events/n_kept": np.array([len(e.kept) for e in ev], dtype=np.int64),
+    }
+    if rec.truth is not None:
+        ds["truth"] = rec.truth
+    attrs = {"nodes": ",".join(graph.node_names), "n_changes": len(ev),
+             "merged_path": ";".join(f"{n}@{tt(s):.4f}" for n, s in merged)}
+    return ds, attrs
+
+
+def recognize_archive(archive, *, graph, models, action=None, threshold: float = 8.0,
+                      change_size: float = 2.0, p_prune: float = 0.999, gap: float = 20.0,
+                      sides: str = "increase", trials=None, delay_window: int = 50,
+                      write: bool = True, quiet: bool = True, keep: bool = False) -> dict:
+    """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
+
+    Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),
+    ``accuracy_online``, ``confusion`` ``{"labels", "matrix"}``, ``delays``,
+    ``trials`` ``{id: {"path": [[node, start_s], ...], "merged_path", "accuracy",
+    "n_changes"}}`` and the parameters.  Accuracy entries are None without
+    ground truth.  ``write``: results to each trial's ``results/recognize``.
+    ``keep``: also return the :class:`TrialRecognition` objects under ``"_runs"``.
+    """
+    from contactlab.archive import open_archive, write_results
+    from contactlab.progress import progress
+
+    graph, gm, built = _load(graph, models)
+    path = Path(archive)
+    kw = dict(threshold=threshold, change_size=change_size, p_prune=p_prune, gap=gap,
+              sides=sides)
+    try:
+        Observer(graph, built, **kw)
+    except ValueError as exc:
+        from contactlab.errors import UsageError
+        raise UsageError(str(exc)) from None
+    K = graph.n_nodes
+    total = np.zeros((K, K), np.int64)
+    total_on = np.zeros((K, K), np.int64)
+    delays = {"counts": dict.fromkeys(DELAY_BINS, 0), "missed": 0, "extra": 0,
+              "transitions": 0}
+    out_trials, runs = {}, []
+    params = {**kw, "graph": graph.source or graph.name, "models": gm.source,
+              "reduce": gm.reduce, "action": action, "delay_window": delay_window}
+    with open_archive(path) as arch:
+        ids = list(trials) if trials else list(arch.trial_ids)
+        for tid in ids:
+            if tid not in arch:
+                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        recs = []
+        for tid in progress(ids, desc="recognize", quiet=quiet, unit="trial"):
+            rec = recognize_trial(arch.trial(tid), graph, built, reduce=gm.reduce,
+                                  action=action, observer_kw=kw, path=path)
+            recs.append(rec)
+    for rec in recs:
+        r = rec.result
+        rate = rec.fs
+        entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rate]
+                          for n, s in r.map_path],
+                 "merged_path": [[n, float(rec.times[max(s, 0)])] for n, s in
+                                 merge_path(r.map_path)],
+                 "n_changes": sum(e.model is not None for e in r.events),
+                 "accuracy": None, "accuracy_online": None}
+        if rec.truth is not None and (rec.truth >= 0).any():
+            c = confusion(rec.truth, r.labels, K)
+            con = confusion(rec.truth, r.map_node, K)
+            total += c
+            total_on += con
+            entry["accuracy"] = float(np.trace(c) / c.sum())
+            entry["accuracy_online"] = float(np.trace(con) / con.sum())
+            entry["confusion"] = c.tolist()
+            d = detection_delays(rec.truth, r.map_path, graph.node_names, window=delay_window)
+            for b in DELAY_BINS:
+                delays["counts"][b] += d["counts"][b]
+            for k in ("missed", "extra", "transitions"):
+                delays[k] += d[k]
+            entry["delays"] = d
+        out_trials[rec.trial_id] = entry
+        if write:
+            ds, attrs = _trial_datasets(rec, graph)
+            if entry["accuracy"] is not None:
+                attrs["accuracy"] = entry["accuracy"]
+            write_results(path, rec.trial_id, STAGE, datasets=ds, attrs=attrs, parameters=params)
+        if keep:
+            runs.append(rec)
+    has_truth = total.sum() > 0
+    summary = {
+        "archive": str(path), "graph": graph.name, "labels": list(graph.node_names),
+        "accuracy": float(np.trace(total) / total.sum()) if has_truth else None,
+        "accuracy_online": float(np.trace(total_on) / total_on.sum()) if has_truth else None,
+        "confusion": {"labels": list(graph.node_names), "matrix": total.tolist()},
+        "confusion_online": {"labels": list(graph.node_names), "matrix": total_on.tolist()},
+        "delays": delays if has_truth else None,
+        "trials": out_trials, "parameters": params, "written": bool(write),
+    }
+    if keep:
+        summary["_runs"] = runs
+    return summary

@@ -1,0 +1,407 @@
+"""Training every model a feature graph names (``contactlab train --graph``, 7.3, 7.3.1).
+
+For each ``[models.NAME]`` of a graph:
+
+* ``temporal`` -- a :class:`~contactlab.temporal.TemporalModel` of the label
+  ``trained``: the labelled runs of the model's conditioned signal are cut into
+  blocks (never across a label change), each block's AR(``order``) (with a mean
+  if ``mean``) orthogonal parameters and driving variance are computed, and
+  the class prior is their mean and covariance (7.3, A.2.3; the same fit as
+  ``contactlab train``);
+* ``impact`` without inline parameters -- an
+  :class:`~contactlab.observer.models.ImpactFeature` prior on the linear decay
+  ``(mu, a)`` of the log energy fitted to every labelled run of ``trained``
+  (7.1, :meth:`ImpactFeature.fit`), each run starting at its first sample;
+* ``velocity-*`` and inline impacts carry their parameters in the graph file
+  (nothing to train); ``constraint`` is not available yet (an error).
+
+Signals (the observer's measurement streams) come from :func:`trial_signals`:
+``hf`` is y_h of 7.1 with the log floor at half the strain quantisation step
+(as the hf-models experiment), ``strain``/``wrench`` the 250 Hz lowpassed
+signals, ``velocity``/``position`` the raw channels at the conditioned
+samples' newest input sample.  ``reduce="mean"`` replaces a signal's channels
+by their mean (one channel; the choice of hf-models, since the thesis's
+fig 7.9 is one 2-D scatter), ``"none"`` keeps every channel (independent,
+log-likelihoods add).  A conditioned sample carries a training label only if
+every input sample it depends on has that label.
+
+Everything is stored in one models file (``datasets_spec/MODELS.md``, "Graph
+models"): the temporal models in the ``contactlab train`` layout (readable
+by :meth:`ModelSet.load`), the impact priors under ``/impacts``, the signal
+reduction and the graph's provenance in root attributes.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from contactlab import __version__
+from contactlab.errors import DataError
+from contactlab.observer.graph import FeatureGraph, load_graph
+from contactlab.observer.models.impact import ImpactFeature
+
+__all__ = ["GraphModels", "ImpactPrior", "train_graph", "trial_signals", "truth_codes", "REDUCE",
+           "SIGNAL_WINDOW", "load_graph_models"]
+
+#: input samples a conditioned sample depends on (7.1: y_h[k] uses inputs 4k .. 4k+8)
+SIGNAL_WINDOW = {"hf": 9, "strain": 4, "wrench": 4, "velocity": 1, "position": 1}
+REDUCE = ("mean", "none")
+_TRAINED_SIGNALS = ("hf", "strain", "wrench")
+
+
+# -- signals -----------------------------------------------------------------------------
+
+def _half_lsb(y) -> float:
+    steps = np.abs(np.diff(np.asarray(y, float), axis=0))
+    steps = steps[steps > 0]
+    return float(steps.min() / 2) if steps.size else 1e-12
+
+
+def trial_signals(trial, signals, *, reduce: str = "none", path=None
+                  ) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
+    """The observer's measurement streams of an archive trial.
+
+    Returns ``({signal: (n, C)}, index (n,), fs)``: every stream on one 250 Hz
+    (for 1 kHz input) time base, ``index`` the newest input sample of each
+    conditioned sample.  ``reduce`` applies to the conditioned (hf, strain,
+    wrench) streams.  DataError naming the file and field when a stream is missing.
+    """
+    from contactlab.conditioning import condition_strains, lowpass_decimate
+
+    if reduce not in REDUCE:
+        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
+    fs = float(trial.rate_hz)
+    out: dict[str, np.ndarray] = {}
+    indices: dict[str, np.ndarray] = {}
+
+    def need(name):
+        raw = getattr(trial, name)
+        if raw is None:
+            raise DataError(f"trial has no {name} (a graph model reads it)",
+                            file=str(path) if path else None,
+                            field=f"/trials/{trial.id}/measurements/{name}")
+        return np.asarray(raw, dtype=np.float64)
+
+    cond = None
+    for s in signals:
+        if s in ("hf", "strain"):
+            if cond is None or (s == "hf") != cond[0]:
+                strain = need("strain")
+                floor = _half_lsb(strain) if s == "hf" else 1e-12
+                c = condition_strains(strain, fs=fs, cutoff_hz=fs / 8.0, log_floor=floor)
+                cond = (s == "hf", c)
+            c = cond[1]
+            y, idx = (c.hf, c.hf_index) if s == "hf" else (c.low, c.low_index)
+        elif s == "wrench":
+            y = lowpass_decimate(need("wrench"), fs=fs, cutoff_hz=fs / 8.0, factor=4)
+            idx = 4 * np.arange(len(y))
+        elif s in ("velocity", "position"):
+            continue
+        else:
+            raise DataError(f"unknown signal {s!r} (known: hf, strain, wrench, velocity, "
+                            "position)", file=str(path) if path else None,
+                            field=f"/trials/{trial.id}/measurements")
+        y = np.asarray(y, dtype=np.float64)
+        y = y[:, None] if y.ndim == 1 else y
+        if reduce == "mean" and y.shape[1] > 1:
+            y = y.mean(axis=1, keepdims=True)
+        out[s], indices[s] = y, np.asarray(idx, dtype=np.int64)
+    n_in = len(trial.time)
+    if indices:
+        n = min(len(v) for v in indices.values())
+        index = np.minimum(next(iter(indices.values()))[:n], n_in - 1)
+    else:                                               # raw streams only: 4:1
+        index = np.arange(3, n_in, 4)
+        n = len(index)
+    for s in signals:
+        if s in ("velocity", "position"):
+            out[s] = need(s)[index]
+    out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
+    return out, index[:n], fs / 4.0
+
+
+def truth_codes(trial, index, names, *, window: int = 1) -> np.ndarray | None:
+    """Ground truth per conditioned sample as indices into ``names`` (-1: unlabelled, a
+    label not in ``names``, or -- with ``window > 1`` -- a window of input samples
+    ``index - window + 1 .. index`` that is not all one label).  None without truth."""
+    raw = trial.labels
+    if raw is None or trial.label_names is None:
+        return None
+    raw = np.asarray(raw, dtype=np.int64)
+    table = np.array([list(names).index(n) if n in names else -1 for n in trial.label_names]
+                     + [-1], dtype=np.int64)
+    codes = table[raw]                                   # raw -1 -> table[-1] = -1
+    index = np.clip(np.asarray(index, np.int64), 0, len(codes) - 1)
+    if window <= 1:
+        return codes[index]
+    lo = np.clip(index - window + 1, 0, None)
+    run = np.r_[0, np.cumsum(np.diff(codes) != 0)]
+    return np.where(run[lo] == run[index], codes[index], -1)
+
+
+def _runs(codes, code) -> list[tuple[int, int]]:
+    m = np.diff(np.r_[0, (np.asarray(codes) == code).astype(np.int8), 0])
+    return list(zip(np.flatnonzero(m == 1).tolist(), np.flatnonzero(m == -1).tolist()))
+
+
+# -- the models file ---------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ImpactPrior:
+    """A trained impact-decay prior: (C, 2) mean, (C, 2, 2) covariance of (mu, a), (C,) noise."""
+
+    theta_mean: np.ndarray
+    theta_cov: np.ndarray
+    noise_var: np.ndarray
+
+
+@dataclass
+class GraphModels:
+    """Every trained model a graph needs (what ``contactlab train --graph`` writes).
+
+    temporal : label -> :class:`~contactlab.temporal.TemporalModel` (one signal).
+    impacts : label -> :class:`~contactlab.observer.models.ImpactFeature`.
+    signal, fs : the temporal models' conditioned signal and its rate.
+    reduce : ``"mean"`` or ``"none"`` (see :func:`trial_signals`).
+    provenance : archive, trials, settings, graph, created, version, command.
+    channels : the signal's channels used (None: all; [] after a mean).
+    source : the file it was read from (error messages).
+    """
+
+    temporal: dict
+    impacts: dict
+    signal: str
+    fs: float
+    reduce: str = "none"
+    provenance: dict = field(default_factory=dict)
+    channels: list | None = None
+    source: str | None = None
+
+    @property
+    def trained(self) -> dict:
+        """label -> trained object, for :func:`~contactlab.observer.build_models`.
+
+        Impacts are given as :class:`ImpactPrior` (theta_mean, theta_cov, noise_var)
+        so that ``build_models`` names each model after its graph declaration.
+        """
+        out = dict(self.temporal)
+        for lab, m in self.impacts.items():
+            out[lab] = ImpactPrior(np.asarray(m.theta_mean), np.einsum(
+                "cij,ckj->cik", m.theta_sqrt, m.theta_sqrt), np.asarray(m.noise_var))
+        return out
+
+    @property
+    def labels(self) -> list[str]:
+        return list(self.trained)
+
+    def save(self, path, *, force: bool = False) -> None:
+        """Write atomically (refuses to overwrite unless ``force``)."""
+        from contactlab.fileio import atomic_path
+        from contactlab.temporal import ModelSet
+
+        if not self.temporal:
+            raise ValueError("a models file needs at least one temporal model")
+        ms = ModelSet(models=dict(self.temporal), signal=self.signal, fs=self.fs,
+                      provenance=self.provenance, channels=self.channels)
+        with atomic_path(path, force=force) as tmp:
+            ms.save(tmp, force=True)
+            with h5py.File(tmp, "r+") as h5:
+                h5.attrs["reduce"] = self.reduce
+                g = h5.create_group("impacts")
+                for i, (label, m) in enumerate(self.impacts.items()):
+                    sub = g.create_group(str(i))
+                    sub.attrs["label"] = label
+                    sub.attrs["signal"] = m.signal
+                    sub.attrs["n_segments"] = int(getattr(m, "n_segments_", 0))
+                    sub.create_dataset("theta_mean", data=np.asarray(m.theta_mean, np.float64))
+                    sub.create_dataset("theta_cov", data=np.einsum(
+                        "cij,ckj->cik", m.theta_sqrt, m.theta_sqrt))
+                    sub.create_dataset("noise_var", data=np.asarray(m.noise_var, np.float64))
+
+    @classmethod
+    def load(cls, path) -> "GraphModels":
+        """Read a models file (also a plain ``contactlab train`` one: no impacts, no reduce)."""
+        from contactlab.temporal import ModelSet
+
+        ms = ModelSet.load(path)
+        impacts: dict = {}
+        reduce = "none"
+        with h5py.File(path, "r") as h5:
+            r = h5.attrs.get("reduce", "none")
+            reduce = r.decode() if isinstance(r, bytes) else str(r)
+            if reduce not in REDUCE:
+                raise DataError(f"unknown reduce {reduce!r} (known: {', '.join(REDUCE)})",
+                                file=str(path), field="/reduce")
+            g = h5.get("impacts")
+            for key in (sorted(g, key=int) if isinstance(g, h5py.Group) else []):
+                where = f"/impacts/{key}"
+                sub = g[key]
+                try:
+                    label = str(sub.attrs["label"])
+                    mean = np.asarray(sub["theta_mean"][()], np.float64)
+                    cov = np.asarray(sub["theta_cov"][()], np.float64)
+                    var = np.asarray(sub["noise_var"][()], np.float64)
+                    sig = str(sub.attrs.get("signal", ms.signal))
+                    m = ImpactFeature(name=label, theta_mean=mean,
+                                      theta_sqrt=np.linalg.cholesky(cov), noise_var=var,
+                                      signal=sig)
+                except (KeyError, ValueError, np.linalg.LinAlgError) as exc:
+                    raise DataError(f"bad impact prior ({exc})", file=str(path),
+                                    field=where) from None
+                m.n_segments_ = int(sub.attrs.get("n_segments", 0))
+                impacts[label] = m
+        return cls(temporal=dict(ms.models), impacts=impacts, signal=ms.signal, fs=ms.fs,
+                   reduce=reduce, provenance=ms.provenance, channels=ms.channels,
+                   source=str(path))
+
+
+def load_graph_models(path) -> GraphModels:
+    """:meth:`GraphModels.load` (one-line DataError naming the file on bad input)."""
+    return GraphModels.load(path)
+
+
+# -- training ----------------------------------------------------------------------------
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int = 100,
+                reduce: str = "mean", trials=None, quiet: bool = True,
+                command: str | None = None) -> GraphModels:
+    """Fit every trained model ``graph`` names from the labelled trials of ``archive``.
+
+    Parameters
+    ----------
+    archive : path of an archive with ground-truth labels named like the graph's
+        ``trained`` labels.
+    graph : a :class:`FeatureGraph` or a graph file path.
+    order, mean, block : the temporal models' AR(order) (+ mean) and training
+        block length (7.3: a mean and one AR coefficient, units of 100).
+    reduce : ``"mean"`` (channel mean) or ``"none"`` (see :func:`trial_signals`).
+    trials : trial ids to use (default all).
+
+    Raises DataError (one line, file and field) for a label with no data, too
+    few blocks or impacts, a constraint model, or a graph whose temporal
+    models read different signals.
+    """
+    from contactlab.archive import open_archive
+    from contactlab.progress import progress
+    from contactlab.temporal.blocks import cut_blocks
+    from contactlab.temporal.features import BlockFeatures, block_features
+    from contactlab.temporal.model import fit_class
+
+    if not isinstance(graph, FeatureGraph):
+        graph = load_graph(graph)
+    if reduce not in REDUCE:
+        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
+    gsrc = graph.source or "<graph>"
+    temporal_specs, impact_specs = {}, {}
+    for name, spec in graph.models.items():
+        if spec.kind == "constraint":
+            raise DataError("constraint models cannot be trained yet (Constraint estimation "
+                            "issue)", file=gsrc, field=f"models.{name}.kind")
+        if spec.kind == "temporal":
+            temporal_specs.setdefault(spec.trained, spec)
+        elif spec.kind == "impact" and "theta_mean" not in spec.params:
+            impact_specs.setdefault(spec.trained, spec)
+    signals = {s.signal for s in temporal_specs.values()}
+    if not temporal_specs:
+        raise DataError("the graph names no temporal model to train", file=gsrc, field="models")
+    if len(signals) > 1:
+        raise DataError(f"temporal models read different signals {sorted(signals)}; one "
+                        "models file holds one signal", file=gsrc, field="models")
+    signal = signals.pop()
+    bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
+           if s.signal not in _TRAINED_SIGNALS]
+    if bad:
+        raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
+                        f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
+    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs)))
+    all_signals = sorted({s.signal for s in impact_specs.values()} | {signal})
+    path = Path(archive)
+    feats = {lab: [] for lab in temporal_specs}
+    segs: dict[str, list] = {lab: [] for lab in impact_specs}
+    seen_labels: set = set()
+    ids_used = []
+    fs = None
+    with open_archive(path) as arch:
+        ids = list(trials) if trials else list(arch.trial_ids)
+        for tid in progress(ids, desc="train", quiet=quiet, unit="trial"):
+            trial = arch.trial(tid)
+            if trial.labels is None:
+                continue
+            seen_labels.update(trial.label_names or [])
+            data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
+            ids_used.append(tid)
+            for s in all_signals:
+                codes = truth_codes(trial, index, labels, window=SIGNAL_WINDOW[s])
+                y = data[s]
+                for k, lab in enumerate(labels):
+                    if lab in temporal_specs and s == signal:
+                        runs = np.array([(a, b, k) for a, b in _runs(codes, k)],
+                                        dtype=np.int64).reshape(-1, 3)
+                        starts, _ = cut_blocks(runs, block)
+                        if starts.size:
+                            feats[lab].append(block_features(y, order=order, mean=mean,
+                                                             block=block, starts=starts))
+                    if lab in impact_specs and impact_specs[lab].signal == s:
+                        segs[lab].extend(y[a:b] for a, b in _runs(codes, k) if b - a >= 3)
+    if not ids_used:
+        raise DataError("no trial has ground-truth labels", file=str(path),
+                        field="/trials/*/ground_truth/labels")
+    temporal = {}
+    for lab, parts in feats.items():
+        spec = temporal_specs[lab]
+        if lab not in seen_labels:
+            raise DataError(f"no label {lab!r} in the ground truth (labels: "
+                            f"{', '.join(sorted(seen_labels))})", file=str(path),
+                            field=f"ground_truth/labels (graph models.{spec.name}.trained)")
+        width = parts[0].orthogonal.shape[1] if parts else 1
+        f = BlockFeatures.concat(parts, order=order, mean=mean, block=block, channels=width)
+        try:
+            temporal[lab] = fit_class(lab, f, block=block)
+        except ValueError as exc:
+            raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
+    impacts = {}
+    for lab, ss in segs.items():
+        spec = impact_specs[lab]
+        if lab not in seen_labels:
+            raise DataError(f"no label {lab!r} in the ground truth (labels: "
+                            f"{', '.join(sorted(seen_labels))})", file=str(path),
+                            field=f"ground_truth/labels (graph models.{spec.name}.trained)")
+        try:
+            m = ImpactFeature.fit(ss, name=lab, signal=spec.signal)
+        except ValueError as exc:
+            raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
+        m.n_segments_ = len(ss)
+        impacts[lab] = m
+    provenance = {
+        "archive": str(path.resolve()), "archive_sha256": _sha256(path), "trials": ids_used,
+        "labels": "truth", "classes": list(temporal), "impacts": list(impacts), "skipped": {},
+        "signal": signal, "reduce": reduce, "block": int(block), "order": int(order),
+        "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
+        "impact_segments": {k: len(v) for k, v in segs.items()},
+        "graph": {"name": graph.name, "source": graph.source,
+                  "sha256": _sha256(Path(graph.source)) if graph.source
+                  and Path(graph.source).is_file() else None},
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "contactlab_version": __version__,
+        "command": command if command is not None else " ".join(
+            [os.path.basename(sys.argv[0])] + sys.argv[1:]),
+    }
+    return GraphModels(temporal=temporal, impacts=impacts, signal=signal, fs=float(fs),
+                       reduce=reduce, provenance=provenance,
+                       channels=None if reduce == "none" else [])

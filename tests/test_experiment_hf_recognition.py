@@ -1,0 +1,51 @@
+"""hf-recognition: the supervised Gaussian-HMM peer and the registry entry."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactlab.experiments import hf_recognition as hr
+
+
+def _runs(seed):
+    rng = np.random.default_rng(seed)
+    levels = np.array([-6.0, -4.0, -2.0, 0.0])
+    out = []
+    for plan in ([0, 1, 3, 2], [0, 1, 0], [0, 1, 3, 2, 0]):
+        truth = np.concatenate([np.full(rng.integers(40, 80), s) for s in plan])
+        y = levels[truth][:, None] + rng.normal(scale=0.3, size=(len(truth), 1))
+        truth = truth.astype(np.int64)
+        out.append({"id": str(len(out)), "y": y, "truth": truth, "pure": truth})
+    return out
+
+
+def test_hmm_is_the_supervised_fit():
+    runs = _runs(0)
+    m = hr.fit_hmm(runs, pseudo=1.0)
+    y = np.concatenate([r["y"] for r in runs])[:, 0]
+    t = np.concatenate([r["truth"] for r in runs])
+    for k in range(4):
+        assert m.means_[k, 0] == pytest.approx(y[t == k].mean())
+        assert m.covars_[k, 0, 0] == pytest.approx(y[t == k].var(ddof=1), rel=1e-6)
+    counts = np.ones((4, 4))
+    for r in runs:
+        for a, b in zip(r["truth"][:-1], r["truth"][1:]):
+            counts[a, b] += 1
+    assert np.allclose(m.transmat_, counts / counts.sum(axis=1, keepdims=True))
+    assert np.allclose(m.startprob_, np.array([4.0, 1, 1, 1]) / 7)
+
+
+def test_hmm_viterbi_recovers_separated_states():
+    m = hr.fit_hmm(_runs(0))
+    test = _runs(1)
+    conf, secs, states = hr.decode_hmm(m, test)
+    assert conf.sum() == sum(len(r["truth"]) for r in test)
+    assert np.trace(conf) / conf.sum() > 0.97
+    assert secs >= 0 and len(states) == len(test)
+
+
+def test_registered():
+    from contactlab.experiments import get
+    e = get("hf-recognition")
+    assert e.implemented and e.runner() is hr.run

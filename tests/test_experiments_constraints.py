@@ -1,0 +1,127 @@
+"""Experiments cartesian-estimation, constraint-degree, constraint-direction (8.1.1.2, 8.2, 8.3)
+on reduced settings: short runs, few draws, few blocks."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from contactlab.constraints import FORCE_SD, CartesianConstraint, decide_direction
+from contactlab.experiments import cartesian_estimation as ce
+from contactlab.experiments import constraint_degree as cd
+from contactlab.experiments import constraint_direction as cdir
+
+SHORT = 0.4          # s per run: 100 samples at 250 Hz, 400 per group
+
+
+@pytest.fixture(scope="module")
+def groups():
+    return ce.load_groups(seed=3, duration_s=SHORT)
+
+
+def test_groups_carry_the_simulated_geometry(groups):
+    assert [groups[g].degree for g in ce.GROUPS] == [0, 1, 2, 3]
+    for g in ce.GROUPS:
+        gd = groups[g]
+        assert len(gd) == 4 * 100 and gd.position.shape == gd.force.shape == (400, 3)
+        N = gd.normals
+        np.testing.assert_allclose(N.T @ N, np.eye(N.shape[1]), atol=1e-12)
+    # plane normal is +-z; the line's normals span {y, z}; the corner spans R^3
+    np.testing.assert_allclose(np.abs(groups["plane"].normals[:, 0]), [0, 0, 1], atol=1e-12)
+    Q = groups["line"].normals
+    np.testing.assert_allclose(Q @ Q.T, np.diag([0.0, 1.0, 1.0]), atol=1e-12)
+    # tare: the free-space group's mean force is zero; contact groups push along their normals
+    np.testing.assert_allclose(groups["free"].force.mean(axis=0), 0.0, atol=1e-12)
+    fz = groups["plane"].force.mean(axis=0) @ groups["plane"].normals[:, 0]
+    assert abs(fz) > 50 * FORCE_SD
+
+
+def test_constraint_form_recovers_true_normals_and_is_exact_for_free_and_fixed(groups):
+    cfgs = [c for c in ce.CONFIGS if c.key in ("constraint-friction", "stiffness-friction")]
+    errs = ce.draw_errors(groups, seed=1, sizes=(25, 100), draws=3, configs=cfgs)
+    con = errs["constraint-friction"]
+    for g in ("free", "corner"):          # nothing to estimate: the frame is exact (NA)
+        assert np.all(con[g]["deviation"] <= 1e-12)
+    assert np.all(con["plane"]["angle_deg"] < 1.0)
+    # the deviation is 1 - cos of the largest principal angle (independent check)
+    a = np.radians(con["plane"]["angle_deg"])
+    np.testing.assert_allclose(con["plane"]["deviation"], 1 - np.cos(a), atol=1e-12)
+    # the constraint form's own criterion never prefers the truth by more than rounding
+    # on the plane (the optimum was found)
+    assert np.all(con["plane"]["loglik_true"] <= con["plane"]["loglik"] + 1e-6 *
+                  np.abs(con["plane"]["loglik"]))
+    assert np.all(np.isfinite(errs["stiffness-friction"]["plane"]["angle_deg"]))
+
+
+def test_true_projection_matches_joint_projection_oracle(groups):
+    fit = CartesianConstraint(degree=1).fit(groups["plane"].position[:50],
+                                             groups["plane"].force[:50])
+    P = ce.true_projection(groups["plane"].normals, fit.scaling)
+    expect = np.zeros((6, 3))
+    expect[:3, 0] = groups["plane"].normals[:, 0]
+    assert np.allclose(np.abs(P.T @ expect).max(axis=0)[:1], 1.0)
+    np.testing.assert_allclose(P.T @ P, np.eye(3), atol=1e-12)
+
+
+def test_blocks_are_consecutive_within_one_run_and_random_without_repeats(groups):
+    rng = np.random.default_rng(0)
+    gd = groups["line"]
+    idx = cd.consecutive_blocks(gd, n_blocks=200, block=25, rng=rng)
+    assert np.all(np.diff(idx, axis=1) == 1)
+    assert np.all(gd.run[idx] == gd.run[idx[:, :1]])
+    r = cd.random_blocks(gd, n_blocks=50, block=25, rng=rng)
+    assert all(len(set(row)) == 25 for row in r.tolist())
+
+
+def test_posterior_top_is_the_normalised_maximum():
+    ll = np.array([[0.0, math.log(3.0)], [-np.inf, 1.0]])
+    np.testing.assert_allclose(cd.posterior_top(ll), [0.75, 1.0])
+
+
+def test_degree_tests_on_rich_blocks_and_the_noise_warning():
+    res = cd.run_tests(seed=5, n_blocks=60, duration_s=SHORT)
+    r = res["kinds"]["random"]
+    y = r["true"]
+    assert np.mean(r["likelihood"]["thesis_rule"] == y) > 0.9     # truth from the simulator
+    assert np.mean(r["alignment"] == y) > 0.9
+    # pure noise: the exploration gate declares it undetermined, the alignment test does not
+    assert np.all(res["noise_likelihood"]["gated"] < 0)
+    assert np.median(r["noise_alignment_posterior"]) > 0.9
+
+
+def test_rotation_is_a_rotation_about_the_axis():
+    R = cdir.rotation("x", 30.0)
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(R @ [0, 1, 0], [0, math.cos(math.pi / 6), math.sin(math.pi / 6)],
+                               atol=1e-15)
+    np.testing.assert_allclose(R @ [1, 0, 0], [1, 0, 0])
+    assert cdir.correct_fraction(np.array([1.0, -1.0, 0.0, 0.0])) == 0.5
+
+
+def test_direction_cannot_tell_top_from_bottom_but_tells_20_degrees(groups):
+    gd = groups["plane"]
+    rng = np.random.default_rng(2)
+    idx = cd.random_blocks(gd, n_blocks=40, block=25, rng=rng)
+    fits = CartesianConstraint(degree=1, friction=True).fit_blocks(
+        gd.position[idx], gd.force[idx], gd.velocity[idx])
+    N = gd.normals
+    _, s = decide_direction(fits, [N, -N])
+    np.testing.assert_array_equal(s[:, 0], s[:, 1])
+    choice, _ = decide_direction(fits, [N, cdir.rotation("x", 20.0) @ N])
+    assert np.mean(choice == 0) > 0.9
+
+
+@pytest.mark.parametrize("module,kw", [
+    (ce, {"sizes": (8, 25, 100), "draws": 2}),
+    (cd, {"n_blocks": 40}),
+    (cdir, {"angles": (5.0, 20.0), "n_nominal": 2, "blocks": 5}),
+])
+def test_run_writes_page_and_summary(tmp_path, module, kw):
+    summary = module.run(out_dir=tmp_path, seed=0, quiet=True, duration_s=SHORT, **kw)
+    assert (tmp_path / "index.html").exists() and (tmp_path / "report.pdf").exists()
+    on_disk = json.loads((tmp_path / "results.json").read_text())
+    assert on_disk["experiment"] == summary["experiment"]
+    assert "Where ours differ" in (tmp_path / "index.html").read_text()
