@@ -239,3 +239,18 @@ def test_buffers_stay_bounded_on_a_long_stream():
         assert len(obs.paths()) <= 16
     assert longest < 20_000
     assert obs.n_seen_ == n
+
+
+def test_trained_feature_objects_take_the_graph_model_names():
+    """A trained ImpactFeature named by its label ("H3") serves graph model "I" as "I"."""
+    from pathlib import Path
+
+    from contactlab.observer import load_graph
+    from contactlab.observer.models.composite import _build
+
+    graph = load_graph(Path(__file__).parents[1] / "datasets_spec/graphs/hf-context-free.toml")
+    impact = ImpactFeature(name="H3", theta_mean=[0.0, -0.02], theta_sqrt=np.eye(2) * 0.01,
+                           noise_var=0.1)
+    built = _build(graph.models["I"], {"H3": impact}, graph, "m.h5")
+    assert built.name == "I" and built.signal == "hf"
+    assert impact.name == "H3"                      # the trained object is not mutated

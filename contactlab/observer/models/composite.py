@@ -9,6 +9,8 @@ objects, using trained models where the declaration names one.
 
 from __future__ import annotations
 
+import copy
+
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -84,10 +86,10 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
     obj = trained[label]
     if spec.kind == "temporal":
         if isinstance(obj, TemporalFeature):
-            return obj
+            return _renamed(obj, spec)
         return TemporalFeature.from_trained(obj, name=spec.name, signal=spec.signal)
     if isinstance(obj, ImpactFeature):
-        return obj
+        return _renamed(obj, spec)
     if hasattr(obj, "order"):
         raise DataError(f"trained model {label!r} is an AR model; the impact model needs an "
                         "impact-decay prior (ImpactFeature.fit)", file=source or graph.source,
@@ -95,3 +97,14 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
     return ImpactFeature(name=spec.name, theta_mean=obj.theta_mean,
                          theta_sqrt=np.linalg.cholesky(np.asarray(obj.theta_cov)),
                          noise_var=obj.noise_var, signal=spec.signal)
+
+
+def _renamed(model: FeatureModel, spec: ModelSpec) -> FeatureModel:
+    """``model`` under the graph's name and signal for it (the observer keys models by
+    the graph's names, which need not be the training labels)."""
+    if model.name == spec.name and getattr(model, "signal", spec.signal) == spec.signal:
+        return model
+    out = copy.copy(model)
+    out.name = spec.name
+    out.signal = spec.signal
+    return out
