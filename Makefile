@@ -20,14 +20,20 @@ $(STAMP): pyproject.toml | $(BIN)/python
 env: $(STAMP)
 
 ## Run the main job end to end on simulated data and write a report under reports/:
-## simulate a small stroking dataset, report it, then reproduce the experiments.
+## simulate the thesis's high-frequency training and test runs (7.3), train every model
+## of the four-node feature graph, recognise the contact state of the test runs with the
+## observer (6.4), report the archive with its results, then reproduce two experiments.
+GRAPH := datasets_spec/graphs/hf-context-free.toml
 demo: $(STAMP)
 	@mkdir -p build/demo
-	$(BIN)/contactlab acquire --spec stroke-a --trials 2 --seed $(SEED) --out build/demo/stroke-a.h5 --force
-	$(BIN)/contactlab validate build/demo/stroke-a.h5
-	$(BIN)/contactlab report build/demo/stroke-a.h5 --out reports/stroke-a
-	$(BIN)/contactlab reproduce ph-demo ph-roc datasets --out reports --seed $(SEED)
-	@echo "demo report: reports/index.html (dataset report: reports/stroke-a/index.html)"
+	$(BIN)/contactlab acquire --spec hf-train --seed $(SEED) --out build/demo/hf-train.h5 --force
+	$(BIN)/contactlab acquire --spec hf-test --seed $(SEED) --out build/demo/hf-test.h5 --force
+	$(BIN)/contactlab validate build/demo/hf-test.h5
+	$(BIN)/contactlab train build/demo/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out build/demo/hf-models.h5 --force
+	$(BIN)/contactlab recognize build/demo/hf-test.h5 --graph $(GRAPH) --models build/demo/hf-models.h5
+	$(BIN)/contactlab report build/demo/hf-test.h5 --out reports/demo
+	$(BIN)/contactlab reproduce ph-demo hf-recognition --out reports --seed $(SEED)
+	@echo "demo report: reports/demo/index.html (experiments: reports/index.html)"
 
 ## Run the test suite.
 test: $(STAMP)

@@ -178,5 +178,29 @@ def _plot_results(trial, results: dict, fig) -> None:
     fig.tight_layout()
 
 
+def _plot_recognize(trial, results: dict, fig) -> None:
+    """``recognize``: node probabilities over time, and truth beside the MAP labels."""
+    t = np.asarray(results["time_s"], dtype=float)
+    prob = np.asarray(results["node_prob"], dtype=float)
+    names = [x for x in str(getattr(results, "attrs", {}).get("nodes", "")).split(",") if x]
+    names = names if len(names) == prob.shape[1] else [f"node {k}" for k in range(prob.shape[1])]
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    ax1.stackplot(t, prob.T, labels=names, alpha=0.85)
+    ax1.set_ylim(0, 1)
+    ax1.set_ylabel("P(node)", fontsize=8)
+    ax1.legend(fontsize=7, ncol=len(names), loc="upper right")
+    ax2.step(t, np.asarray(results["labels"]), where="post", lw=1.2, label="MAP path")
+    if "truth" in results:
+        ax2.step(t, np.asarray(results["truth"]), where="post", lw=0.8, ls="--", color="k",
+                 label="truth")
+    ax2.set_yticks(range(len(names)), names, fontsize=7)
+    ax2.legend(fontsize=7, loc="upper right")
+    ax2.set_xlabel("time (s)")
+    fig.tight_layout()
+
+
+RESULT_PLOTTERS["recognize"] = _plot_recognize
+
+
 def _safe(s: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in str(s))

@@ -78,6 +78,7 @@ class ReportPage:
         png = self.out_dir / f"{name}.png"
         with atomic_path(png, force=True) as tmp:
             fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+        plt.close(fig)     # out of pyplot's registry; the object stays drawable for the PDF
         self._blocks.append(_Block("figure", text=caption, name=name, figure=fig))
         return png
 
