@@ -34,13 +34,18 @@ def _thresholds(ctx, param, value):
               help="Segment at each threshold (fig 7.7); prints, writes nothing.")
 @click.option("--change-size", type=float, default=2.5, show_default=True,
               help="Covariance change q tested up (q) and down (1/q).")
+@click.option("--combine", type=click.Choice(["sum", "channel"]), default="sum",
+              show_default=True,
+              help="sum: the thesis's one chi-square test over all channels; channel: one "
+                   "Page-Hinkley test per channel, a change when any fires (finds changes "
+                   "confined to a few channels; beyond the thesis).")
 @click.option("--tolerance", type=float, default=0.1, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option
 @quiet_option
-def segment(archive, signal, order, threshold, sweep_values, change_size, tolerance, trials,
-            as_json, quiet):
+def segment(archive, signal, order, threshold, sweep_values, change_size, combine, tolerance,
+            trials, as_json, quiet):
     """Segment every trial of ARCHIVE with the AR + Page-Hinkley detector of 7.2.1.
 
     Per channel a square-root AR estimator; the sum of squared normalised
@@ -49,6 +54,9 @@ def segment(archive, signal, order, threshold, sweep_values, change_size, tolera
     Boundaries (the first sample of each new segment, s), the detector's
     change-time estimates and alarm times are written to each trial's
     results/segment (never over the measurements).
+    With --combine channel each channel gets its own two-sided test (same
+    change size and threshold) and the first to fire restarts all; the firing
+    channel is reported as alarm_channels.
     Where the archive has ground-truth segments, boundary precision, recall
     and F1 within --tolerance are reported (ruptures' metric).
 
@@ -57,6 +65,7 @@ def segment(archive, signal, order, threshold, sweep_values, change_size, tolera
       contactlab segment runs.h5
       contactlab segment runs.h5 --signal wrench --threshold 100 --json
       contactlab segment runs.h5 --trial stroke-a-000 --sweep 50,100,200,400
+      contactlab segment runs.h5 --combine channel --threshold 50 --json
     """
     from contactlab.segmentation import run_archive
 
@@ -73,7 +82,8 @@ def segment(archive, signal, order, threshold, sweep_values, change_size, tolera
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
     summary = run_archive(archive, signal=signal, order=order, threshold=threshold,
                           thresholds=sweep_values, change_size=change_size,
-                          tolerance_s=tolerance, trials=list(trials) or None, quiet=quiet)
+                          combine=combine, tolerance_s=tolerance, trials=list(trials) or None,
+                          quiet=quiet)
     if as_json:
         echo_json(summary)
         return

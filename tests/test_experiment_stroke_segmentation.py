@@ -166,7 +166,7 @@ def test_quick_run_writes_page_and_summary(tmp_path):
     from contactlab.experiments.stroke_segmentation import run
 
     out = run(out_dir=tmp_path, seed=0, quiet=True, trials_per_spec=1, pelt_timed=0,
-              beta_grid=(10.0, 30.0))
+              beta_grid=(10.0, 30.0), fa_seconds=20.0)
     assert (tmp_path / "index.html").exists() and (tmp_path / "results.json").exists()
     assert out["trials"] == ["stroke-a-000", "stroke-b-000"]
     for tid, truth in out["truth"].items():
@@ -179,3 +179,13 @@ def test_quick_run_writes_page_and_summary(tmp_path):
     sweep = out["sweep"]
     counts = [sweep[k]["mean_boundaries"] for k in sweep]
     assert counts == sorted(counts, reverse=True)
+    # the per-channel combination: its own sweep, best threshold and side-by-side rows
+    ch = out["channel"]
+    assert set(ch["sweep"]) == set(sweep)
+    best = ch["best_threshold"]
+    assert ch["sweep"][f"{best:g}"]["f1"] == max(r["f1"] for r in ch["sweep"].values())
+    assert out["side_by_side"][f"contactlab channel @ {best:g} (best F1)"]["f1"] == \
+        ch["sweep"][f"{best:g}"]["f1"]
+    fa = ch["false_alarms_per_1000_s"]
+    assert set(fa["channel"]) == set(fa["sum"]) and len(fa["sum"]) >= 3
+    assert f"channel@{best:g}" in out["timing"]["per_trial_s"]
