@@ -56,6 +56,7 @@ from scipy import signal
 __all__ = [
     "DEFAULT_LOG_FLOOR", "butter_sos", "lowpass_delay", "difference", "lowpass_decimate",
     "log_energy", "velocity_from_position", "condition_strains", "Conditioned",
+    "quantisation_floor",
     "Differencer", "LowpassDecimator", "LogEnergy", "StrainConditioner", "VelocityEstimator",
 ]
 
@@ -256,6 +257,16 @@ def lowpass_decimate(y, *, fs: float = 1000.0, cutoff_hz: float = 125.0, order: 
     """
     return LowpassDecimator(fs=fs, cutoff_hz=cutoff_hz, order=order, factor=factor,
                             initial=initial).process(y)
+
+
+def quantisation_floor(y) -> float:
+    """Half the smallest non-zero step of ``y`` along time: half an LSB for quantised
+    data, the ``floor`` under ``|y_d|`` that keeps exact zeros of the difference
+    from entering y_h as ``log(1e-12)`` (see the module notes).  Falls back to
+    :data:`DEFAULT_LOG_FLOOR` for constant data."""
+    steps = np.abs(np.diff(np.asarray(y, dtype=np.float64), axis=0))
+    steps = steps[steps > 0]
+    return float(steps.min() / 2) if steps.size else DEFAULT_LOG_FLOOR
 
 
 def log_energy(y, *, block: int = 8, factor: int = 4,

@@ -91,7 +91,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from contactlab.conditioning import condition_strains, lowpass_decimate
+from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
 from contactlab.detection import PageHinkley, VarianceChangeDetector
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
@@ -402,7 +402,10 @@ def conditioned_signal(trial, signal: str = "strain") -> tuple[np.ndarray, np.nd
         y = lowpass_decimate(raw, fs=fs, cutoff_hz=cutoff, factor=4)
         index = 4 * np.arange(len(y))
         return y, time[index], fs / 4.0
-    cond = condition_strains(raw, fs=fs, cutoff_hz=cutoff)
+    # y_h's log floor: half the converter step (exact zeros of the difference of
+    # quantised strains would otherwise enter as log(1e-12); 7.1, module notes of
+    # contactlab.conditioning).  Only the hf output depends on it.
+    cond = condition_strains(raw, fs=fs, cutoff_hz=cutoff, log_floor=quantisation_floor(raw))
     if signal == "strain":
         return cond.low, time[cond.low_index], cond.fs_out
     index = np.minimum(cond.hf_index, len(time) - 1)   # newest input of each block

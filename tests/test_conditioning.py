@@ -207,3 +207,13 @@ def test_bad_parameters_are_named():
         log_energy(np.zeros(10), block=0)
     with pytest.raises(ValueError, match="time first"):
         condition_strains(np.zeros((3, 3, 3)))
+
+
+def test_quantisation_floor_is_half_the_converter_step():
+    from contactlab.conditioning import quantisation_floor
+
+    rng = np.random.default_rng(3)
+    lsb = 10.0 / 4096
+    y = np.round(rng.normal(0, 3 * lsb, size=(5000, 2)) / lsb) * lsb     # 12-bit codes
+    assert quantisation_floor(y) == pytest.approx(lsb / 2, rel=1e-9)
+    assert quantisation_floor(np.ones((10, 3))) == 1e-12                # constant: fallback

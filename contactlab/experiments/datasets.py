@@ -236,20 +236,14 @@ def wall_angle_deg(environment, wall: str = "wall_y") -> float:
     return float(np.degrees(np.arctan2(-ny, -nx)))        # (-1, 0) turned by a: (-cos a, -sin a)
 
 
-def _half_lsb(y) -> float:
-    steps = np.abs(np.diff(np.asarray(y, float), axis=0))
-    steps = steps[steps > 0]
-    return float(steps.min() / 2) if steps.size else 1e-12
-
-
 def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: int) -> dict:
     """Mean log-energy y_h (7.1; channel mean, log floor half an LSB as in the drawings) over
     the 250 Hz blocks whose input samples all share one truth class: "rest" (not moving, no
     impact) or texture ``t`` (moving over material ``t``, no impact). NaN when a class has
     no whole block."""
-    from contactlab.conditioning import condition_strains
+    from contactlab.conditioning import condition_strains, quantisation_floor
 
-    cond = condition_strains(strain, fs=rate_hz, log_floor=_half_lsb(strain))
+    cond = condition_strains(strain, fs=rate_hz, log_floor=quantisation_floor(strain))
     yh = np.asarray(cond.hf, float).reshape(len(cond.hf), -1).mean(axis=1)
     moving = np.asarray(moving, bool)
     impact = np.asarray(impact, bool)

@@ -235,11 +235,9 @@ WINDOW = {"strain": 4, "wrench": 4, "hf": 9}
 
 
 def half_lsb(y) -> float:
-    """Half the smallest non-zero step of ``y`` (the quantisation step / 2): the log
-    floor of y_h for quantised strains (see :mod:`contactlab.conditioning`)."""
-    steps = np.abs(np.diff(np.asarray(y, float), axis=0))
-    steps = steps[steps > 0]
-    return float(steps.min() / 2) if steps.size else 1e-12
+    """Half the quantisation step of ``y``: :func:`contactlab.conditioning.quantisation_floor`."""
+    from contactlab.conditioning import quantisation_floor
+    return quantisation_floor(y)
 
 
 def conditioned(trial, signal: str) -> tuple[np.ndarray, np.ndarray]:

@@ -59,12 +59,6 @@ _TRAINED_SIGNALS = ("hf", "strain", "wrench")
 
 # -- signals -----------------------------------------------------------------------------
 
-def _half_lsb(y) -> float:
-    steps = np.abs(np.diff(np.asarray(y, float), axis=0))
-    steps = steps[steps > 0]
-    return float(steps.min() / 2) if steps.size else 1e-12
-
-
 def trial_signals(trial, signals, *, reduce: str = "none", path=None
                   ) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
     """The observer's measurement streams of an archive trial.
@@ -74,7 +68,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     conditioned sample.  ``reduce`` applies to the conditioned (hf, strain,
     wrench) streams.  DataError naming the file and field when a stream is missing.
     """
-    from contactlab.conditioning import condition_strains, lowpass_decimate
+    from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
 
     if reduce not in REDUCE:
         raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
@@ -95,7 +89,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         if s in ("hf", "strain"):
             if cond is None or (s == "hf") != cond[0]:
                 strain = need("strain")
-                floor = _half_lsb(strain) if s == "hf" else 1e-12
+                floor = quantisation_floor(strain) if s == "hf" else 1e-12
                 c = condition_strains(strain, fs=fs, cutoff_hz=fs / 8.0, log_floor=floor)
                 cond = (s == "hf", c)
             c = cond[1]

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
-from contactlab.conditioning import condition_strains  # noqa: E402
+from contactlab.conditioning import condition_strains, quantisation_floor  # noqa: E402
 from contactlab.errors import DataError  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -120,7 +120,8 @@ def _plot_measurements(trial):
     if trial.strain is not None:
         panels.append(("strain", t, trial.strain, None))
     if hf_source is not None and len(t) > 16:
-        cond = condition_strains(hf_source, fs=trial.rate_hz, log_floor=_half_lsb(hf_source))
+        cond = condition_strains(hf_source, fs=trial.rate_hz,
+                                 log_floor=quantisation_floor(hf_source))
         # plotted at the newest input sample of each block (causal, as on line)
         panels.append(("log-energy y_h", cond.hf_times(t[0]), cond.hf, None))
     has_labels = trial.labels is not None
@@ -147,13 +148,6 @@ def _plot_measurements(trial):
     fig.suptitle(f"Trial {trial.id}", fontsize=10)
     fig.tight_layout()
     return fig
-
-
-def _half_lsb(y) -> float:
-    """Half the smallest non-zero step of quantised data: the log(0) floor of y_h."""
-    steps = np.abs(np.diff(np.asarray(y, dtype=float), axis=0))
-    steps = steps[steps > 0]
-    return float(steps.min() / 2) if steps.size else 1e-12
 
 
 def _plot_results(trial, results: dict, fig) -> None:
