@@ -6,6 +6,8 @@ and an existing file is replaced only when ``force`` is true.
 
 from __future__ import annotations
 
+import hashlib
+
 import contextlib
 import os
 import tempfile
@@ -51,3 +53,12 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` to ``path`` atomically (replacing it: reports are derived)."""
     with atomic_path(path, force=True) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def sha256_file(path) -> str:
+    """Hex SHA-256 of the file at ``path`` (read in 1 MiB chunks): training provenance."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -66,6 +66,7 @@ from contactlab.segmentation import (  # noqa: E402
     pooled_metrics,
     segment_signal,
 )
+from contactlab.timing import best_time_and_result  # noqa: E402
 
 SPECS = ("stroke-a", "stroke-b")
 ORDER = 2
@@ -251,14 +252,6 @@ def peer_boundaries(y, times, *, algo: str, beta: float, fast: bool = True) -> n
     pen = beta * noise_variance(y) * np.log(len(y))
     return np.asarray(times)[np.asarray(det.predict(pen=pen)[:-1], int)]
 
-
-def _timed(fn, repeats: int = 1):
-    best, out = float("inf"), None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 # ---------------------------------------------------------------------------
@@ -534,16 +527,17 @@ def _timings(trials, best_thr, best_beta, *, pelt_timed: int, quiet: bool,
     same = {"Binseg": [], "Pelt": []}
     for i, t in enumerate(progress(trials, desc="timing", quiet=quiet, unit="trial")):
         for key, thr, mode in ours:
-            rows[key].append(_timed(lambda thr=thr, mode=mode: segment_signal(
+            rows[key].append(best_time_and_result(lambda thr=thr, mode=mode: segment_signal(
                 t["y"], fs=t["fs"], times=t["times"], threshold=thr, combine=mode),
                 repeats=3)[0])
         for algo in ("Binseg", "Pelt"):
-            tf, bf = _timed(lambda algo=algo: peer_boundaries(t["y"], t["times"], algo=algo,
-                                                              beta=best_beta[algo]))
+            tf, bf = best_time_and_result(
+                lambda algo=algo: peer_boundaries(t["y"], t["times"], algo=algo,
+                                                  beta=best_beta[algo]), repeats=1)
             rows[f"{algo} fast"].append(tf)
             if algo == "Binseg" or i < pelt_timed:
-                ts, bs = _timed(lambda algo=algo: peer_boundaries(
-                    t["y"], t["times"], algo=algo, beta=best_beta[algo], fast=False))
+                ts, bs = best_time_and_result(lambda algo=algo: peer_boundaries(
+                    t["y"], t["times"], algo=algo, beta=best_beta[algo], fast=False), repeats=1)
                 rows[f"{algo} CostAR"].append(ts)
                 same[algo].append(bool(np.array_equal(bf, bs)))
     return {"per_trial_s": {k: float(np.mean(v)) for k, v in rows.items() if v},

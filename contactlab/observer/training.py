@@ -34,7 +34,6 @@ reduction and the graph's provenance in root attributes.
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import os
 import sys
 from dataclasses import dataclass, field
@@ -47,6 +46,7 @@ from contactlab import __version__
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
+from contactlab.fileio import sha256_file
 
 __all__ = ["GraphModels", "ImpactPrior", "train_graph", "trial_signals", "truth_codes", "REDUCE",
            "SIGNAL_WINDOW", "load_graph_models"]
@@ -264,13 +264,6 @@ def load_graph_models(path) -> GraphModels:
 
 # -- training ----------------------------------------------------------------------------
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
 
 def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int = 100,
                 reduce: str = "mean", trials=None, quiet: bool = True,
@@ -383,13 +376,13 @@ def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int
         m.n_segments_ = len(ss)
         impacts[lab] = m
     provenance = {
-        "archive": str(path.resolve()), "archive_sha256": _sha256(path), "trials": ids_used,
+        "archive": str(path.resolve()), "archive_sha256": sha256_file(path), "trials": ids_used,
         "labels": "truth", "classes": list(temporal), "impacts": list(impacts), "skipped": {},
         "signal": signal, "reduce": reduce, "block": int(block), "order": int(order),
         "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
         "impact_segments": {k: len(v) for k, v in segs.items()},
         "graph": {"name": graph.name, "source": graph.source,
-                  "sha256": _sha256(Path(graph.source)) if graph.source
+                  "sha256": sha256_file(Path(graph.source)) if graph.source
                   and Path(graph.source).is_file() else None},
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "contactlab_version": __version__,

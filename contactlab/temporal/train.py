@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import hashlib
 import os
 import sys
 from dataclasses import dataclass
@@ -27,6 +26,7 @@ from contactlab.segmentation import SIGNALS
 from contactlab.temporal.blocks import TrialSignal, cut_blocks, label_runs, load_signal
 from contactlab.temporal.features import BlockFeatures, block_features, min_block
 from contactlab.temporal.model import ModelSet, TemporalModel, fit_class
+from contactlab.fileio import sha256_file
 
 __all__ = ["LabelledBlocks", "collect_blocks", "fit_models", "train_temporal", "check_settings"]
 
@@ -231,13 +231,6 @@ def fit_models(blocks: LabelledBlocks, *, classes=None, mask=None, path=None
     return models, skipped
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
 
 def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", order: int = 2,
                    mean: bool = False, block: int = 100, trials=None, classes=None,
@@ -273,7 +266,7 @@ def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", or
     models, skipped = fit_models(blocks, classes=classes, path=str(path))
     provenance = {
         "archive": str(Path(path).resolve()),
-        "archive_sha256": _sha256(Path(path)),
+        "archive_sha256": sha256_file(Path(path)),
         "trials": ids,
         "labels": labels,
         "classes": list(models),
