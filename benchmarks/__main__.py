@@ -37,8 +37,10 @@ def main(argv: list[str] | None = None) -> int:
             ratio = row.get("ratio")
             peer = row.get("peer") or "-"
             peer_s = row.get("peer_s")
-            line = (f"  {row['name']:<48} ours {row['ours_s'] * 1e3:10.3f} ms")
-            if peer_s is not None:
+            line = f"  {row['name']:<48}"
+            if row.get("ours_s") is not None:
+                line += f" ours {row['ours_s'] * 1e3:10.3f} ms"
+            if peer_s is not None and ratio is not None:
                 line += f"   {peer:<28} {peer_s * 1e3:10.3f} ms   ratio {ratio:8.1f}x"
             print(line)
             if row.get("notes"):
