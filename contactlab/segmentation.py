@@ -556,10 +556,7 @@ def run_archive(path, *, signal: str = "strain", order: int = 2, threshold: floa
     runs: dict[str, dict[float, Segmentation]] = {}
     truths: dict[str, np.ndarray | None] = {}
     with open_archive(path) as archive:
-        ids = list(trials) if trials else list(archive.trial_ids)
-        for tid in ids:
-            if tid not in archive:
-                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        ids = archive.select(trials)
         for tid in progress(ids, desc="segment", quiet=quiet, unit="trial"):
             trial = archive.trial(tid)
             try:

@@ -113,6 +113,15 @@ class Archive:
         with unreadable_as_data_error(self.path, field):
             return Trial(self, self._h5["trials"][trial_id])
 
+    def select(self, trial_ids=None) -> list[str]:
+        """``trial_ids`` checked against the archive (every trial when None or empty);
+        DataError naming the first one it does not hold."""
+        ids = list(trial_ids) if trial_ids else list(self.trial_ids)
+        for tid in ids:
+            if tid not in self.trial_ids:
+                raise DataError("no such trial", file=str(self.path), field=f"/trials/{tid}")
+        return ids
+
     def __iter__(self) -> Iterator[Trial]:
         return (self.trial(tid) for tid in self.trial_ids)
 

@@ -119,10 +119,7 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
     out: dict = {}
     results: dict = {}
     with open_archive(path) as archive:
-        ids = list(trials) if trials else list(archive.trial_ids)
-        for tid in ids:
-            if tid not in archive:
-                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        ids = archive.select(trials)
         for tid in progress(ids, desc="estimate", quiet=quiet, unit="trial"):
             trial = archive.trial(tid)
             try:

@@ -24,11 +24,9 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-from scipy import stats
 
 from contactlab.archive import spec as archive_spec
 from contactlab.archive.writer import SEGMENT_DTYPE, create_dataset
-from contactlab.estimators.models import ARModel, fit
 
 __all__ = ["record_spec", "restrict_labels", "conditioned_codes", "cut_blocks",
            "block_features", "normal_fit", "normal_confusion", "two_normal_errors",
@@ -130,30 +128,19 @@ def cut_blocks(codes, *, block: int, classes=None) -> tuple[np.ndarray, np.ndarr
 
 
 def block_features(y, starts, *, block: int, order: int, mean: bool) -> dict:
-    """AR(``order``) (with a mean if ``mean``) fit to every block and channel of ``y``.
+    """AR(``order``) (with a mean if ``mean``) fit to every block and channel of ``y``
+    (:func:`contactlab.temporal.block_features`, one batched square-root RLS).
 
-    ``y`` (N, C) conditioned signal; blocks ``y[s:s + block]``. Every (block,
-    channel) pair is one independent model of the batched square-root RLS
-    (A.10-A.17). Returns ``k`` (nb, C, q): the orthogonal (LPC) parameters of
-    eq. 7.3, ``theta~_j = k~_j / L_jj``, in the order ``{mu, a_1, ...}`` (for
-    AR(1) with a mean: ``k[..., 0]`` ~ the block mean, ``k[..., 1]`` = a_1);
-    ``coef`` (nb, C, q) natural parameters; ``noise_var`` (nb, C) ML
-    driving-noise variance.
+    ``y`` (N, C) conditioned signal; blocks ``y[s:s + block]``.  Returns ``k``
+    (nb, C, q): the orthogonal (LPC) parameters of eq. 7.3, ``theta~_j = k~_j /
+    L_jj``, in the order ``{mu, a_1, ...}``; ``coef`` (nb, C, q) natural
+    parameters; ``noise_var`` (nb, C) ML driving-noise variance (residual energy
+    over the block's regression rows; the trained models use rows - q).
     """
-    y = np.asarray(y, float)
-    if y.ndim == 1:
-        y = y[:, None]
-    starts = np.asarray(starts, np.int64)
-    nb, C = len(starts), y.shape[1]
-    q = order + bool(mean)
-    if nb == 0:
-        return {"k": np.zeros((0, C, q)), "coef": np.zeros((0, C, q)),
-                "noise_var": np.zeros((0, C))}
-    idx = starts[None, :] + np.arange(block)[:, None]          # (block, nb)
-    Y = y[idx].reshape(block, nb * C)                           # column = (block, channel)
-    f = fit(ARModel(order=order, mean=mean), Y)
-    return {"k": f.orthogonal.reshape(nb, C, q), "coef": f.coef.reshape(nb, C, q),
-            "noise_var": f.variance.reshape(nb, C)}
+    from contactlab.temporal import block_features as features
+
+    f = features(y, order=order, mean=mean, block=block, starts=np.asarray(starts, np.int64))
+    return {"k": f.orthogonal, "coef": f.coef, "noise_var": f.residual_energy / f.rows}
 
 
 # ---------------------------------------------------------------------------
@@ -171,48 +158,22 @@ def normal_fit(samples) -> tuple[np.ndarray, np.ndarray]:
 def normal_confusion(means, covs, *, n_draws: int = 200_000, seed: int = 0) -> np.ndarray:
     """Confusion of the equal-prior maximum-likelihood rule when class ``i`` really is
     ``N(means[i], covs[i])``: row i = P(choose j | i), by ``n_draws`` Monte Carlo draws
-    per class (standard error <= 0.5 / sqrt(n_draws))."""
-    rng = np.random.default_rng(seed)
-    dists = [stats.multivariate_normal(np.atleast_1d(m), np.atleast_2d(c), allow_singular=False)
-             for m, c in zip(means, covs)]
-    K = len(dists)
-    out = np.zeros((K, K))
-    for i, d in enumerate(dists):
-        x = np.atleast_2d(d.rvs(size=n_draws, random_state=rng)).reshape(n_draws, -1)
-        ll = np.column_stack([e.logpdf(x) for e in dists])
-        out[i] = np.bincount(np.argmax(ll, axis=1), minlength=K) / n_draws
-    return out
+    per class (:func:`contactlab.temporal.energy.normal_confusion_mc`)."""
+    from contactlab.temporal.energy import normal_confusion_mc
+
+    mu = np.asarray([np.atleast_1d(m) for m in means], float)
+    cov = np.asarray([np.atleast_2d(c) for c in covs], float)
+    return normal_confusion_mc(mu, cov, n=n_draws, seed=seed)
 
 
 def two_normal_errors(m1: float, s1: float, m2: float, s2: float) -> tuple[float, float]:
-    """Closed form of :func:`normal_confusion` for two 1-D normals ``N(m1, s1^2)``,
-    ``N(m2, s2^2)``: ``(P(choose 2 | 1), P(choose 1 | 2))``.
+    """``(P(choose 2 | 1), P(choose 1 | 2))`` of the equal-prior rule between
+    ``N(m1, s1^2)`` and ``N(m2, s2^2)``, in closed form
+    (:func:`contactlab.temporal.energy.normal_confusion_1d`)."""
+    from contactlab.temporal.energy import normal_confusion_1d
 
-    The equal-prior rule chooses 2 where ``log N2(x) > log N1(x)``, a quadratic
-    inequality ``a x^2 + b x + c > 0``; its roots cut the line into at most three
-    intervals, each integrated with the normal CDF.
-    """
-    v1, v2 = s1 * s1, s2 * s2
-    a = 0.5 / v1 - 0.5 / v2
-    b = m2 / v2 - m1 / v1
-    c = 0.5 * m1 * m1 / v1 - 0.5 * m2 * m2 / v2 + np.log(s1 / s2)
-    if abs(a) < 1e-12 * max(1.0 / v1, 1.0 / v2):
-        roots = np.array([-c / b]) if b != 0 else np.zeros(0)
-    else:
-        disc = b * b - 4 * a * c
-        roots = np.sort(np.real(np.roots([a, b, c]))) if disc > 0 else np.zeros(0)
-    cuts = np.r_[-np.inf, roots, np.inf]
-    # one test point inside each interval between consecutive cuts
-    mids = (np.r_[roots[0] - 1.0, (roots[:-1] + roots[1:]) / 2, roots[-1] + 1.0]
-            if len(roots) else np.zeros(1))
-    choose2 = a * mids ** 2 + b * mids + c > 0
-    p12 = p21 = 0.0
-    for lo, hi, two in zip(cuts[:-1], cuts[1:], choose2):
-        if two:
-            p12 += stats.norm.cdf(hi, m1, s1) - stats.norm.cdf(lo, m1, s1)
-        else:
-            p21 += stats.norm.cdf(hi, m2, s2) - stats.norm.cdf(lo, m2, s2)
-    return float(p12), float(p21)
+    conf = normal_confusion_1d([m1, m2], [s1, s2])
+    return float(conf[0, 1]), float(conf[1, 0])
 
 
 def confusion_matrix(true, chosen, n_classes: int) -> tuple[np.ndarray, np.ndarray]:

@@ -194,7 +194,7 @@ class ChannelARCost(_base_cost()):
         return sum(c.error(start, end) for c in self.costs_)
 
 
-class FastChannelARCost(_base_cost()):
+class FastChannelARCost(ChannelARCost):
     """The cost of :class:`ChannelARCost` from prefix sums: O(C p^3) per segment.
 
     Same regressors as ``CostAR`` (lags of the whole signal, first rows padded
@@ -203,11 +203,6 @@ class FastChannelARCost(_base_cost()):
     """
 
     model = "ar-channels-fast"
-
-    def __init__(self, order: int = ORDER):
-        self.order = order
-        self.min_size = max(5, order + 1)
-        self.signal = None
 
     def fit(self, signal):
         s = np.asarray(signal, float).reshape(len(signal), -1)

@@ -57,6 +57,25 @@ __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from
 SIDES = ("increase", "both")
 
 
+@numba.njit(cache=True, inline="always")
+def _detector_row(df, last_zero, x, t):  # pragma: no cover
+    """One sample of every detector side (6.18): ``df <- max(0, df + x)``, noting the
+    last zero at ``t``; returns the largest statistic."""
+    U, S = df.shape
+    top = 0.0
+    for u in range(U):
+        for s in range(S):
+            v = df[u, s] + x[u, s]
+            if v > 0.0:
+                df[u, s] = v
+            else:
+                df[u, s] = 0.0
+                last_zero[u, s] = t
+            if df[u, s] > top:
+                top = df[u, s]
+    return top
+
+
 @numba.njit(cache=True)
 def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  # pragma: no cover
     """Advance detectors (6.18) and path sums from row 0; stop at the first event.
@@ -68,18 +87,7 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  
     n, U, S = xi.shape
     P = path_ll.shape[0]
     for i in range(n):
-        t = t0 + i
-        event = False
-        for u in range(U):
-            for s in range(S):
-                v = df[u, s] + xi[i, u, s]
-                if v > 0.0:
-                    df[u, s] = v
-                else:
-                    df[u, s] = 0.0
-                    last_zero[u, s] = t
-                if df[u, s] > thr:
-                    event = True
+        event = _detector_row(df, last_zero, xi[i], t0 + i) > thr
         for u in range(U):
             path_ll[unit_path[u]] += inc[i, u]
         best = -np.inf
@@ -107,14 +115,7 @@ def _catch_up(inc, xi, ll0, t_first):  # pragma: no cover
     lz = np.full((k, S), t_first - 1, dtype=np.int64)
     ll = ll0
     for i in range(n):
-        for u in range(k):
-            for s in range(S):
-                v = df[u, s] + xi[i, u, s]
-                if v > 0.0:
-                    df[u, s] = v
-                else:
-                    df[u, s] = 0.0
-                    lz[u, s] = t_first + i
+        _detector_row(df, lz, xi[i], t_first + i)
         for u in range(k):
             ll += inc[i, u]
         traj[i] = ll

@@ -226,10 +226,7 @@ def recognize_archive(archive, *, graph, models, action=None, threshold: float =
     params = {**kw, "graph": graph.source or graph.name, "models": gm.source,
               "reduce": gm.reduce, "action": action, "delay_window": delay_window}
     with open_archive(path) as arch:
-        ids = list(trials) if trials else list(arch.trial_ids)
-        for tid in ids:
-            if tid not in arch:
-                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        ids = arch.select(trials)
         recs = []
         for tid in progress(ids, desc="recognize", quiet=quiet, unit="trial"):
             rec = recognize_trial(arch.trial(tid), graph, built, reduce=gm.reduce,

@@ -325,7 +325,7 @@ def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int
     ids_used = []
     fs = None
     with open_archive(path) as arch:
-        ids = list(trials) if trials else list(arch.trial_ids)
+        ids = arch.select(trials)
         for tid in progress(ids, desc="train", quiet=quiet, unit="trial"):
             trial = arch.trial(tid)
             if trial.labels is None:

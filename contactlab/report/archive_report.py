@@ -19,7 +19,6 @@ import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
 from contactlab.conditioning import condition_strains, quantisation_floor  # noqa: E402
-from contactlab.errors import DataError  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -38,10 +37,7 @@ def report_archive(path: str | Path, *, out_dir: str | Path, trials: list[str] |
     out_dir = Path(out_dir)
     figures: list[str] = []
     with open_archive(path) as archive:
-        ids = list(archive.trial_ids) if not trials else list(trials)
-        unknown = [t for t in ids if t not in archive.trial_ids]
-        if unknown:
-            raise DataError(f"no such trial {unknown[0]!r}", file=str(path), field="/trials")
+        ids = archive.select(trials)
         page = ReportPage(title=f"Archive report: {path.name}", out_dir=out_dir)
         attrs = archive.attrs
         page.paragraph(f"{len(archive.trial_ids)} trials; written by contactlab "

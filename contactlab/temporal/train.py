@@ -111,10 +111,7 @@ def collect_blocks(archive, *, labels: str = "truth", signal: str = "strain", or
             check_settings(signal=signal, order=order, mean=mean, block=block)
         except DataError as err:
             raise DataError(err.message, file=str(path), field=err.field) from None
-        ids = list(trials) if trials else list(arch.trial_ids)
-        for tid in ids:
-            if tid not in arch:
-                raise DataError("no such trial", file=str(path), field=f"/trials/{tid}")
+        ids = arch.select(trials)
         if not ids:
             raise DataError("archive has no trials", file=str(path), field="/trials")
         sigs: dict[str, TrialSignal] = {}
