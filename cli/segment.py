@@ -21,10 +21,10 @@ def _thresholds(ctx, param, value):
 
 @click.command()
 @archive_argument
-@click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default="strain",
-              show_default=True,
+@click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
               help="Signal to segment after 7.1 conditioning: 250 Hz strains, 250 Hz "
-                   "wrench, or the high-frequency log-energy.")
+                   "wrench, or the high-frequency log-energy.  [default: strain when the "
+                   "trial has strain gauges, else wrench]")
 @click.option("--order", type=int, default=2, show_default=True,
               help="AR order of every channel's square-root estimator.")
 @click.option("--threshold", type=float, default=200.0, show_default=True,

@@ -17,8 +17,9 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
                    "(e.g. 'segment'), each named by its majority ground-truth label.")
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Models file to write (HDF5, datasets_spec/MODELS.md).")
-@click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default="strain",
-              show_default=True, help="Conditioned signal (7.1) to model.")
+@click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
+              help="Conditioned signal (7.1) to model.  [default: strain when the trials "
+                   "have strain gauges, else wrench]")
 @click.option("--order", type=int, default=2, show_default=True, help="AR order p.")
 @click.option("--mean/--no-mean", default=False, show_default=True,
               help="Include a constant (mean) regressor.")

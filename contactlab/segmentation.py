@@ -91,18 +91,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
 from contactlab.detection import PageHinkley, VarianceChangeDetector
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
 from contactlab.estimators import ARModel, SquareRootRLS
+from contactlab.signals import SIGNALS, conditioned_signal, resolve_signal, source_of
 
 __all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
            "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
            "min_samples", "run_archive", "pooled_metrics", "COMBINE"]
 
-#: signals :func:`segment_trial` can segment
-SIGNALS = ("strain", "wrench", "hf")
 #: side codes of :attr:`Segmentation.sides`: 0 increase, 1 decrease of the covariance
 SIDES = VARIANCE_SIDES
 #: how the channels' squared normalised innovations reach Page-Hinkley: ``sum`` (the
@@ -376,49 +374,16 @@ def _segment_channels(a, channels, times, parameters, *, block: int) -> Segmenta
                         channels, parameters, as_int(fired))
 
 
-def conditioned_signal(trial, signal: str = "strain") -> tuple[np.ndarray, np.ndarray, float]:
-    """The 7.1-conditioned signal of ``trial``: ``(y, times, fs_out)``.
-
-    ``strain``: ``condition_strains(strain).low`` (lowpass at fs/8 -- 125 Hz
-    at 1000 Hz -- decimated 4:1); ``wrench``: the wrench through the same
-    lowpass and decimation; ``hf``: ``condition_strains(strain).hf`` (the
-    block-averaged log-energy).  ``times`` are the conditioned samples' times
-    in the trial's time base (the newest input sample of each output).
-    Raises DataError when the trial lacks the signal.
-    """
-    if signal not in SIGNALS:
-        raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
-    source = "wrench" if signal == "wrench" else "strain"
-    raw = getattr(trial, source)
-    if raw is None:
-        raise DataError(f"trial has no {source} (needed for --signal {signal})",
-                        field=f"/trials/{trial.id}/measurements/{source}")
-    fs = float(trial.rate_hz)
-    time = np.asarray(trial.time, dtype=np.float64)
-    if len(time) == 0:
-        raise DataError("trial has no samples", field=f"/trials/{trial.id}/measurements/time")
-    cutoff = fs / 8.0
-    if signal == "wrench":
-        y = lowpass_decimate(raw, fs=fs, cutoff_hz=cutoff, factor=4)
-        index = 4 * np.arange(len(y))
-        return y, time[index], fs / 4.0
-    # y_h's log floor: half the converter step (exact zeros of the difference of
-    # quantised strains would otherwise enter as log(1e-12); 7.1, module notes of
-    # contactlab.conditioning).  Only the hf output depends on it.
-    cond = condition_strains(raw, fs=fs, cutoff_hz=cutoff, log_floor=quantisation_floor(raw))
-    if signal == "strain":
-        return cond.low, time[cond.low_index], cond.fs_out
-    index = np.minimum(cond.hf_index, len(time) - 1)   # newest input of each block
-    return cond.hf, time[index], cond.fs_out
-
-
-def segment_trial(trial, *, signal: str = "strain", order: int = 2, threshold: float = 200.0,
-                  change_size: float = 2.5, warmup: int = 8,
+def segment_trial(trial, *, signal: str | None = None, order: int = 2,
+                  threshold: float = 200.0, change_size: float = 2.5, warmup: int = 8,
                   block: int = DEFAULT_BLOCK, combine: str = "sum") -> Segmentation:
-    """Segment one archive trial's conditioned ``signal`` (see :func:`conditioned_signal`).
+    """Segment one archive trial's conditioned ``signal`` (see
+    :func:`contactlab.signals.condition`; default: strain if the trial has strain
+    gauges, else wrench).
 
     Boundaries come back in seconds of the trial's time base.
     """
+    signal = resolve_signal(trial, signal)
     y, times, fs = conditioned_signal(trial, signal)
     try:
         seg = segment_signal(y, fs=fs, order=order, threshold=threshold,
@@ -426,13 +391,13 @@ def segment_trial(trial, *, signal: str = "strain", order: int = 2, threshold: f
                              combine=combine)
     except DataError as err:
         raise DataError(f"{err.message} (after conditioning to "
-                        f"{fs:g} Hz)", field=f"/trials/{trial.id}/measurements/"
-                        f"{'wrench' if signal == 'wrench' else 'strain'}") from None
+                        f"{fs:g} Hz)",
+                        field=f"/trials/{trial.id}/measurements/{source_of(signal)}") from None
     seg.parameters["signal"] = signal
     return seg
 
 
-def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str = "strain",
+def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str | None = None,
           **kwargs) -> dict[float, Segmentation]:
     """Segment at each of ``thresholds`` (fig 7.7): ``{threshold: Segmentation}``.
 
@@ -446,9 +411,13 @@ def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str = "str
         if fs is None:
             raise UsageError("sweep over an array needs fs")
         return {t: segment_signal(y_or_trial, fs=fs, threshold=t, **kwargs) for t in thresholds}
+    signal = resolve_signal(y_or_trial, signal)
     y, times, fs_out = conditioned_signal(y_or_trial, signal)
-    return {t: segment_signal(y, fs=fs_out, times=times, threshold=t, **kwargs)
-            for t in thresholds}
+    out = {t: segment_signal(y, fs=fs_out, times=times, threshold=t, **kwargs)
+           for t in thresholds}
+    for seg in out.values():
+        seg.parameters["signal"] = signal
+    return out
 
 
 def truth_boundaries_s(trial) -> np.ndarray | None:
@@ -523,7 +492,7 @@ def pooled_metrics(per_trial: list[dict], tolerance_s: float) -> dict | None:
 _pooled = pooled_metrics          # the former private name
 
 
-def run_archive(path, *, signal: str = "strain", order: int = 2, threshold: float = 200.0,
+def run_archive(path, *, signal: str | None = None, order: int = 2, threshold: float = 200.0,
                 thresholds=None, change_size: float = 2.5, warmup: int = 8,
                 tolerance_s: float = 0.1, trials=None, quiet: bool = True,
                 write: bool = True, combine: str = "sum") -> dict:
@@ -546,7 +515,7 @@ def run_archive(path, *, signal: str = "strain", order: int = 2, threshold: floa
     from contactlab.archive import open_archive, write_results
     from contactlab.progress import progress
 
-    if signal not in SIGNALS:
+    if signal is not None and signal not in SIGNALS:
         raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
     _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
     _check_combine(combine)
@@ -607,7 +576,7 @@ def run_archive(path, *, signal: str = "strain", order: int = 2, threshold: floa
             write_results(
                 path, tid, "segment",
                 datasets=datasets,
-                attrs={"side_names": list(SIDES), "signal": signal,
+                attrs={"side_names": list(SIDES), "signal": seg.parameters["signal"],
                        "boundary": "boundaries_s: first sample of the new segment; "
                                    "change_s: Page-Hinkley last zero (the sample before); "
                                    "alarm_s: detection time"},

@@ -2,7 +2,7 @@
 
 Each trial's force (``wrench[:, :3]``), position and, when present,
 velocity are lowpassed and decimated to 250 Hz as in 7.1
-(:func:`contactlab.conditioning.lowpass_decimate`, cutoff fs/8, 4:1).  The
+(:func:`contactlab.signals.condition`).  The
 trial is cut into segments -- the ground truth, the automatic segmentation of
 :mod:`contactlab.segmentation`, or the boundaries a results stage holds -- and
 optionally each segment into blocks of ``block`` samples; every piece gets a
@@ -19,31 +19,24 @@ from contactlab.constraints.alignment import angular_error_deg
 from contactlab.constraints.cartesian import CartesianConstraint, min_samples
 from contactlab.errors import DataError, UsageError
 
-__all__ = ["MODELS", "estimate_archive", "trial_signals", "segment_table"]
+__all__ = ["MODELS", "estimate_archive", "constraint_signals", "planar_signals", "segment_table"]
 
 MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB",
           "polygon-line-line")
-FACTOR = 4
 
+def constraint_signals(trial):
+    """``(times, position, force, velocity_or_None)`` at 250 Hz (7.1 conditioning,
+    :func:`contactlab.signals.condition`)."""
+    from contactlab.signals import condition
 
-def trial_signals(trial):
-    """``(times, position, force, velocity_or_None)`` at 250 Hz (7.1 conditioning)."""
-    from contactlab.conditioning import lowpass_decimate
-
-    tid = trial.id
-    fs = float(trial.rate_hz)
     for name in ("wrench", "position"):
         if getattr(trial, name) is None:
             raise DataError("missing dataset (needed for constraint estimation)",
-                            field=f"/trials/{tid}/measurements/{name}")
-    kw = dict(fs=fs, cutoff_hz=fs / 8.0, factor=FACTOR)
-    force = lowpass_decimate(np.asarray(trial.wrench, dtype=np.float64)[:, :3], **kw)
-    position = lowpass_decimate(np.asarray(trial.position, dtype=np.float64), **kw)
-    velocity = None
-    if trial.velocity is not None:
-        velocity = lowpass_decimate(np.asarray(trial.velocity, dtype=np.float64), **kw)
-    times = np.asarray(trial.time, dtype=np.float64)[FACTOR * np.arange(len(force))]
-    return times, position, force, velocity
+                            field=f"/trials/{trial.id}/measurements/{name}")
+    wrench = condition(trial, "wrench")
+    position = condition(trial, "position").y
+    velocity = condition(trial, "velocity").y if trial.velocity is not None else None
+    return wrench.times, position, wrench.y[:, :3], velocity
 
 
 def segment_table(trial, segments: str, times: np.ndarray):
@@ -146,7 +139,7 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
 
 
 def _estimate_trial(trial, est, segments, block):
-    times, position, force, velocity = trial_signals(trial)
+    times, position, force, velocity = constraint_signals(trial)
     mode = segments or ("truth" if trial.segments is not None and len(trial.segments) else "auto")
     starts, ends, labels, source = segment_table(trial, mode, times)
     pieces = []
@@ -209,7 +202,7 @@ def planar_signals(trial):
     planar trace); the wrench columns ``fx``, ``fy`` and a torque about z
     (``tz``/``mz``/``tau``) are taken by name.
     """
-    from contactlab.conditioning import lowpass_decimate
+    from contactlab.signals import FACTOR, lowpass
 
     tid = trial.id
     for name in ("wrench", "position"):
@@ -227,11 +220,10 @@ def planar_signals(trial):
         raise DataError("polygon models need wrench columns fx, fy and tz",
                         field=f"/trials/{tid}/measurements/wrench/columns")
     fs = float(trial.rate_hz)
-    kw = dict(fs=fs, cutoff_hz=fs / 8.0, factor=FACTOR)
     position = np.asarray(trial.position, dtype=np.float64)
     wrench = np.asarray(trial.wrench, dtype=np.float64)
-    config = lowpass_decimate(position[:, [pcols.index(c) for c in ("x", "y", "theta")]], **kw)
-    w = lowpass_decimate(wrench[:, [wcols.index(c) for c in ("fx", "fy", torque)]], **kw)
+    config = lowpass(position[:, [pcols.index(c) for c in ("x", "y", "theta")]], fs=fs)
+    w = lowpass(wrench[:, [wcols.index(c) for c in ("fx", "fy", torque)]], fs=fs)
     times = np.asarray(trial.time, dtype=np.float64)[FACTOR * np.arange(len(config))]
     return times, config, w
 

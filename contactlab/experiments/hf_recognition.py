@@ -42,8 +42,8 @@ from contactlab.observer.draw import plot_graph  # noqa: E402
 from contactlab.observer.graph import load_graph  # noqa: E402
 from contactlab.observer.recognize import (DELAY_BINS, confusion, merge_path,  # noqa: E402
                                            recognize_archive)
-from contactlab.observer.training import (SIGNAL_WINDOW, train_graph, trial_signals,  # noqa: E402
-                                          truth_codes)
+from contactlab.observer.training import train_graph  # noqa: E402
+from contactlab.signals import WINDOW, trial_signals, truth_codes  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -81,7 +81,7 @@ def labelled_points(archive, *, reduce: str = "mean") -> list[dict]:
             data, index, _ = trial_signals(trial, ["hf"], reduce=reduce)
             out.append({"id": trial.id, "y": data["hf"],
                         "truth": truth_codes(trial, index, STATES),
-                        "pure": truth_codes(trial, index, STATES, window=SIGNAL_WINDOW["hf"])})
+                        "pure": truth_codes(trial, index, STATES, window=WINDOW["hf"])})
     return out
 
 

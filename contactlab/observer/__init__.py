@@ -23,7 +23,8 @@ from contactlab.observer.observer import (Observer, ObserverResult, ObserverStep
                                           observe)
 from contactlab.observer.paths import ChangeEvent, PathInfo
 from contactlab.observer.recognize import recognize_archive, recognize_trial
-from contactlab.observer.training import GraphModels, train_graph, trial_signals
+from contactlab.observer.training import GraphModels, train_graph
+from contactlab.signals import trial_signals
 
 __all__ = [
     "FeatureGraph", "ModelSpec", "Node", "load_graph", "parse_graph",

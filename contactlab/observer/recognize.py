@@ -1,7 +1,7 @@
 """Recognition over an archive (``contactlab recognize``, 7.3.1-7.3.3).
 
 Per trial: the observer of 6.4 (:class:`~contactlab.observer.Observer`) over
-the trial's measurement streams (:func:`~contactlab.observer.training.trial_signals`,
+the trial's measurement streams (:func:`contactlab.signals.trial_signals`,
 with the models file's channel reduction); the per-sample node probabilities,
 the on-line MAP node, the final MAP path with its event times and the
 path/change history are written to ``results/recognize``.
@@ -37,7 +37,8 @@ from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
-from contactlab.observer.training import GraphModels, trial_signals, truth_codes
+from contactlab.observer.training import GraphModels
+from contactlab.signals import trial_signals, truth_codes
 
 __all__ = ["recognize_archive", "recognize_trial", "TrialRecognition", "confusion",
            "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]

@@ -15,7 +15,8 @@ For each ``[models.NAME]`` of a graph:
 * ``velocity-*`` and inline impacts carry their parameters in the graph file
   (nothing to train); ``constraint`` is not available yet (an error).
 
-Signals (the observer's measurement streams) come from :func:`trial_signals`:
+Signals (the observer's measurement streams) come from
+:func:`contactlab.signals.trial_signals`:
 ``hf`` is y_h of 7.1 with the log floor at half the strain quantisation step
 (as the hf-models experiment), ``strain``/``wrench`` the 250 Hz lowpassed
 signals, ``velocity``/``position`` the raw channels at the conditioned
@@ -47,98 +48,11 @@ from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
+from contactlab.signals import REDUCE, WINDOW, trial_signals, truth_codes
 
-__all__ = ["GraphModels", "ImpactPrior", "train_graph", "trial_signals", "truth_codes", "REDUCE",
-           "SIGNAL_WINDOW", "load_graph_models"]
+__all__ = ["GraphModels", "ImpactPrior", "train_graph", "load_graph_models"]
 
-#: input samples a conditioned sample depends on (7.1: y_h[k] uses inputs 4k .. 4k+8)
-SIGNAL_WINDOW = {"hf": 9, "strain": 4, "wrench": 4, "velocity": 1, "position": 1}
-REDUCE = ("mean", "none")
 _TRAINED_SIGNALS = ("hf", "strain", "wrench")
-
-
-# -- signals -----------------------------------------------------------------------------
-
-def trial_signals(trial, signals, *, reduce: str = "none", path=None
-                  ) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
-    """The observer's measurement streams of an archive trial.
-
-    Returns ``({signal: (n, C)}, index (n,), fs)``: every stream on one 250 Hz
-    (for 1 kHz input) time base, ``index`` the newest input sample of each
-    conditioned sample.  ``reduce`` applies to the conditioned (hf, strain,
-    wrench) streams.  DataError naming the file and field when a stream is missing.
-    """
-    from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
-
-    if reduce not in REDUCE:
-        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
-    fs = float(trial.rate_hz)
-    out: dict[str, np.ndarray] = {}
-    indices: dict[str, np.ndarray] = {}
-
-    def need(name):
-        raw = getattr(trial, name)
-        if raw is None:
-            raise DataError(f"trial has no {name} (a graph model reads it)",
-                            file=str(path) if path else None,
-                            field=f"/trials/{trial.id}/measurements/{name}")
-        return np.asarray(raw, dtype=np.float64)
-
-    cond = None
-    for s in signals:
-        if s in ("hf", "strain"):
-            if cond is None or (s == "hf") != cond[0]:
-                strain = need("strain")
-                floor = quantisation_floor(strain) if s == "hf" else 1e-12
-                c = condition_strains(strain, fs=fs, cutoff_hz=fs / 8.0, log_floor=floor)
-                cond = (s == "hf", c)
-            c = cond[1]
-            y, idx = (c.hf, c.hf_index) if s == "hf" else (c.low, c.low_index)
-        elif s == "wrench":
-            y = lowpass_decimate(need("wrench"), fs=fs, cutoff_hz=fs / 8.0, factor=4)
-            idx = 4 * np.arange(len(y))
-        elif s in ("velocity", "position"):
-            continue
-        else:
-            raise DataError(f"unknown signal {s!r} (known: hf, strain, wrench, velocity, "
-                            "position)", file=str(path) if path else None,
-                            field=f"/trials/{trial.id}/measurements")
-        y = np.asarray(y, dtype=np.float64)
-        y = y[:, None] if y.ndim == 1 else y
-        if reduce == "mean" and y.shape[1] > 1:
-            y = y.mean(axis=1, keepdims=True)
-        out[s], indices[s] = y, np.asarray(idx, dtype=np.int64)
-    n_in = len(trial.time)
-    if indices:
-        n = min(len(v) for v in indices.values())
-        index = np.minimum(next(iter(indices.values()))[:n], n_in - 1)
-    else:                                               # raw streams only: 4:1
-        index = np.arange(3, n_in, 4)
-        n = len(index)
-    for s in signals:
-        if s in ("velocity", "position"):
-            out[s] = need(s)[index]
-    out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
-    return out, index[:n], fs / 4.0
-
-
-def truth_codes(trial, index, names, *, window: int = 1) -> np.ndarray | None:
-    """Ground truth per conditioned sample as indices into ``names`` (-1: unlabelled, a
-    label not in ``names``, or -- with ``window > 1`` -- a window of input samples
-    ``index - window + 1 .. index`` that is not all one label).  None without truth."""
-    raw = trial.labels
-    if raw is None or trial.label_names is None:
-        return None
-    raw = np.asarray(raw, dtype=np.int64)
-    table = np.array([list(names).index(n) if n in names else -1 for n in trial.label_names]
-                     + [-1], dtype=np.int64)
-    codes = table[raw]                                   # raw -1 -> table[-1] = -1
-    index = np.clip(np.asarray(index, np.int64), 0, len(codes) - 1)
-    if window <= 1:
-        return codes[index]
-    lo = np.clip(index - window + 1, 0, None)
-    run = np.r_[0, np.cumsum(np.diff(codes) != 0)]
-    return np.where(run[lo] == run[index], codes[index], -1)
 
 
 def _runs(codes, code) -> list[tuple[int, int]]:
@@ -334,7 +248,7 @@ def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int
             data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
             ids_used.append(tid)
             for s in all_signals:
-                codes = truth_codes(trial, index, labels, window=SIGNAL_WINDOW[s])
+                codes = truth_codes(trial, index, labels, window=WINDOW[s])
                 y = data[s]
                 for k, lab in enumerate(labels):
                     if lab in temporal_specs and s == signal:

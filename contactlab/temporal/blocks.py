@@ -3,7 +3,8 @@
 Two label sources:
 
 * ``"truth"`` -- the archive's per-sample ground truth (``ground_truth/labels``),
-  read at each conditioned sample's time (the newest input sample it uses);
+  read at each conditioned sample's newest input sample
+  (:func:`contactlab.signals.truth_codes`);
   a run is a maximal stretch of one label; unlabelled samples (-1) belong to
   no run.
 * a results stage (e.g. ``"segment"``) -- that stage's ``boundaries_s`` cut
@@ -23,63 +24,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactlab.errors import DataError, UsageError
-from contactlab.segmentation import SIGNALS, conditioned_signal
+from contactlab.errors import DataError
+from contactlab.signals import Signal, condition, source_of, truth_codes
 
-__all__ = ["TrialSignal", "load_signal", "truth_at", "runs_from_codes", "runs_from_stage",
+__all__ = ["TrialSignal", "load_signal", "runs_from_codes", "runs_from_stage",
            "cut_blocks", "label_runs"]
 
-
-@dataclass(frozen=True, eq=False)
-class TrialSignal:
-    """One trial's conditioned signal: ``y`` (N, C), ``times`` (N,) s, ``fs`` Hz."""
-
-    trial_id: str
-    y: np.ndarray
-    times: np.ndarray
-    fs: float
+#: one trial's conditioned signal (:class:`contactlab.signals.Signal`)
+TrialSignal = Signal
 
 
-def load_signal(trial, signal: str, *, path=None) -> TrialSignal:
-    """The 7.1-conditioned ``signal`` of ``trial`` (see
-    :func:`contactlab.segmentation.conditioned_signal`); DataError naming the file."""
-    if signal not in SIGNALS:
-        raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
+def load_signal(trial, signal: str | None, *, path=None) -> Signal:
+    """The 7.1-conditioned ``signal`` of ``trial`` (:func:`contactlab.signals.condition`)
+    with finite values; DataError naming the file."""
     try:
-        y, times, fs = conditioned_signal(trial, signal)
+        sig = condition(trial, signal, path=path)
     except DataError as err:
         raise DataError(err.message, file=str(path) if path else err.file,
                         field=err.field) from None
-    y = np.asarray(y, dtype=np.float64)
-    if y.ndim == 1:
-        y = y[:, None]
-    if not np.isfinite(y).all():
+    if not np.isfinite(sig.y).all():
         raise DataError("conditioned signal has NaN or infinite values", file=path,
-                        field=f"/trials/{trial.id}/measurements/"
-                              f"{'wrench' if signal == 'wrench' else 'strain'}")
-    return TrialSignal(trial.id, y, np.asarray(times, dtype=np.float64), float(fs))
-
-
-def truth_at(trial, times, *, path=None) -> tuple[np.ndarray, list[str]] | None:
-    """Ground-truth label codes at the conditioned samples ``times`` and their names;
-    None when the trial has no per-sample labels."""
-    raw = trial.labels
-    if raw is None:
-        return None
-    field = f"/trials/{trial.id}/ground_truth/labels"
-    names = trial.label_names
-    if names is None:
-        raise DataError("labels have no 'names' attribute", file=path, field=field)
-    raw = np.asarray(raw)
-    if raw.ndim != 1 or raw.shape[0] != len(trial.time):
-        raise DataError(f"expected one label per sample ({len(trial.time)}); got shape "
-                        f"{raw.shape}", file=path, field=field)
-    bad = (raw < -1) | (raw >= len(names))
-    if bad.any():
-        raise DataError(f"unknown label code {int(raw[bad][0])} (names has {len(names)})",
-                        file=path, field=field)
-    idx = np.clip(np.searchsorted(trial.time, times), 0, len(raw) - 1)
-    return raw[idx].astype(np.int64), list(names)
+                        field=f"/trials/{trial.id}/measurements/{source_of(sig.name)}")
+    return sig
 
 
 def runs_from_codes(codes: np.ndarray) -> np.ndarray:
@@ -131,8 +97,8 @@ def label_runs(trial, sig: TrialSignal, labels: str, *, path=None
                ) -> tuple[np.ndarray, list[str] | None]:
     """Runs ``[start, end, code]`` of ``sig`` from the label source ``labels``
     ("truth" or a results stage) and the names of the codes (None without truth)."""
-    truth = truth_at(trial, sig.times, path=path)
-    codes, names = (None, None) if truth is None else truth
+    codes = truth_codes(trial, sig.index, path=path)
+    names = None if codes is None else list(trial.label_names)
     if labels == "truth":
         if codes is None:
             return np.zeros((0, 3), dtype=np.int64), None

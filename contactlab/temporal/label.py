@@ -74,19 +74,16 @@ def confusion(true, predicted, labels) -> dict:
 
 
 def _hf_signal(trial, path):
-    """The log-energy y_h of the trial's strains (or, lacking strains, its wrench)."""
-    from contactlab.conditioning import condition_strains
+    """The log-energy y_h of the trial's strains (or, lacking strains, of its wrench),
+    averaged over channels, and its times (:func:`contactlab.signals.condition`)."""
+    from contactlab.signals import condition
 
-    raw = trial.strain if trial.strain is not None else trial.wrench
-    if raw is None:
+    if trial.strain is None and trial.wrench is None:
         raise DataError("trial has neither strain nor wrench", file=path,
                         field=f"/trials/{trial.id}/measurements")
-    fs = float(trial.rate_hz)
-    cond = condition_strains(raw, fs=fs, cutoff_hz=fs / 8.0)
-    hf = np.asarray(cond.hf, dtype=np.float64)
-    hf = hf[:, None] if hf.ndim == 1 else hf
-    times = trial.time[np.minimum(cond.hf_index, len(trial.time) - 1)]
-    return hf.mean(axis=1), np.asarray(times, dtype=np.float64)
+    source = "strain" if trial.strain is not None else "wrench"
+    sig = condition(trial, "hf", path=path, source=source)
+    return sig.y.mean(axis=1), sig.times
 
 
 def log_energy_means(archive, blocks: LabelledBlocks) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 
 from contactlab import __version__
 from contactlab.errors import DataError, UsageError
-from contactlab.segmentation import SIGNALS
+from contactlab.signals import SIGNALS, resolve_signal
 from contactlab.temporal.blocks import TrialSignal, cut_blocks, label_runs, load_signal
 from contactlab.temporal.features import BlockFeatures, block_features, min_block
 from contactlab.temporal.model import ModelSet, TemporalModel, fit_class
@@ -62,9 +62,10 @@ class LabelledBlocks:
         return int(self.label.size)
 
 
-def check_settings(*, signal: str, order, mean, block) -> None:
-    """UsageError / DataError for settings no block can satisfy."""
-    if signal not in SIGNALS:
+def check_settings(*, signal: str | None, order, mean, block) -> None:
+    """UsageError / DataError for settings no block can satisfy (``signal`` None: the
+    trial's default, :func:`contactlab.signals.default_signal`)."""
+    if signal is not None and signal not in SIGNALS:
         raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
     if not isinstance(order, (int, np.integer)) or isinstance(order, bool) or order < 1:
         raise UsageError(f"order must be an integer >= 1; got {order!r}")
@@ -91,7 +92,7 @@ def _opened(archive):
             yield a, Path(archive)
 
 
-def collect_blocks(archive, *, labels: str = "truth", signal: str = "strain", order: int = 2,
+def collect_blocks(archive, *, labels: str = "truth", signal: str | None = None, order: int = 2,
                    mean: bool = False, block: int = 100, trials=None, channels=None,
                    keep_unlabelled: bool = False, quiet: bool = True) -> LabelledBlocks:
     """Blocks of every trial (or ``trials``) of ``archive`` and their features.
@@ -100,7 +101,8 @@ def collect_blocks(archive, *, labels: str = "truth", signal: str = "strain", or
     labelled blocks are kept unless ``keep_unlabelled`` (then a trial without
     ground truth and ``labels="truth"`` is cut into consecutive blocks, label
     "").  ``channels`` selects signal columns (default: the columns that vary
-    in every trial).
+    in every trial).  ``signal`` None: strain when the first trial has strain
+    gauges, else wrench (:func:`contactlab.signals.default_signal`).
     """
     from contactlab.progress import progress
 
@@ -114,6 +116,7 @@ def collect_blocks(archive, *, labels: str = "truth", signal: str = "strain", or
         ids = arch.select(trials)
         if not ids:
             raise DataError("archive has no trials", file=str(path), field="/trials")
+        signal = resolve_signal(arch.trial(ids[0]), signal, path=path)
         sigs: dict[str, TrialSignal] = {}
         runs: dict[str, tuple] = {}
         for tid in progress(ids, desc="blocks", quiet=quiet, unit="trial"):
@@ -229,7 +232,7 @@ def fit_models(blocks: LabelledBlocks, *, classes=None, mask=None, path=None
 
 
 
-def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", order: int = 2,
+def train_temporal(archive, *, labels: str = "truth", signal: str | None = None, order: int = 2,
                    mean: bool = False, block: int = 100, trials=None, classes=None,
                    quiet: bool = True, command: str | None = None) -> ModelSet:
     """Train one :class:`TemporalModel` per class of ``archive`` (7.2.2, A.2.3).
@@ -244,7 +247,8 @@ def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", or
     labels : ``"truth"`` (per-sample ground truth) or a results stage (e.g.
         ``"segment"``: its boundaries, each segment named by its majority
         ground-truth label; see :mod:`.blocks`).
-    signal : conditioned signal, ``"strain"`` | ``"wrench"`` | ``"hf"`` (7.1).
+    signal : conditioned signal, ``"strain"`` | ``"wrench"`` | ``"hf"`` (7.1); default
+        strain when the trials have strain gauges, else wrench.
     order, mean : AR(order), with a constant regressor if ``mean``.
     block : samples per block (100 in the thesis); blocks never span a label change.
     trials : trial ids to use (default all).
@@ -268,7 +272,7 @@ def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", or
         "labels": labels,
         "classes": list(models),
         "skipped": skipped,
-        "signal": signal,
+        "signal": blocks.signal,
         "block": int(block),
         "order": int(order),
         "mean": bool(mean),
@@ -278,5 +282,5 @@ def train_temporal(archive, *, labels: str = "truth", signal: str = "strain", or
         "command": command if command is not None else " ".join(
             [os.path.basename(sys.argv[0])] + sys.argv[1:]),
     }
-    return ModelSet(models=models, signal=signal, fs=blocks.fs, provenance=provenance,
+    return ModelSet(models=models, signal=blocks.signal, fs=blocks.fs, provenance=provenance,
                     channels=blocks.channels)

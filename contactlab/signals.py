@@ -1,0 +1,255 @@
+"""Trial -> conditioned signals, and ground truth on the conditioned time base (7.1).
+
+This module is the one place where a recorded trial (an archive
+:class:`~contactlab.archive.reader.Trial`, or anything with the same
+attributes: ``rate_hz``, ``time``, ``strain``, ``wrench``, ``position``,
+``velocity``, ``labels``, ``label_names``) becomes the signals the stages and
+experiments analyse.  It owns the conditioning constants of 7.1:
+
+* the lowpass cutoff at ``fs / 8`` (:data:`CUTOFF_DIVISOR`; 125 Hz at
+  1000 Hz) and the ``4:1`` decimation (:data:`FACTOR`; 250 Hz), the filter
+  itself being :func:`contactlab.conditioning.lowpass_decimate`;
+* the log floor of ``y_h``: half the strain converter step
+  (:func:`contactlab.conditioning.quantisation_floor`), so exact zeros of the
+  difference of quantised strains enter as ``log(lsb / 2)``, not ``log(1e-12)``;
+* the input window each conditioned sample depends on (:data:`WINDOW`), used
+  to give a conditioned sample a truth label only when its whole window has it.
+
+Signals (:data:`SIGNALS`): ``strain`` (``y_l``: strains lowpassed and
+decimated), ``wrench`` (the wrench through the same filter and decimation),
+``hf`` (``y_h``: block-averaged ``log|y_d|`` of the strains), and
+:data:`STREAMS` adds ``position`` and ``velocity`` (through the same filter
+and decimation).  Every conditioned sample carries the index of the newest
+input sample it uses (``index``) and that sample's time (``times``).
+
+A trial recorded with a wrist sensor often has no strain gauges: the default
+signal (:func:`default_signal`) is ``strain`` when the trial has strains and
+``wrench`` otherwise, and asking for a signal the trial lacks raises a
+one-line :class:`~contactlab.errors.DataError` that names the signal it has.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
+from contactlab.errors import DataError, UsageError
+
+__all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
+           "source_of", "default_signal", "resolve_signal", "lowpass", "condition",
+           "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE"]
+
+#: conditioned signals of a trial's force sensor (7.1)
+SIGNALS = ("strain", "wrench", "hf")
+#: every stream :func:`trial_signals` gives: the conditioned signals and the kinematics
+STREAMS = SIGNALS + ("velocity", "position")
+#: decimation factor of 7.1 (1000 Hz -> 250 Hz)
+FACTOR = 4
+#: the lowpass cutoff is ``fs / CUTOFF_DIVISOR`` (7.1: 125 Hz at 1000 Hz, second order)
+CUTOFF_DIVISOR = 8.0
+#: input samples each conditioned sample depends on: the decimation step (4) for the
+#: lowpassed signals; for y_h[k] the 8 differences y(n) - y(n-1), n = 4k+1 .. 4k+8, i.e.
+#: inputs 4k .. 4k+8 (7.1); raw kinematics sampled at the newest input depend on one
+WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": 2 * FACTOR + 1, "velocity": 1,
+          "position": 1}
+#: channel reductions of :func:`trial_signals`
+REDUCE = ("mean", "none")
+
+
+@dataclass(frozen=True, eq=False)
+class Signal:
+    """One trial's conditioned signal.
+
+    name : the signal (one of :data:`STREAMS`).  y : (N, C).  index : (N,) newest
+    input sample of each conditioned sample.  times : (N,) its time (s) in the
+    trial's time base.  fs : conditioned rate (Hz).  trial_id : the trial.
+    """
+
+    name: str
+    y: np.ndarray
+    index: np.ndarray
+    times: np.ndarray
+    fs: float
+    trial_id: str = ""
+
+
+def source_of(signal: str) -> str:
+    """The measurement a signal is computed from: ``strain`` for strain and hf."""
+    return "strain" if signal in ("strain", "hf") else signal
+
+
+def default_signal(trial) -> str:
+    """``strain`` when the trial has strain gauges, else ``wrench``."""
+    return "strain" if getattr(trial, "strain", None) is not None else "wrench"
+
+
+def _field(trial, name: str) -> str:
+    return f"/trials/{getattr(trial, 'id', '?')}/measurements/{name}"
+
+
+def resolve_signal(trial, signal: str | None, *, path=None, known=SIGNALS) -> str:
+    """``signal``, or the trial's default when None; DataError (naming the signal the
+    trial has) when the trial lacks the measurement it needs."""
+    if signal is None:
+        signal = default_signal(trial)
+    if signal not in known:
+        raise UsageError(f"signal must be one of {', '.join(known)}; got {signal!r}")
+    source = source_of(signal)
+    if getattr(trial, source, None) is None:
+        has = [s for s in ("strain", "wrench") if getattr(trial, s, None) is not None]
+        hint = f"; it has {has[0]}: use --signal {has[0]}" if has else ""
+        raise DataError(f"trial has no {source} (needed for --signal {signal}){hint}",
+                        file=str(path) if path else None, field=_field(trial, source))
+    return signal
+
+
+def lowpass(x, *, fs: float) -> np.ndarray:
+    """``x`` (N, ...) through the 7.1 lowpass (second-order Butterworth at
+    ``fs / 8``) and 4:1 decimation; output k is at input sample ``4 k``."""
+    return lowpass_decimate(np.asarray(x, dtype=np.float64), fs=float(fs),
+                            cutoff_hz=float(fs) / CUTOFF_DIVISOR, factor=FACTOR)
+
+
+def _raw(trial, name: str, path) -> np.ndarray:
+    raw = getattr(trial, name, None)
+    if raw is None:
+        raise DataError(f"trial has no {name}", file=str(path) if path else None,
+                        field=_field(trial, name))
+    return np.asarray(raw, dtype=np.float64)
+
+
+def condition(trial, signal: str | None = None, *, path=None, source: str | None = None
+              ) -> Signal:
+    """The 7.1-conditioned ``signal`` of ``trial`` (default :func:`default_signal`).
+
+    ``strain``: ``y_l`` (:func:`~contactlab.conditioning.condition_strains`'s
+    ``low``); ``wrench``, ``position``, ``velocity``: the measurement through
+    :func:`lowpass`; ``hf``: ``y_h`` with the log floor at half the converter
+    step of its source (the strains; ``source="wrench"`` takes the log energy of
+    the wrench instead).  DataError naming the field when the trial lacks it or
+    has no samples.
+    """
+    if source is None:
+        signal = resolve_signal(trial, signal, path=path, known=STREAMS)
+        source = source_of(signal)
+    elif signal != "hf":
+        raise UsageError("source= applies to the hf signal only")
+    raw = _raw(trial, source, path)
+    time = np.asarray(trial.time, dtype=np.float64)
+    if len(time) == 0:
+        raise DataError("trial has no samples", file=str(path) if path else None,
+                        field=_field(trial, "time"))
+    fs = float(trial.rate_hz)
+    if signal in ("strain", "hf"):
+        floor = quantisation_floor(raw) if signal == "hf" else None
+        kw = {} if floor is None else {"log_floor": floor}
+        c = condition_strains(raw, fs=fs, cutoff_hz=fs / CUTOFF_DIVISOR, factor=FACTOR, **kw)
+        y, index = (c.hf, c.hf_index) if signal == "hf" else (c.low, c.low_index)
+        fs_out = c.fs_out
+    else:
+        y = lowpass(raw, fs=fs)
+        index = FACTOR * np.arange(len(y))
+        fs_out = fs / FACTOR
+    index = np.minimum(np.asarray(index, dtype=np.int64), len(time) - 1)
+    y = np.asarray(y, dtype=np.float64)
+    y = y[:, None] if y.ndim == 1 else y
+    return Signal(signal, y, index, time[index], float(fs_out), str(getattr(trial, "id", "")))
+
+
+def conditioned_signal(trial, signal: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(y, times, fs_out)`` of :func:`condition` (the form the segmenter takes)."""
+    s = condition(trial, signal)
+    return s.y, s.times, s.fs
+
+
+def trial_signals(trial, signals, *, reduce: str = "none", path=None
+                  ) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
+    """The observer's measurement streams of a trial on one conditioned time base.
+
+    Returns ``({signal: (n, C)}, index (n,), fs)``: ``hf``/``strain``/``wrench``
+    from :func:`condition`, ``velocity``/``position`` the raw channels at the
+    conditioned samples' newest input sample (``index``; 4:1 from input sample 3
+    when no conditioned signal is asked for).  ``reduce="mean"`` replaces a
+    conditioned signal's channels by their mean.  All streams are cut to the
+    shortest.
+    """
+    if reduce not in REDUCE:
+        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
+    out: dict[str, np.ndarray] = {}
+    indices: list[np.ndarray] = []
+    for s in signals:
+        if s in ("velocity", "position"):
+            continue
+        if s not in SIGNALS:
+            raise DataError(f"unknown signal {s!r} (known: {', '.join(STREAMS)})",
+                            file=str(path) if path else None, field=_field(trial, "")[:-1])
+        c = condition(trial, s, path=path)
+        y = c.y
+        if reduce == "mean" and y.shape[1] > 1:
+            y = y.mean(axis=1, keepdims=True)
+        out[s] = y
+        indices.append(c.index)
+    n_in = len(trial.time)
+    if indices:
+        n = min(len(v) for v in indices)
+        index = indices[0][:n]
+    else:
+        index = np.arange(FACTOR - 1, n_in, FACTOR)
+        n = len(index)
+    for s in signals:
+        if s in ("velocity", "position"):
+            out[s] = _raw(trial, s, path)[index]
+    out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
+    fs = float(trial.rate_hz) / FACTOR
+    return out, index[:n], fs
+
+
+# -- ground truth at the conditioned rate -------------------------------------------------
+
+def codes_at(codes, index, *, window: int = 1) -> np.ndarray:
+    """One code per conditioned sample: ``codes[index[k]]`` when the input window
+    ``index[k] - window + 1 .. index[k]`` (clipped to the record) holds one code, else -1.
+
+    ``codes`` are per input sample; ``index`` the conditioned samples' newest input
+    samples; ``window`` the input span a sample depends on (:data:`WINDOW`).
+    """
+    codes = np.asarray(codes, np.int64)
+    index = np.clip(np.asarray(index, np.int64), 0, len(codes) - 1)
+    if window <= 1:
+        return codes[index]
+    lo = np.clip(index - window + 1, 0, None)
+    run = np.r_[0, np.cumsum(np.diff(codes) != 0)]          # run id of each input sample
+    return np.where(run[lo] == run[index], codes[index], -1)
+
+
+def truth_codes(trial, index, names=None, *, window: int = 1, path=None) -> np.ndarray | None:
+    """Ground truth per conditioned sample (newest input samples ``index``) as codes
+    into ``names``; None when the trial has no per-sample labels.
+
+    ``names`` defaults to the trial's label names (``trial.label_names``); a
+    label not in ``names`` becomes -1.  Codes are -1 where unlabelled or, with ``window > 1``,
+    where the sample's input window is not all one label (:func:`codes_at`).
+    DataError naming the field for labels that do not match the trial.
+    """
+    raw = getattr(trial, "labels", None)
+    if raw is None:
+        return None
+    field = f"/trials/{getattr(trial, 'id', '?')}/ground_truth/labels"
+    file = str(path) if path else None
+    own = getattr(trial, "label_names", None)
+    if own is None:
+        raise DataError("labels have no 'names' attribute", file=file, field=field)
+    raw = np.asarray(raw)
+    if raw.ndim != 1 or raw.shape[0] != len(trial.time):
+        raise DataError(f"expected one label per sample ({len(trial.time)}); got shape "
+                        f"{raw.shape}", file=file, field=field)
+    raw = raw.astype(np.int64)
+    bad = (raw < -1) | (raw >= len(own))
+    if bad.any():
+        raise DataError(f"unknown label code {int(raw[bad][0])} (names has {len(own)})",
+                        file=file, field=field)
+    names = list(own) if names is None else list(names)
+    table = np.array([names.index(n) if n in names else -1 for n in own] + [-1], np.int64)
+    return codes_at(table[raw], index, window=window)
