@@ -29,7 +29,7 @@ CHUNK = 250
 
 def _setup():
     from contactlab.experiments import hf_recognition as hr
-    from contactlab.experiments.labelling_blocks import record_spec
+    from contactlab.acquire.simulated import record_spec
     from contactlab.observer import build_models, load_graph
     from contactlab.observer.training import train_graph
 

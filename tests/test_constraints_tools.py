@@ -7,12 +7,13 @@ import pytest
 
 from contactlab.constraints import (POSITION_SD, AlignmentDegreeTest, CartesianConstraint,
                                     CartesianStiffness, RecursiveConstraint, alignment_penalty,
-                                    alignment_statistic, angular_error_deg, confusion_matrix,
+                                    alignment_statistic, angular_error_deg,
                                     decide_degree, decide_direction, direction_cosines,
                                     equivalent_angle_deg, exploration, friction_filter,
                                     joint_projection, lognormal_summary, prior_rate,
                                     reciprocal_scaling)
 from contactlab.errors import UsageError
+from contactlab.metrics import confusion_matrix
 from tests.test_constraints_cartesian import contact_block
 
 
@@ -90,9 +91,10 @@ def test_lognormal_summary_matches_table_8_1_conversion():
 def test_decide_degree_and_confusion():
     ll = np.array([[1.0, 3.0, np.nan, 0.0], [np.nan] * 4, [5.0, 4.0, 3.0, 2.0]])
     np.testing.assert_array_equal(decide_degree(ll), [1, -1, 0])
-    C = confusion_matrix([0, 0, 1, 1], [0, 1, 1, -1])
+    C = confusion_matrix([0, 0, 1, 1], [0, 1, 1, -1], 4)[1]
     np.testing.assert_allclose(C[0], [0.5, 0.5, 0, 0])
     np.testing.assert_allclose(C[1], [0, 0.5, 0, 0])
+    assert np.isnan(C[2:]).all()              # no blocks of degrees 2, 3: no rate
 
 
 def test_likelihood_degree_test_on_rich_blocks():

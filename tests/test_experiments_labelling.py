@@ -14,9 +14,29 @@ from scipy import stats
 from contactlab.archive import open_archive, validate_archive
 from contactlab.experiments import get
 from contactlab.experiments.hf_models import impact_fits, predicted_confusion, stationary_features
-from contactlab.experiments.labelling_blocks import (
-    block_features, conditioned_codes, confusion_matrix, cut_blocks, normal_confusion,
-    record_spec, restrict_labels, two_normal_errors)
+from contactlab.acquire.simulated import record_spec
+from contactlab.archive.relabel import restrict_labels
+from contactlab.metrics import confusion_matrix
+from contactlab.signals import codes_at
+from contactlab.temporal import block_features as _block_features
+from contactlab.temporal.blocks import code_blocks as cut_blocks
+from contactlab.temporal.blocks import truth_blocks
+from contactlab.temporal.energy import normal_confusion_1d, normal_confusion_mc
+
+
+def block_features(y, starts, *, block, order, mean):
+    f = _block_features(y, order=order, mean=mean, block=block, starts=np.asarray(starts))
+    return {"k": f.orthogonal, "coef": f.coef, "noise_var": f.ml_noise_var}
+
+
+def two_normal_errors(m1, s1, m2, s2):
+    conf = normal_confusion_1d([m1, m2], [s1, s2])
+    return float(conf[0, 1]), float(conf[1, 0])
+
+
+def normal_confusion(means, covs, *, n_draws, seed):
+    return normal_confusion_mc(np.asarray(means, float), np.asarray(covs, float), n=n_draws,
+                               seed=seed)
 from contactlab.experiments.texture_labelling import log_energy_prediction, sample_features
 from conftest import LABEL_NAMES, write_archive
 
@@ -69,7 +89,7 @@ def test_conditioned_codes_brute_force():
     codes = _random_codes(rng, n=2000)
     for window in (4, 8):
         index = np.arange(0, 2000, 4)
-        got = conditioned_codes(codes, index, window=window)
+        got = codes_at(codes, index, window=window)
         for k, i in enumerate(index):
             w = codes[max(i - window + 1, 0):i + 1]
             assert got[k] == (w[0] if np.all(w == w[0]) else -1)
@@ -153,7 +173,12 @@ def test_confusion_matrix_counts_and_rates():
     chosen = np.array([0, 1, 0, 1, 1, 0])
     counts, rates = confusion_matrix(true, chosen, 4)
     assert counts.tolist()[:3] == [[2, 1, 0, 0], [0, 2, 0, 0], [1, 0, 0, 0]]
-    np.testing.assert_allclose(rates.sum(axis=1), [1, 1, 1, 0])  # a class without blocks: 0
+    np.testing.assert_allclose(rates[:3].sum(axis=1), [1, 1, 1])
+    assert np.isnan(rates[3]).all()                     # a class without blocks: no rate
+    # undetermined choices (-1) count in their row, in no column; unlabelled truth is left out
+    counts, rates = confusion_matrix([0, 0, -1, 1], [0, -1, 1, 1], 2)
+    assert counts.tolist() == [[1, 0], [0, 1]]
+    np.testing.assert_allclose(rates, [[0.5, 0.0], [0.0, 1.0]])
 
 
 def test_log_energy_prediction_closed_form_and_loo():
@@ -212,9 +237,8 @@ def test_hf_units_lie_inside_one_truth_class(hf_archive):
     assert len(feats["labels"]) > 0 and set(feats["labels"]) <= {0, 1, 2}
     with open_archive(hf_archive) as arc:
         trials = list(arc)
-        from contactlab.experiments.labelling_blocks import trial_blocks
         for i, trial in enumerate(trials):
-            b = trial_blocks(trial, signal="hf", block=BLOCK, classes=[0, 1, 2])
+            b = truth_blocks(trial, signal="hf", block=BLOCK, classes=[0, 1, 2])
             assert np.sum(feats["trial"] == i) == len(b["starts"])
             # y_h[k] uses the inputs 4k .. 4k + 8 (7.1: blocks of 8 differences, step 4)
             for s, c in zip(b["starts"], b["labels"]):

@@ -175,15 +175,20 @@ def test_train_graph_round_trip_with_impact(tmp_path):
     assert obj["labels"] == ["A", "B", "C", "I"]
     assert obj["impact_segments"] == {"I": 6}
     gm = GraphModels.load(out)
-    # blocks per class: oracle from the labelling experiments' own block cutter
-    from contactlab.experiments.labelling_blocks import conditioned_codes, cut_blocks
+    # blocks per class, brute force: y_h[k] uses inputs hf_index[k] - 8 .. hf_index[k];
+    # a conditioned sample is labelled only if all nine carry one label, and each run of
+    # one label gives len // 100 blocks
     want = dict.fromkeys("ABC", 0)
     for strain, labels in data.values():
         idx = condition_strains(strain, fs=RATE).hf_index
-        codes = conditioned_codes(labels, idx, window=9)
-        _, lab = cut_blocks(codes, block=100, classes=[0, 1, 2])
-        for k, c in zip(*np.unique(lab, return_counts=True)):
-            want[NAMES[k]] += int(c)
+        codes = [labels[i] if len(set(labels[max(i - 8, 0):i + 1])) == 1 else -1 for i in idx]
+        run, prev = 0, None
+        for c in codes + [None]:
+            if c != prev:
+                if prev is not None and 0 <= prev <= 2:
+                    want[NAMES[prev]] += run // 100
+                run, prev = 0, c
+            run += 1
     assert {k: m.n_blocks for k, m in gm.temporal.items()} == want
     # impact prior: y_h of exp(-n/TAU) noise decays by 4/TAU per 250 Hz sample
     slope = gm.impacts["I"].theta_mean[0, 1]

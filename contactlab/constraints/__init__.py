@@ -28,7 +28,7 @@ from contactlab.constraints.cartesian import (FORCE_SD, POSITION_SD, VELOCITY_SD
                                               CartesianConstraint, CartesianStiffness,
                                               ConstraintFit, StiffnessFit, min_samples)
 from contactlab.constraints.degree import (AlignmentDegreeTest, alignment_statistic,
-                                           confusion_matrix, decide_degree)
+                                           decide_degree)
 from contactlab.constraints.direction import (alignment_penalty, decide_direction,
                                               direction_log_likelihood, prior_rate)
 from contactlab.constraints.exploration import Exploration, exploration
@@ -40,7 +40,7 @@ __all__ = [
     "AlignmentDegreeTest", "BlockFits", "CartesianConstraint", "CartesianStiffness",
     "ConstraintFit", "Exploration", "FORCE_SD", "POSITION_SD", "RecursiveConstraint", "Scaling",
     "StiffnessFit", "VELOCITY_SD", "alignment_deviation", "alignment_penalty",
-    "alignment_statistic", "angular_error_deg", "confusion_matrix", "decide_degree",
+    "alignment_statistic", "angular_error_deg", "decide_degree",
     "decide_direction", "direction_cosines", "direction_log_likelihood", "equivalent_angle_deg",
     "exploration", "friction_filter", "joint_projection", "lognormal_summary", "min_samples",
     "prior_rate", "reciprocal_scaling",

@@ -24,7 +24,7 @@ import numpy as np
 
 from contactlab.errors import UsageError
 
-__all__ = ["decide_degree", "confusion_matrix", "alignment_statistic", "AlignmentDegreeTest"]
+__all__ = ["decide_degree", "alignment_statistic", "AlignmentDegreeTest"]
 
 
 def decide_degree(log_likelihoods) -> np.ndarray:
@@ -33,24 +33,6 @@ def decide_degree(log_likelihoods) -> np.ndarray:
     finite = np.isfinite(ll)
     best = np.argmax(np.where(finite, ll, -np.inf), axis=-1)
     return np.where(finite.any(axis=-1), best, -1)
-
-
-def confusion_matrix(true, chosen, *, k: int = 3) -> np.ndarray:
-    """(k+1, k+1) row-normalised confusion matrix (rows: true class, columns:
-    chosen class).  Undetermined choices (-1) are left out of the columns, so a
-    row sums to the fraction decided."""
-    t = np.asarray(true, dtype=np.int64).reshape(-1)
-    c = np.asarray(chosen, dtype=np.int64).reshape(-1)
-    if t.shape != c.shape:
-        raise UsageError("true and chosen must have the same length")
-    out = np.zeros((k + 1, k + 1))
-    for i in range(k + 1):
-        rows = t == i
-        if rows.any():
-            ci = c[rows]
-            ci = ci[ci >= 0]
-            out[i] = np.bincount(ci, minlength=k + 1)[:k + 1] / rows.sum()
-    return out
 
 
 def alignment_statistic(P) -> np.ndarray:

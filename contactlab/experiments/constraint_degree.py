@@ -40,10 +40,11 @@ import numpy as np  # noqa: E402
 
 from contactlab.constraints import (FORCE_SD, POSITION_SD, VELOCITY_SD,  # noqa: E402
                                     AlignmentDegreeTest, CartesianConstraint,
-                                    CartesianStiffness, alignment_statistic, confusion_matrix,
+                                    CartesianStiffness, alignment_statistic,
                                     decide_degree)
 from contactlab.experiments.cartesian_estimation import GROUPS, GroupData, load_groups  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
+from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
 N_BLOCKS = 400                   # 8.2: "four hundred blocks of 25 points"
@@ -158,11 +159,11 @@ def summarize(res: dict, *, seed: int) -> dict:
     for kind, r in res["kinds"].items():
         y = r["true"]
         kinds[kind] = {
-            "likelihood_thesis_rule": confusion_matrix(y, r["likelihood"]["thesis_rule"]).tolist(),
-            "likelihood_gated": confusion_matrix(y, r["likelihood"]["gated"]).tolist(),
+            "likelihood_thesis_rule": _rates(y, r["likelihood"]["thesis_rule"]),
+            "likelihood_gated": _rates(y, r["likelihood"]["gated"]),
             "undetermined_by_class": [float(np.mean(r["likelihood"]["gated"][y == i] < 0))
                                       for i in range(4)],
-            "alignment": confusion_matrix(y, r["alignment"]).tolist(),
+            "alignment": _rates(y, r["alignment"]),
             "alignment_posterior_median": float(np.median(r["posterior"])),
             "accuracy_likelihood": float(np.mean(r["likelihood"]["thesis_rule"] == y)),
             "accuracy_alignment": float(np.mean(r["alignment"] == y)),
@@ -299,6 +300,11 @@ def _differences(summary: dict) -> list[str]:
         f"{100 * summary['noise_likelihood_undetermined_gated']:.0f} % of the noise blocks "
         "undetermined -- the answer the thesis asks for.",
     ]
+
+
+def _rates(true, chosen) -> list:
+    """Row-normalised confusion over the four degrees (undetermined in no column)."""
+    return confusion_matrix(true, chosen, 4)[1].tolist()
 
 
 def run(*, out_dir: Path, seed: int, quiet: bool = False, n_blocks: int = N_BLOCKS,

@@ -38,9 +38,11 @@ import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive, validate_archive  # noqa: E402
 from contactlab.estimators import LinearDecayModel, fit  # noqa: E402
-from contactlab.experiments.labelling_blocks import (block_features, confusion_matrix,  # noqa: E402
-                                                     normal_confusion,
-                                                     normal_fit, record_spec, trial_blocks)
+from contactlab.acquire.simulated import record_spec  # noqa: E402
+from contactlab.metrics import confusion_matrix  # noqa: E402
+from contactlab.temporal import block_features  # noqa: E402
+from contactlab.temporal.blocks import truth_blocks  # noqa: E402
+from contactlab.temporal.energy import normal_confusion_mc, normal_params  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -66,12 +68,12 @@ def stationary_features(archive, *, block: int = BLOCK) -> dict:
     with open_archive(archive) as arc:
         for i, trial in enumerate(arc):
             groups.append(str(trial.attrs.get("group", "")))
-            b = trial_blocks(trial, signal="hf", block=block, classes=range(len(STATIONARY)))
-            f = block_features(b["y"].mean(axis=1), b["starts"], block=block, order=ORDER,
-                               mean=MEAN)
-            out["k"].append(f["k"][:, 0])
-            out["coef"].append(f["coef"][:, 0])
-            out["noise_var"].append(f["noise_var"][:, 0])
+            b = truth_blocks(trial, signal="hf", block=block, classes=range(len(STATIONARY)))
+            f = block_features(b["y"].mean(axis=1), order=ORDER, mean=MEAN, block=block,
+                               starts=b["starts"])
+            out["k"].append(f.orthogonal[:, 0])
+            out["coef"].append(f.coef[:, 0])
+            out["noise_var"].append(f.ml_noise_var[:, 0])
             out["labels"].append(b["labels"])
             out["trial"].append(np.full(len(b["labels"]), i))
     res = {k: np.concatenate(v) for k, v in out.items()}
@@ -86,7 +88,7 @@ def impact_fits(archive, *, code: int = 3) -> list[dict]:
     rows = []
     with open_archive(archive) as arc:
         for trial in arc:
-            b = trial_blocks(trial, signal="hf", block=1, classes=[code])
+            b = truth_blocks(trial, signal="hf", block=1, classes=[code])
             y = b["y"].mean(axis=1)
             runs = _runs(b["codes"] == code)
             for s, e in runs:
@@ -111,10 +113,10 @@ def predicted_confusion(k, labels, *, seed: int) -> dict:
     """Normal fit per stationary class to the feature rows ``k`` (n, d) and the
     Monte-Carlo confusion of the equal-prior rule under those normals; also the
     resubstitution confusion of the same rule on the units themselves."""
-    fits = [normal_fit(k[labels == c]) for c in range(len(STATIONARY))]
+    fits = [normal_params(k[labels == c]) for c in range(len(STATIONARY))]
     means = [m for m, _ in fits]
     covs = [c for _, c in fits]
-    pred = normal_confusion(means, covs, n_draws=N_DRAWS, seed=seed)
+    pred = normal_confusion_mc(np.asarray(means), np.asarray(covs), n=N_DRAWS, seed=seed)
     from scipy import stats
 
     ll = np.column_stack([stats.multivariate_normal(m, c).logpdf(k) for m, c in fits])

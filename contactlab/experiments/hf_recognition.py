@@ -40,8 +40,9 @@ import numpy as np  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.observer.draw import plot_graph  # noqa: E402
 from contactlab.observer.graph import load_graph  # noqa: E402
-from contactlab.observer.recognize import (DELAY_BINS, confusion, merge_path,  # noqa: E402
+from contactlab.observer.recognize import (DELAY_BINS, merge_path,  # noqa: E402
                                            recognize_archive)
+from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.observer.training import train_graph  # noqa: E402
 from contactlab.signals import WINDOW, trial_signals, truth_codes  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
@@ -123,7 +124,7 @@ def decode_hmm(model, runs: list[dict]) -> tuple[np.ndarray, float, list[np.ndar
         states.append(s)
     dt = time.perf_counter() - t0
     for r, s in zip(runs, states):
-        total += confusion(r["truth"], s, K)
+        total += confusion_matrix(r["truth"], s, K)[0]
     return total, dt, states
 
 
@@ -132,7 +133,7 @@ def decode_hmm(model, runs: list[dict]) -> tuple[np.ndarray, float, list[np.ndar
 # ---------------------------------------------------------------------------
 def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     """Simulate, train, recognise (3 settings + HMM + 8-channel check); write the page."""
-    from contactlab.experiments.labelling_blocks import record_spec
+    from contactlab.acquire.simulated import record_spec
 
     out_dir = Path(out_dir)
     tmp = out_dir / "tmp"

@@ -37,9 +37,12 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from contactlab.archive import open_archive, validate_archive  # noqa: E402
-from contactlab.experiments.labelling_blocks import (  # noqa: E402
-    block_features, half_lsb, normal_fit, record_spec, restrict_labels, trial_blocks,
-    two_normal_errors)
+from contactlab.acquire.simulated import record_spec  # noqa: E402
+from contactlab.archive.relabel import restrict_labels  # noqa: E402
+from contactlab.conditioning import quantisation_floor  # noqa: E402
+from contactlab.temporal import block_features  # noqa: E402
+from contactlab.temporal.blocks import truth_blocks  # noqa: E402
+from contactlab.temporal.energy import normal_confusion_1d, normal_params  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -78,13 +81,13 @@ def sample_features(archive, *, signal: str) -> dict:
     ks, vs, labels, trial_ix, yh, yh_labels, yh_trial = [], [], [], [], [], [], []
     with open_archive(archive) as arc:
         for i, trial in enumerate(arc):
-            b = trial_blocks(trial, signal=signal, block=BLOCK)
-            f = block_features(b["y"], b["starts"], block=BLOCK, order=ORDER, mean=MEAN)
-            ks.append(f["k"])
-            vs.append(f["noise_var"])
+            b = truth_blocks(trial, signal=signal, block=BLOCK)
+            f = block_features(b["y"], order=ORDER, mean=MEAN, block=BLOCK, starts=b["starts"])
+            ks.append(f.orthogonal)
+            vs.append(f.ml_noise_var)
             labels.append(b["labels"])
             trial_ix.append(np.full(len(b["labels"]), i))
-            h = trial_blocks(trial, signal="hf", block=BLOCK)
+            h = truth_blocks(trial, signal="hf", block=BLOCK)
             m = h["y"].mean(axis=1)
             idx = h["starts"][:, None] + np.arange(BLOCK)
             yh.append(m[idx].mean(axis=1) if len(idx) else np.zeros(0))
@@ -101,9 +104,10 @@ def log_energy_prediction(yh, labels) -> dict:
     measured error of the same rule with leave-one-block-out normal fits."""
     yh = np.asarray(yh, float)
     labels = np.asarray(labels, int)
-    fits = [normal_fit(yh[labels == c]) for c in (0, 1)]
+    fits = [normal_params(yh[labels == c]) for c in (0, 1)]
     (m0, v0), (m1, v1) = [(float(m[0]), float(np.sqrt(v[0, 0]))) for m, v in fits]
-    p01, p10 = two_normal_errors(m0, v0, m1, v1)
+    conf = normal_confusion_1d([m0, m1], [v0, v1])
+    p01, p10 = float(conf[0, 1]), float(conf[1, 0])
     wrong = np.zeros(2)
     for j in range(len(yh)):
         keep = np.arange(len(yh)) != j
@@ -181,7 +185,7 @@ def _sample(name: str, tmp: Path, *, seed: int, quiet: bool) -> dict:
     energy = log_energy_prediction(feats["yh"], feats["yh_labels"])
     lpc = lpc_labelling(arc, signal=cfg["signal"])
     with open_archive(arc) as a:
-        log_lsb = float(np.log(2 * half_lsb(next(iter(a)).strain)))
+        log_lsb = float(np.log(2 * quantisation_floor(next(iter(a)).strain)))
     return {"classes": classes, "valid": not problems, "problems": problems[:3],
             "features": feats, "energy": energy, "lpc": lpc, "log_lsb": log_lsb}
 

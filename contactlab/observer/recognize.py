@@ -37,10 +37,11 @@ from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
+from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
 from contactlab.signals import trial_signals, truth_codes
 
-__all__ = ["recognize_archive", "recognize_trial", "TrialRecognition", "confusion",
+__all__ = ["recognize_archive", "recognize_trial", "TrialRecognition",
            "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]
 
 STAGE = "recognize"
@@ -65,16 +66,6 @@ def merge_path(path) -> list[tuple[str, int]]:
         if not out or out[-1][0] != node:
             out.append((node, int(s)))
     return out
-
-
-def confusion(truth, chosen, n: int) -> np.ndarray:
-    """(n, n) counts: rows true node, columns chosen node (truth < 0 left out)."""
-    truth = np.asarray(truth, np.int64)
-    chosen = np.asarray(chosen, np.int64)
-    ok = truth >= 0
-    m = np.zeros((n, n), np.int64)
-    np.add.at(m, (truth[ok], chosen[ok]), 1)
-    return m
 
 
 def detection_delays(truth, path, node_names, *, window: int = 50) -> dict:
@@ -243,8 +234,8 @@ def recognize_archive(archive, *, graph, models, action=None, threshold: float =
                  "n_changes": sum(e.model is not None for e in r.events),
                  "accuracy": None, "accuracy_online": None}
         if rec.truth is not None and (rec.truth >= 0).any():
-            c = confusion(rec.truth, r.labels, K)
-            con = confusion(rec.truth, r.map_node, K)
+            c = confusion_matrix(rec.truth, r.labels, K)[0]
+            con = confusion_matrix(rec.truth, r.map_node, K)[0]
             total += c
             total_on += con
             entry["accuracy"] = float(np.trace(c) / c.sum())

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactlab.errors import DataError
-from contactlab.signals import Signal, condition, source_of, truth_codes
+from contactlab.signals import WINDOW, Signal, condition, source_of, truth_codes
 
 __all__ = ["TrialSignal", "load_signal", "runs_from_codes", "runs_from_stage",
-           "cut_blocks", "label_runs"]
+           "cut_blocks", "code_blocks", "label_runs", "truth_blocks"]
 
 #: one trial's conditioned signal (:class:`contactlab.signals.Signal`)
 TrialSignal = Signal
@@ -104,3 +104,30 @@ def label_runs(trial, sig: TrialSignal, labels: str, *, path=None
             return np.zeros((0, 3), dtype=np.int64), None
         return runs_from_codes(codes), names
     return runs_from_stage(trial, labels, sig.times, codes, path=path), names
+
+
+def code_blocks(codes, *, block: int, classes=None) -> tuple[np.ndarray, np.ndarray]:
+    """Block starts (K,) and codes (K,) of the whole blocks of ``block`` samples inside
+    each maximal run of one code ``>= 0`` (and in ``classes`` if given), in time order."""
+    if int(block) < 1:
+        raise ValueError(f"block must be >= 1; got {block}")
+    runs = runs_from_codes(codes)
+    if classes is not None:
+        runs = runs[np.isin(runs[:, 2], np.asarray(list(classes), np.int64))]
+    return cut_blocks(runs, block)
+
+
+def truth_blocks(trial, *, signal: str | None, block: int, classes=None, path=None) -> dict:
+    """The conditioned ``signal`` of ``trial`` and its pure-truth blocks.
+
+    ``y`` (K, C) conditioned signal; ``codes`` (K,) the trial's label code of each
+    conditioned sample, -1 unless its whole input window (:data:`contactlab.signals.WINDOW`)
+    has that label; ``starts``, ``labels``: the blocks of :func:`code_blocks`.
+    """
+    sig = load_signal(trial, signal, path=path)
+    codes = truth_codes(trial, sig.index, window=WINDOW[sig.name], path=path)
+    if codes is None:
+        raise DataError("trial has no ground-truth labels", file=str(path) if path else None,
+                        field=f"/trials/{trial.id}/ground_truth/labels")
+    starts, labels = code_blocks(codes, block=block, classes=classes)
+    return {"y": sig.y, "codes": codes, "starts": starts, "labels": labels}

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import norm
 
-__all__ = ["normal_confusion_1d", "normal_error_1d", "normal_fit", "classify_1d",
+__all__ = ["normal_confusion_1d", "normal_error_1d", "normal_fit", "normal_params", "classify_1d",
            "normal_confusion_mc"]
 
 
@@ -106,6 +106,15 @@ def normal_fit(values, labels, classes) -> tuple[np.ndarray, np.ndarray]:
         mu.append(v.mean())
         sd.append(v.std(ddof=1))
     return np.asarray(mu), np.asarray(sd)
+
+
+def normal_params(samples) -> tuple[np.ndarray, np.ndarray]:
+    """Mean (d,) and covariance (d, d) (ddof=1) of ``samples`` (n, d) or (n,)."""
+    x = np.asarray(samples, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    if len(x) < 2:
+        raise ValueError(f"a normal fit needs at least 2 samples; got {len(x)}")
+    return x.mean(axis=0), np.atleast_2d(np.cov(x, rowvar=False, ddof=1))
 
 
 def normal_confusion_mc(means, covs, *, priors=None, n: int = 100_000, seed: int = 0

@@ -65,6 +65,11 @@ class BlockFeatures:
     mean: bool
 
     @property
+    def ml_noise_var(self) -> np.ndarray:
+        """(K, C) maximum-likelihood driving-noise variance ``e^2 / M``."""
+        return self.residual_energy / self.rows
+
+    @property
     def n_blocks(self) -> int:
         return int(self.orthogonal.shape[0])
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from contactlab.errors import DataError, UsageError
+from contactlab.metrics import confusion_matrix
 from contactlab.temporal import energy
 from contactlab.temporal.likelihood import block_loglik, loglik_params
 from contactlab.temporal.model import ModelSet, TemporalModel
@@ -61,16 +62,12 @@ def _loo_block_table(blocks: LabelledBlocks, models: dict[str, TemporalModel]) -
 
 
 def confusion(true, predicted, labels) -> dict:
-    """``{"labels", "matrix" (counts, rows true class), "rates" (rows sum to 1)}``."""
-    J = len(labels)
+    """``{"labels", "matrix" (counts, rows true class), "rates" (rows sum to 1; NaN for a
+    class without blocks)}`` of :func:`contactlab.metrics.confusion_matrix`."""
     index = {name: i for i, name in enumerate(labels)}
-    mat = np.zeros((J, J), dtype=np.int64)
-    for t, p in zip(true, predicted):
-        mat[index[t], index[p]] += 1
-    rows = mat.sum(axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rates = np.where(rows > 0, mat / np.maximum(rows, 1), np.nan)
-    return {"labels": list(labels), "matrix": mat.tolist(), "rates": rates.tolist()}
+    counts, rates = confusion_matrix([index[t] for t in true], [index[p] for p in predicted],
+                                     len(labels))
+    return {"labels": list(labels), "matrix": counts.tolist(), "rates": rates.tolist()}
 
 
 def _hf_signal(trial, path):

@@ -1,0 +1,46 @@
+"""Scores of decisions against ground truth: the one confusion matrix.
+
+Every stage and experiment that compares chosen classes with true ones
+(``label``, ``recognize``, the degree decisions of chapter 8, the labelling
+experiments) counts them with :func:`confusion_matrix`, so they share one
+convention:
+
+* rows are the true class, columns the chosen class (scikit-learn's
+  ``confusion_matrix``, which does the counting);
+* a sample whose true class is negative (unlabelled) is left out;
+* a negative choice (undetermined, no decision) counts in its row's total but
+  in no column, so a row of ``rates`` sums to the fraction decided;
+* a class with no samples has a row of NaN rates: no data, not 0 %.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["confusion_matrix"]
+
+
+def confusion_matrix(true, chosen, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(counts, rates)`` over classes ``0 .. n_classes - 1`` (see the module notes).
+
+    counts : (n, n) int64, ``counts[i, j]`` samples of true class i chosen as j.
+    rates : (n, n) float, counts divided by the number of samples of true class i
+        (undetermined choices included); NaN rows for classes without samples.
+    """
+    from sklearn.metrics import confusion_matrix as _sk_confusion
+
+    true = np.asarray(true, dtype=np.int64).reshape(-1)
+    chosen = np.asarray(chosen, dtype=np.int64).reshape(-1)
+    if true.shape != chosen.shape:
+        raise ValueError(f"true and chosen differ in length ({true.size} vs {chosen.size})")
+    n = int(n_classes)
+    labels = np.arange(n)
+    keep = (true >= 0) & (true < n)
+    if keep.any():
+        counts = _sk_confusion(true[keep], chosen[keep], labels=labels).astype(np.int64)
+    else:
+        counts = np.zeros((n, n), np.int64)
+    totals = np.bincount(true[keep], minlength=n)[:n, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rates = np.where(totals > 0, counts / np.maximum(totals, 1), np.nan)
+    return counts, rates
