@@ -28,6 +28,7 @@ from contactlab.detection.page_hinkley import (
     MeanChangeDetector,
     PageHinkley,
     VarianceChangeDetector,
+    cusum_step,
 )
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "VARIANCE_SIDES",
     "VarianceChangeDetector",
     "chi_square",
+    "cusum_step",
     "mean_increment",
     "mean_increments",
     "stationary_variance",

@@ -261,6 +261,19 @@ class PageHinkley:
                                  trace=tr if trace else None)
 
 
+@njit(cache=True, inline="always")
+def cusum_step(df, x):
+    """One sample of the Page-Hinkley (CUSUM) recursion 6.18: ``max(0, df + x)``.
+
+    The one compiled form of the recursion: the detector's kernel, the
+    observer's detector rows and the ROC Monte Carlo of :mod:`.roc` all call it
+    (numba inlines it into their loops); callable from Python too.  A result of
+    exactly 0 marks a "last zero" (the change-time estimate of fig 6.4).
+    """
+    v = df + x
+    return v if v > 0.0 else 0.0
+
+
 @njit(cache=True)
 def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat):  # pragma: no cover
     """(6.18) over x (n, D, K); updates df and last_zero in place.
@@ -278,11 +291,8 @@ def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat):  # pragma
             best = -1
             best_v = 0.0
             for k in range(n_side):
-                v = df[d, k] + x[i, d, k]
-                if v > 0.0:
-                    df[d, k] = v
-                else:
-                    df[d, k] = 0.0
+                df[d, k] = cusum_step(df[d, k], x[i, d, k])
+                if df[d, k] == 0.0:
                     last_zero[d, k] = t
                 if keep_trace:
                     trace[i, d, k] = df[d, k]

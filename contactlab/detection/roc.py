@@ -44,6 +44,7 @@ import numpy as np
 from numba import njit
 from scipy.special import erfc
 
+from contactlab.detection.page_hinkley import cusum_step
 from contactlab.progress import bar
 
 #: Siegmund's overshoot constant rho = -zeta(1/2) / sqrt(2 pi).
@@ -224,14 +225,11 @@ def _ph_renewal(z, gain, half, thr, active, df, count):  # pragma: no cover - nu
             y = np.float64(z[i, r])
             for jj in range(active.size):
                 j = active[jj]
-                v = df[r, j] + gain[j] * (y - half[j])
-                if v > 0.0:
-                    if v > thr[j]:
-                        count[j] += 1
-                        v = 0.0
-                    df[r, j] = v
-                else:
-                    df[r, j] = 0.0
+                v = cusum_step(df[r, j], gain[j] * (y - half[j]))
+                if v > thr[j]:
+                    count[j] += 1
+                    v = 0.0
+                df[r, j] = v
 
 
 @njit(cache=True)
@@ -263,13 +261,10 @@ def _ph_first_passage(z, t0, change_at, shift, gain, half, thr, df, result):  # 
                 y = np.float64(z[i, r])
                 if after:
                     y = y + shift[j]
-                v = df[r, j] + gain[j] * (y - half[j])
-                if v > 0.0:
-                    df[r, j] = v
-                    if v > thr[j]:
-                        result[r, j] = t - change_at[j] + 1 if after else -2
-                else:
-                    df[r, j] = 0.0
+                v = cusum_step(df[r, j], gain[j] * (y - half[j]))
+                df[r, j] = v
+                if v > thr[j]:
+                    result[r, j] = t - change_at[j] + 1 if after else -2
 
 
 @njit(cache=True)

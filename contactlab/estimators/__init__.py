@@ -19,7 +19,7 @@ models run together: ``psi`` (N, B, p) / (N, B, m, p)); square roots are
 lower-triangular with a non-negative diagonal, ``I = R R^T``.
 """
 
-from contactlab.estimators.kalman import KalmanResult, SquareRootKalman
+from contactlab.estimators.kalman import KalmanResult, SquareRootKalman, kalman_step
 from contactlab.estimators.models import (ARModel, LinearDecayModel, LinearFit, LinearModel, fit,
                                           fit_ar)
 from contactlab.estimators.orthogonal import (OrthogonalKalman, from_orthogonal,
@@ -28,7 +28,7 @@ from contactlab.estimators.rls import RLSResult, SquareRootRLS, exact_sequence_l
 
 __all__ = [
     "SquareRootRLS", "RLSResult", "exact_sequence_loglik",
-    "SquareRootKalman", "KalmanResult",
+    "SquareRootKalman", "KalmanResult", "kalman_step",
     "OrthogonalKalman", "unit_structure", "to_orthogonal", "from_orthogonal", "orthogonal_prior",
     "LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "fit", "fit_ar",
 ]

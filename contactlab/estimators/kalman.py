@@ -53,13 +53,15 @@ from contactlab.estimators._arrays import (as_f64, batch_vector, sqrt_matrix,
                                            vector_regression)
 from contactlab.estimators.householder import forward_subst, tri_append
 
-__all__ = ["SquareRootKalman", "KalmanResult"]
+__all__ = ["SquareRootKalman", "KalmanResult", "kalman_step", "STRUCTURES"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
 #: ``mode`` of the kernel: plain regressors, orthogonal regressors with the
 #: structure tracked on-line (A.41-A.42), orthogonal with a fixed structure.
 MODE_PLAIN, MODE_TRACK, MODE_FIXED = 0, 1, 2
+#: regressor structures of :func:`kalman_step` by name
+STRUCTURES = {"plain": MODE_PLAIN, "track": MODE_TRACK, "fixed": MODE_FIXED}
 
 
 @numba.njit(cache=True)
@@ -297,16 +299,13 @@ class SquareRootKalman:
         psi, y = vector_regression(psi, y)
         N, B, m, p = psi.shape
         self._ensure_state(B, m, p)
-        out = dict(innovations=np.empty((N, B, m)), alpha=np.empty((N, B, m)),
-                   innovation_sqrt=np.empty((N, B, m, m)), theta=np.empty((N, B, p)),
-                   change_stat=np.empty((N, B)), loglik=np.empty((N, B)))
-        _kalman_kernel(psi, y, self.theta_, self.theta_sqrt_, self._noise_fixed,
-                       self._noise_est, self._vcount, float(self.noise_prior_count),
-                       bool(self.estimate_noise), self._mode, self._structure,
-                       out["innovations"], out["alpha"], out["innovation_sqrt"],
-                       out["theta"], out["change_stat"], out["loglik"])
+        res = kalman_step(psi, y, theta=self.theta_, theta_sqrt=self.theta_sqrt_,
+                          noise_sqrt=self._noise_fixed, noise_est=self._noise_est,
+                          noise_count=self._vcount, structure_sqrt=self._structure,
+                          structure=self._mode, estimate_noise=self.estimate_noise,
+                          noise_prior_count=self.noise_prior_count)
         self.n_samples_ += N
-        return KalmanResult(**out)
+        return res
 
     def update(self, psi, y) -> KalmanResult:
         """One step for every model: ``psi`` (B, m, p) or (B, p); ``y`` (B, m) or (B,).
@@ -317,3 +316,37 @@ class SquareRootKalman:
         y = np.asarray(y, dtype=np.float64)
         res = self.filter(psi[None], y[None])
         return KalmanResult(**{k: v[0] for k, v in res.__dict__.items()})
+
+
+def kalman_step(psi, y, *, theta, theta_sqrt, noise_sqrt, noise_est=None, noise_count=None,
+                structure_sqrt=None, structure="plain", estimate_noise: bool = False,
+                noise_prior_count: float = 8.0) -> KalmanResult:
+    """N steps (A.32-A.39) of B independent square-root Kalman filters whose state the
+    caller holds: the stateless form of :meth:`SquareRootKalman.filter`.
+
+    ``psi`` (N, B, m, p), ``y`` (N, B, m) C-contiguous float64.  The state arrays are
+    advanced in place: ``theta`` (B, p) estimate, ``theta_sqrt`` (B, p, p) its
+    lower-triangular covariance square root, ``noise_sqrt`` (B, m, m) the fixed
+    ``V_nu^{1/2}``, ``noise_est`` (B, m, m) and ``noise_count`` (B,) the running
+    innovation-variance estimate (A.38; used when ``estimate_noise``), and
+    ``structure_sqrt`` (B, p, p) the regressors' structure square root for the
+    orthogonal forms (A.40-A.42).  ``structure``: ``"plain"`` regressors,
+    ``"track"`` the structure on line, ``"fixed"`` a fixed structure (or the
+    ``MODE_*`` code).  Returns the per-sample :class:`KalmanResult`.
+    """
+    N, B, m, p = psi.shape
+    mode = STRUCTURES[structure] if isinstance(structure, str) else int(structure)
+    if noise_est is None:
+        noise_est = np.array(noise_sqrt, dtype=np.float64)
+    if noise_count is None:
+        noise_count = np.zeros(B)
+    if structure_sqrt is None:
+        structure_sqrt = np.zeros((B, p, p))
+    out = dict(innovations=np.empty((N, B, m)), alpha=np.empty((N, B, m)),
+               innovation_sqrt=np.empty((N, B, m, m)), theta=np.empty((N, B, p)),
+               change_stat=np.empty((N, B)), loglik=np.empty((N, B)))
+    _kalman_kernel(psi, y, theta, theta_sqrt, noise_sqrt, noise_est, noise_count,
+                   float(noise_prior_count), bool(estimate_noise), mode, structure_sqrt,
+                   out["innovations"], out["alpha"], out["innovation_sqrt"], out["theta"],
+                   out["change_stat"], out["loglik"])
+    return KalmanResult(**out)

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from contactlab.detection.page_hinkley import cusum_step
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
@@ -59,17 +60,14 @@ SIDES = ("increase", "both")
 
 @numba.njit(cache=True, inline="always")
 def _detector_row(df, last_zero, x, t):  # pragma: no cover
-    """One sample of every detector side (6.18): ``df <- max(0, df + x)``, noting the
+    """One sample of every detector side (6.18, :func:`contactlab.detection.cusum_step`), noting the
     last zero at ``t``; returns the largest statistic."""
     U, S = df.shape
     top = 0.0
     for u in range(U):
         for s in range(S):
-            v = df[u, s] + x[u, s]
-            if v > 0.0:
-                df[u, s] = v
-            else:
-                df[u, s] = 0.0
+            df[u, s] = cusum_step(df[u, s], x[u, s])
+            if df[u, s] == 0.0:
                 last_zero[u, s] = t
             if df[u, s] > top:
                 top = df[u, s]

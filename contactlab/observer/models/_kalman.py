@@ -2,7 +2,7 @@
 
 The state of ``U`` instances of a ``C``-channel model is held as arrays with
 axes ``(U, C, ...)`` and advanced by the estimators' compiled kernel
-(:func:`contactlab.estimators.kalman._kalman_kernel`, the code behind
+(:func:`contactlab.estimators.kalman.kalman_step`, the stateless step behind
 :class:`~contactlab.estimators.SquareRootKalman` and
 :class:`~contactlab.estimators.OrthogonalKalman`) with ``B = U * C`` scalar
 filters, so instances can be added and dropped without rebuilding objects.
@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.estimators.kalman import MODE_FIXED, MODE_PLAIN, MODE_TRACK, _kalman_kernel
+from contactlab.estimators.kalman import MODE_PLAIN, STRUCTURES, kalman_step
 
-MODES = {"plain": MODE_PLAIN, "track": MODE_TRACK, "fixed": MODE_FIXED}
+MODES = STRUCTURES
+__all__ = ["MODES", "MODE_PLAIN", "prior_state", "run_kalman", "as_channel_prior"]
 
 
 def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
@@ -45,15 +46,12 @@ def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
     psi4 = np.ascontiguousarray(psi, dtype=np.float64).reshape(N, B, 1, q)
     y3 = np.ascontiguousarray(y, dtype=np.float64).reshape(N, B, 1)
     view = {k: v.reshape((B,) + v.shape[2:]) for k, v in state.items()}
-    nu = np.empty((N, B, 1))
-    alpha = np.empty((N, B, 1))
-    F = np.empty((N, B, 1, 1))
-    theta = np.empty((N, B, q))
-    lc = np.empty((N, B))
-    ll = np.empty((N, B))
-    _kalman_kernel(psi4, y3, view["theta"], view["S"], view["Lv"], view["Ve"], view["vcount"],
-                   float(noise_prior_count), bool(estimate_noise), mode, view["Ls"],
-                   nu, alpha, F, theta, lc, ll)
+    res = kalman_step(psi4, y3, theta=view["theta"], theta_sqrt=view["S"],
+                      noise_sqrt=view["Lv"], noise_est=view["Ve"], noise_count=view["vcount"],
+                      structure_sqrt=view["Ls"], structure=mode,
+                      estimate_noise=bool(estimate_noise),
+                      noise_prior_count=float(noise_prior_count))
+    ll, lc = res.loglik, res.change_stat
     loglik = ll.reshape(N, U, C).sum(axis=2)
     chi2 = (-2.0 * lc).reshape(N, U, C).sum(axis=2)
     return loglik, chi2
