@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from contactlab import defaults as D
+
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
 
 
@@ -20,13 +22,13 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--action", default=None, metavar="A",
               help="Commanded action (name or code) for every sample, overriding the "
                    "archive's action channel (action-dependent graphs).")
-@click.option("--threshold", type=float, default=8.0, show_default=True,
+@click.option("--threshold", type=float, default=D.OBSERVER_THRESHOLD, show_default=True,
               help="Page-Hinkley decision threshold T^2 (7.3.1).")
-@click.option("--change-size", type=float, default=2.0, show_default=True,
+@click.option("--change-size", type=float, default=D.OBSERVER_CHANGE_SIZE, show_default=True,
               help="Change magnitude q of the detectors (7.3.1).")
-@click.option("--prune", "p_prune", type=float, default=0.999, show_default=True,
+@click.option("--prune", "p_prune", type=float, default=D.OBSERVER_PRUNE, show_default=True,
               help="Probability mass P_prune kept when pruning paths (6.4).")
-@click.option("--gap", type=float, default=20.0, show_default=True,
+@click.option("--gap", type=float, default=D.OBSERVER_GAP, show_default=True,
               help="Drop paths this far below the best log-likelihood (9.1.1).")
 @click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
               show_default=True, help="Detect covariance increases only (the thesis) or both.")

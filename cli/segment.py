@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from contactlab import defaults as D
+
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
 
 
@@ -25,21 +27,21 @@ def _thresholds(ctx, param, value):
               help="Signal to segment after 7.1 conditioning: 250 Hz strains, 250 Hz "
                    "wrench, or the high-frequency log-energy.  [default: strain when the "
                    "trial has strain gauges, else wrench]")
-@click.option("--order", type=int, default=2, show_default=True,
+@click.option("--order", type=int, default=D.SEGMENT_ORDER, show_default=True,
               help="AR order of every channel's square-root estimator.")
-@click.option("--threshold", type=float, default=200.0, show_default=True,
+@click.option("--threshold", type=float, default=D.SEGMENT_THRESHOLD, show_default=True,
               help="Page-Hinkley decision threshold T^2.")
 @click.option("--sweep", "sweep_values", callback=_thresholds, default=None,
               metavar="T1,T2,...",
               help="Segment at each threshold (fig 7.7); prints, writes nothing.")
-@click.option("--change-size", type=float, default=2.5, show_default=True,
+@click.option("--change-size", type=float, default=D.CHANGE_SIZE, show_default=True,
               help="Covariance change q tested up (q) and down (1/q).")
 @click.option("--combine", type=click.Choice(["sum", "channel"]), default="sum",
               show_default=True,
               help="sum: the thesis's one chi-square test over all channels; channel: one "
                    "Page-Hinkley test per channel, a change when any fires (finds changes "
                    "confined to a few channels; beyond the thesis).")
-@click.option("--tolerance", type=float, default=0.1, show_default=True,
+@click.option("--tolerance", type=float, default=D.TOLERANCE_S, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option

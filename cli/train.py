@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from contactlab import defaults as D
+
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
 
 
@@ -20,10 +22,10 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
               help="Conditioned signal (7.1) to model.  [default: strain when the trials "
                    "have strain gauges, else wrench]")
-@click.option("--order", type=int, default=2, show_default=True, help="AR order p.")
+@click.option("--order", type=int, default=D.TRAIN_ORDER, show_default=True, help="AR order p.")
 @click.option("--mean/--no-mean", default=False, show_default=True,
               help="Include a constant (mean) regressor.")
-@click.option("--block", type=int, default=100, show_default=True,
+@click.option("--block", type=int, default=D.BLOCK, show_default=True,
               help="Samples per training block (blocks never span a label change).")
 @click.option("--classes", default=None, metavar="A,B,...",
               help="Train only these labels (default: every label with enough blocks).")

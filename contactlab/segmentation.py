@@ -91,6 +91,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from contactlab import defaults as D
 from contactlab.detection import PageHinkley, VarianceChangeDetector
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
@@ -212,8 +213,9 @@ def _check_params(order, threshold, change_size, warmup, block) -> None:
         raise UsageError(f"block must be an integer >= 1; got {block!r}")
 
 
-def segment_signal(y, *, fs: float, order: int = 2, threshold: float = 200.0,
-                   change_size: float = 2.5, warmup: int = 8, variance_samples: int = 8,
+def segment_signal(y, *, fs: float, order: int = D.SEGMENT_ORDER,
+                   threshold: float = D.SEGMENT_THRESHOLD, change_size: float = D.CHANGE_SIZE,
+                   warmup: int = D.WARMUP, variance_samples: int = 8,
                    t0: float = 0.0, times=None, block: int = DEFAULT_BLOCK,
                    combine: str = "sum") -> Segmentation:
     """Segment ``y`` (N,) or (N, C) sampled at ``fs`` Hz (fig 7.6).
@@ -374,8 +376,9 @@ def _segment_channels(a, channels, times, parameters, *, block: int) -> Segmenta
                         channels, parameters, as_int(fired))
 
 
-def segment_trial(trial, *, signal: str | None = None, order: int = 2,
-                  threshold: float = 200.0, change_size: float = 2.5, warmup: int = 8,
+def segment_trial(trial, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
+                  threshold: float = D.SEGMENT_THRESHOLD, change_size: float = D.CHANGE_SIZE,
+                  warmup: int = D.WARMUP,
                   block: int = DEFAULT_BLOCK, combine: str = "sum") -> Segmentation:
     """Segment one archive trial's conditioned ``signal`` (see
     :func:`contactlab.signals.condition`; default: strain if the trial has strain
@@ -492,9 +495,10 @@ def pooled_metrics(per_trial: list[dict], tolerance_s: float) -> dict | None:
 _pooled = pooled_metrics          # the former private name
 
 
-def run_archive(path, *, signal: str | None = None, order: int = 2, threshold: float = 200.0,
-                thresholds=None, change_size: float = 2.5, warmup: int = 8,
-                tolerance_s: float = 0.1, trials=None, quiet: bool = True,
+def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
+                threshold: float = D.SEGMENT_THRESHOLD,
+                thresholds=None, change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
+                tolerance_s: float = D.TOLERANCE_S, trials=None, quiet: bool = True,
                 write: bool = True, combine: str = "sum") -> dict:
     """Segment the trials of the archive ``path`` (``contactlab segment``).
 

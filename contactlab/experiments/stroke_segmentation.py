@@ -54,6 +54,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from contactlab import defaults as D  # noqa: E402
 from contactlab.acquire.sim import simulate_trial  # noqa: E402
 from contactlab.acquire.spec import load_spec  # noqa: E402
 from contactlab.conditioning import condition_strains  # noqa: E402
@@ -70,9 +71,9 @@ from contactlab.timing import best_time_and_result  # noqa: E402
 
 SPECS = ("stroke-a", "stroke-b")
 ORDER = 2
-CHANGE_SIZE = 2.5
+CHANGE_SIZE = D.CHANGE_SIZE
 FIG_THRESHOLD = 100.0            # fig 7.5
-THESIS_THRESHOLD = 200.0         # 7.2.1: the threshold used to cut training segments
+THESIS_THRESHOLD = D.SEGMENT_THRESHOLD  # 7.2.1: the threshold used to cut training segments
 SWEEP = (10.0, 15.0, 25.0, 35.0, 50.0, 70.0, 100.0, 140.0, 200.0, 280.0, 400.0)
 TOLERANCE_S = 0.1
 MIN_PHASE_S = 0.1

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from contactlab import defaults as D
 from contactlab.detection.page_hinkley import cusum_step
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
@@ -193,8 +194,9 @@ class Observer:
     """
 
     def __init__(self, graph: FeatureGraph, models: Mapping[str, FeatureModel], *,
-                 threshold: float = 8.0, change_size: float = 2.0, p_prune: float = 0.999,
-                 gap: float = 20.0, sides: str = "increase", max_paths: int | None = None,
+                 threshold: float = D.OBSERVER_THRESHOLD,
+                 change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
+                 gap: float = D.OBSERVER_GAP, sides: str = "increase", max_paths: int | None = None,
                  initial=None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")

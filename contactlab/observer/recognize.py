@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contactlab import defaults as D
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.composite import build_models
@@ -184,8 +185,10 @@ def _trial_datasets(rec: TrialRecognition, graph: FeatureGraph) -> tuple[dict, d
     return ds, attrs
 
 
-def recognize_archive(archive, *, graph, models, action=None, threshold: float = 8.0,
-                      change_size: float = 2.0, p_prune: float = 0.999, gap: float = 20.0,
+def recognize_archive(archive, *, graph, models, action=None,
+                      threshold: float = D.OBSERVER_THRESHOLD,
+                      change_size: float = D.OBSERVER_CHANGE_SIZE,
+                      p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
                       sides: str = "increase", trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).

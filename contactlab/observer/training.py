@@ -44,6 +44,7 @@ import h5py
 import numpy as np
 
 from contactlab import __version__
+from contactlab import defaults as D
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
@@ -179,7 +180,8 @@ def load_graph_models(path) -> GraphModels:
 # -- training ----------------------------------------------------------------------------
 
 
-def train_graph(archive, graph, *, order: int = 1, mean: bool = True, block: int = 100,
+def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
+                block: int = D.BLOCK,
                 reduce: str = "mean", trials=None, quiet: bool = True,
                 command: str | None = None) -> GraphModels:
     """Fit every trained model ``graph`` names from the labelled trials of ``archive``.

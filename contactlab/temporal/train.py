@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from contactlab import __version__
+from contactlab import defaults as D
 from contactlab.errors import DataError, UsageError
 from contactlab.signals import SIGNALS, resolve_signal
 from contactlab.temporal.blocks import TrialSignal, cut_blocks, label_runs, load_signal
@@ -92,8 +93,9 @@ def _opened(archive):
             yield a, Path(archive)
 
 
-def collect_blocks(archive, *, labels: str = "truth", signal: str | None = None, order: int = 2,
-                   mean: bool = False, block: int = 100, trials=None, channels=None,
+def collect_blocks(archive, *, labels: str = "truth", signal: str | None = None,
+                   order: int = D.TRAIN_ORDER,
+                   mean: bool = False, block: int = D.BLOCK, trials=None, channels=None,
                    keep_unlabelled: bool = False, quiet: bool = True) -> LabelledBlocks:
     """Blocks of every trial (or ``trials``) of ``archive`` and their features.
 
@@ -232,8 +234,9 @@ def fit_models(blocks: LabelledBlocks, *, classes=None, mask=None, path=None
 
 
 
-def train_temporal(archive, *, labels: str = "truth", signal: str | None = None, order: int = 2,
-                   mean: bool = False, block: int = 100, trials=None, classes=None,
+def train_temporal(archive, *, labels: str = "truth", signal: str | None = None,
+                   order: int = D.TRAIN_ORDER,
+                   mean: bool = False, block: int = D.BLOCK, trials=None, classes=None,
                    quiet: bool = True, command: str | None = None) -> ModelSet:
     """Train one :class:`TemporalModel` per class of ``archive`` (7.2.2, A.2.3).
 

@@ -1,0 +1,31 @@
+"""Default settings of the analysis stages, in one place.
+
+The CLI options, the library functions and the experiments read these names;
+change a default here and every entry point follows.  Each value is the
+thesis's where it gives one (section in brackets) and was checked on data we
+did not make (see the README's benchmark and experiment tables).
+"""
+
+#: segmentation (7.2.1, fig 7.6): AR order of every channel's estimator
+SEGMENT_ORDER = 2
+#: Page-Hinkley decision threshold T^2 of the segmenter (7.2.1: 200 cuts the training segments)
+SEGMENT_THRESHOLD = 200.0
+#: covariance change q the segmenter tests, up (q) and down (1/q) (7.2.1)
+CHANGE_SIZE = 2.5
+#: samples the estimators absorb before their innovation variance is used (fig 7.6)
+WARMUP = 8
+#: seconds within which a found boundary matches a true one (ruptures' margin)
+TOLERANCE_S = 0.1
+
+#: temporal models (7.2.2, A.2.3): AR order and block length (100 samples in the thesis)
+TRAIN_ORDER = 2
+BLOCK = 100
+#: models of a feature graph (7.3): AR(1) with a mean over the channel-mean y_h
+GRAPH_ORDER = 1
+GRAPH_MEAN = True
+
+#: the observer (6.4, 7.3.2): Page-Hinkley threshold, change size, pruning, gap
+OBSERVER_THRESHOLD = 8.0
+OBSERVER_CHANGE_SIZE = 2.0
+OBSERVER_PRUNE = 0.999
+OBSERVER_GAP = 20.0
