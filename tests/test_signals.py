@@ -1,0 +1,108 @@
+"""contactlab.signals: the one trial -> conditioned signal layer, and truth at its rate.
+
+Oracles: scipy's Butterworth filter applied by hand, brute-force log-energy
+blocks and label windows, and a wrench-only recording run through the CLI.
+"""
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+from contactlab.archive import create_archive, open_archive
+from contactlab.errors import DataError
+from contactlab.signals import WINDOW, condition, default_signal, trial_signals, truth_codes
+from conftest import LABEL_NAMES, RATE_HZ, one_json_object, run_cli, synthetic_labels, \
+    synthetic_measurements
+
+
+def _wrench_only(path, n=3000):
+    with create_archive(path, title="wrist sensor") as archive:
+        for i, tid in enumerate(("w0", "w1")):
+            data = synthetic_measurements(n, seed=i)
+            rng = np.random.default_rng(i)
+            w = data["wrench"] + rng.normal(scale=0.05, size=data["wrench"].shape)
+            w[n // 2:] += rng.normal(scale=0.5, size=(n - n // 2, 6))       # a change
+            trial = archive.add_trial(tid, rate_hz=RATE_HZ, controller="position",
+                                      environment="plane", seed=i, source="import",
+                                      description="wrench only")
+            trial.append(time=data["time"], wrench=w, position=data["position"])
+            labels, segments = synthetic_labels(data["time"])
+            trial.set_ground_truth(labels=labels, names=LABEL_NAMES, segments=segments)
+            trial.close()
+    return path
+
+
+def test_strain_and_wrench_match_scipy(archive_path):
+    with open_archive(archive_path) as arc:
+        trial = arc.trial("t01")
+        sos = sps.butter(2, RATE_HZ / 8, fs=RATE_HZ, output="sos")
+        for name in ("strain", "wrench", "position"):
+            raw = np.asarray(getattr(trial, name), float)
+            zi = sps.sosfilt_zi(sos)[:, :, None] * raw[0]
+            want = sps.sosfilt(sos, raw, axis=0, zi=zi)[0][::4]
+            sig = condition(trial, name)
+            np.testing.assert_allclose(sig.y, want, rtol=1e-10, atol=1e-12)
+            np.testing.assert_array_equal(sig.index, 4 * np.arange(len(want)))
+            np.testing.assert_array_equal(sig.times, trial.time[sig.index])
+            assert sig.fs == RATE_HZ / 4
+
+
+def test_hf_floor_is_half_the_converter_step(archive_path):
+    with open_archive(archive_path) as arc:
+        trial = arc.trial("t01")
+        lsb = 1e-3
+        q = np.round(np.asarray(trial.strain, float) / lsb) * lsb
+        fake = type("T", (), {"rate_hz": RATE_HZ, "time": trial.time, "strain": q, "id": "q"})
+        sig = condition(fake, "hf")
+        d = np.abs(np.diff(q, axis=0))
+        assert (d == 0).any()                               # exact zeros of the difference
+        logs = np.log(np.maximum(d, lsb / 2))
+        k = np.arange(len(sig.y))
+        want = np.stack([logs[4 * j:4 * j + 8].mean(axis=0) for j in k])
+        np.testing.assert_allclose(sig.y, want, rtol=1e-9)
+        np.testing.assert_array_equal(sig.index, 4 * k + 8)
+
+
+def test_truth_codes_window_brute_force(archive_path):
+    with open_archive(archive_path) as arc:
+        trial = arc.trial("t01")
+        idx = condition(trial, "hf").index
+        got = truth_codes(trial, idx, window=WINDOW["hf"])
+        raw = trial.labels
+        for k, i in enumerate(idx):
+            w = raw[max(i - 8, 0):i + 1]
+            assert got[k] == (w[0] if (w == w[0]).all() else -1)
+        # names reorder the codes; a name the trial lacks gives -1 nowhere
+        rev = truth_codes(trial, idx, names=LABEL_NAMES[::-1])
+        plain = truth_codes(trial, idx)
+        table = {i: LABEL_NAMES[::-1].index(n) for i, n in enumerate(LABEL_NAMES)}
+        np.testing.assert_array_equal(rev, [table[c] if c >= 0 else -1 for c in plain])
+
+
+def test_observer_streams_share_one_time_base(archive_path):
+    with open_archive(archive_path) as arc:
+        trial = arc.trial("t01")
+        data, index, fs = trial_signals(trial, ["hf", "velocity"], reduce="mean")
+        assert data["hf"].shape == (len(index), 1) and fs == RATE_HZ / 4
+        np.testing.assert_array_equal(data["velocity"], trial.velocity[index])
+
+
+def test_default_signal_follows_the_trial(tmp_path, archive_path):
+    path = _wrench_only(tmp_path / "wrist.h5")
+    with open_archive(path) as arc, open_archive(archive_path) as full:
+        assert default_signal(arc.trial("w0")) == "wrench"
+        assert default_signal(full.trial("t01")) == "strain"
+        with pytest.raises(DataError, match="use --signal wrench"):
+            condition(arc.trial("w0"), "strain")
+    r = run_cli("segment", path, "--json", "--quiet")
+    assert r.exit_code == 0, r.output
+    assert len(one_json_object(r.stdout)["trials"]["w0"]["boundaries_s"]) >= 1
+    with open_archive(path) as arc:
+        assert arc.trial("w0").results("segment").attrs["signal"] == "wrench"
+    r = run_cli("train", path, "--block", "50", "--out", tmp_path / "m.h5", "--json", "--quiet")
+    assert r.exit_code == 0, r.output
+    assert one_json_object(r.stdout)["signal"] == "wrench"
+    r = run_cli("segment", path, "--signal", "hf")
+    assert r.exit_code != 0 and "Traceback" not in r.output
+    line = r.output.strip().splitlines()[-1]
+    assert "no strain" in line and "--signal wrench" in line and "wrist.h5" in line
