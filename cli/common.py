@@ -111,17 +111,3 @@ def echo_json(obj) -> None:
     """Print ``obj`` as exactly one JSON object on stdout."""
     sys.stdout.write(json.dumps(to_jsonable(obj), sort_keys=False) + "\n")
     sys.stdout.flush()
-
-
-def not_available(verb: str, issue: str):
-    """A verb whose implementation lands with a later issue."""
-
-    @click.command(name=verb, context_settings={"ignore_unknown_options": True},
-                   help=f"Not available yet: lands with the {issue} issue.\n\n"
-                        f"Example: contactlab {verb} --help")
-    @click.argument("args", nargs=-1, type=click.UNPROCESSED)
-    def cmd(args):
-        click.echo(f"{PROG}: {verb}: not available yet (lands with the {issue} issue)", err=True)
-        sys.exit(2)
-
-    return cmd

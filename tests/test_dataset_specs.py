@@ -153,7 +153,7 @@ def test_datasets_experiment_draws_every_ready_spec(tmp_path):
     from contactlab.experiments import EXPERIMENTS
 
     exp = EXPERIMENTS["datasets"]
-    assert exp.implemented and exp.issue == "Simulator and acquire"
+    assert exp.implemented and exp.part == "Simulator and acquire"
     summary = exp.run(out_dir=tmp_path, seed=2, quiet=True)
     ready = [n for n in list_specs() if load_spec(n).ready]
     assert summary["valid"] and summary["simulated"] == ready

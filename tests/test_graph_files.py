@@ -134,3 +134,13 @@ def test_cli_show(tmp_path):
     assert r.exit_code == 1
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "bad.toml: edges[1]: dangling edge" in lines[0]
+
+
+def test_bundled_graph_names_resolve_from_any_directory(tmp_path, monkeypatch):
+    """Graph names are package data (importlib.resources), not paths from a checkout."""
+    from contactlab.observer.graph import bundled_graphs, load_graph
+
+    monkeypatch.chdir(tmp_path)
+    assert {"hf-context", "hf-context-free"} <= set(bundled_graphs())
+    for name in ("hf-context", "hf-context.toml", "datasets_spec/graphs/hf-context.toml"):
+        assert load_graph(name).name == "hf-context"

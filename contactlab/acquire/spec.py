@@ -1,6 +1,6 @@
 """Dataset specs: ``datasets_spec/<name>.toml`` -> :class:`DatasetSpec`.
 
-A spec says how to simulate one dataset of ``shared/EXPERIMENTS.md``: how
+A spec says how to simulate one dataset of the thesis's experiments: how
 many trials, how long, at what rate, which environment and controller, how
 trials vary, and which label function turns the simulator's ground truth into
 the experiment's feature labels. Layout (every value is commented with its

@@ -3,8 +3,9 @@
 Each implemented experiment is a module with a function
 ``run(*, out_dir: Path, seed: int, quiet: bool) -> dict`` that writes its
 figures, tables and page (``index.html`` + ``report.pdf``) into ``out_dir`` and
-returns a JSON-able summary. The registry lists every experiment of
-``shared/EXPERIMENTS.md``; those of later issues are listed as planned.
+returns a JSON-able summary. The registry lists every experiment of the
+thesis (chapters 6-9); those the package cannot run yet are listed as not
+reproduced yet.
 """
 
 from __future__ import annotations
@@ -17,12 +18,13 @@ from pathlib import Path
 
 @dataclass(frozen=True)
 class Experiment:
-    """One thesis experiment: its name, what it reproduces, where it lives."""
+    """One thesis experiment: its name, what it reproduces, the part of the toolkit it
+    exercises, and the module that runs it (None: not reproduced yet)."""
 
     name: str
     title: str
     thesis: str
-    issue: str
+    part: str
     module: str | None = None
 
     @property
@@ -31,12 +33,12 @@ class Experiment:
 
     @property
     def status(self) -> str:
-        return "implemented" if self.implemented else f"planned ({self.issue})"
+        return "implemented" if self.implemented else "not reproduced yet"
 
     def runner(self) -> Callable[..., dict]:
         """The experiment's ``run`` function (imported on demand)."""
         if self.module is None:
-            raise LookupError(f"{self.name} is not implemented yet ({self.issue})")
+            raise LookupError(f"{self.name} is not reproduced yet")
         return importlib.import_module(self.module).run
 
     def run(self, *, out_dir: Path, seed: int, quiet: bool = False) -> dict:

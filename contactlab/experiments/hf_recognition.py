@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.observer.draw import plot_graph  # noqa: E402
-from contactlab.observer.graph import load_graph  # noqa: E402
+from contactlab.observer.graph import bundled_graphs, load_graph  # noqa: E402
 from contactlab.observer.recognize import (DELAY_BINS, merge_path,  # noqa: E402
                                            recognize_archive)
 from contactlab.metrics import confusion_matrix  # noqa: E402
@@ -48,7 +48,7 @@ from contactlab.signals import WINDOW, trial_signals, truth_codes  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
-GRAPHS = Path(__file__).resolve().parents[2] / "datasets_spec" / "graphs"
+GRAPHS = bundled_graphs()["hf-context"].parent
 STATES = ("H0", "H1", "H2", "H3")
 ORDER, MEAN, BLOCK = 1, True, 100          # 7.3: a mean and one AR coefficient, units of 100
 THRESHOLD, CHANGE_SIZE = 8.0, 2.0          # 7.3.1

@@ -25,7 +25,7 @@ def resolve(names: list[str], *, run_all: bool = False) -> list[Experiment]:
             raise UsageError(f"unknown experiment {name!r}; known: {', '.join(EXPERIMENTS)}")
         exp = EXPERIMENTS[name]
         if not exp.implemented:
-            raise UsageError(f"{name}: not implemented yet (lands with the {exp.issue} issue)")
+            raise UsageError(f"{name}: not reproduced yet (see --list)")
         chosen.append(exp)
     return chosen
 

@@ -24,7 +24,7 @@ import numpy as np
 from contactlab.errors import DataError
 
 __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MODEL_KINDS",
-           "PLANNED_KINDS"]
+           "UNAVAILABLE_KINDS", "bundled_graphs", "graph_path"]
 
 #: model kinds the observer implements, with the parameters each accepts
 #: (name -> required?); see contactlab.observer.models
@@ -34,9 +34,10 @@ MODEL_KINDS: dict[str, dict[str, bool]] = {
     "velocity-fixed": {"sigma": True},
     "velocity-moving": {"low": True, "high": True, "sigma": True},
 }
-#: kinds a graph may name whose implementation lands with a later issue
-PLANNED_KINDS: dict[str, str] = {"constraint": "Constraint estimation"}
-_PLANNED_PARAMS = {"constraint": {"trained": False, "constraint": False}}
+#: kinds a graph may name that the observer cannot run, with the reason
+UNAVAILABLE_KINDS: dict[str, str] = {
+    "constraint": "constraint models are estimated by 'contactlab estimate', not by the observer"}
+_UNAVAILABLE_PARAMS = {"constraint": {"trained": False, "constraint": False}}
 
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "wrench"}
@@ -191,9 +192,31 @@ class FeatureGraph:
 
 # -- loading -----------------------------------------------------------------------------
 
+def bundled_graphs() -> dict[str, Path]:
+    """The feature graphs shipped with the package: name -> file (found with
+    :mod:`importlib.resources`, so they resolve after any install, from any directory)."""
+    from importlib.resources import files
+
+    root = files("contactlab.datasets_spec") / "graphs"
+    if not root.is_dir():
+        return {}
+    return {p.name[:-5]: Path(str(p)) for p in root.iterdir() if p.name.endswith(".toml")}
+
+
+def graph_path(name) -> Path:
+    """``name`` as a path if that file exists, else the bundled graph of that name
+    (``hf-context``, ``hf-context.toml`` or ``datasets_spec/graphs/hf-context.toml``)."""
+    path = Path(name)
+    if path.exists():
+        return path
+    stem = path.name[:-5] if path.name.endswith(".toml") else path.name
+    return bundled_graphs().get(stem, path)
+
+
 def load_graph(path) -> FeatureGraph:
-    """Read and validate a feature-graph TOML file (format: ``datasets_spec/GRAPHS.md``)."""
-    path = Path(path)
+    """Read and validate a feature-graph TOML file (format: ``datasets_spec/GRAPHS.md``);
+    a name that is not a file is looked up among the bundled graphs (:func:`graph_path`)."""
+    path = graph_path(path)
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
@@ -305,10 +328,10 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
         if not isinstance(spec, Mapping):
             raise err(where, "must be a table with a kind")
         kind = spec.get("kind")
-        known = MODEL_KINDS.get(kind) or _PLANNED_PARAMS.get(kind)
+        known = MODEL_KINDS.get(kind) or _UNAVAILABLE_PARAMS.get(kind)
         if known is None:
             raise err(f"{where}.kind", f"unknown model kind {kind!r} (known: "
-                      f"{', '.join(list(MODEL_KINDS) + list(PLANNED_KINDS))})")
+                      f"{', '.join(list(MODEL_KINDS) + list(UNAVAILABLE_KINDS))})")
         signal = spec.get("signal", _DEFAULT_SIGNAL[kind])
         if not isinstance(signal, str) or not signal:
             raise err(f"{where}.signal", "must be a signal name (e.g. hf, velocity, wrench)")

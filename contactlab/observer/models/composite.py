@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactlab.errors import DataError
-from contactlab.observer.graph import PLANNED_KINDS, FeatureGraph, ModelSpec
+from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, ModelSpec
 from contactlab.observer.models.base import FeatureModel
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.observer.models.temporal import TemporalFeature
@@ -67,9 +67,10 @@ def build_models(graph: FeatureGraph, trained: Mapping | None = None, *,
 def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> FeatureModel:
     where = f"models.{spec.name}"
     p = spec.params
-    if spec.kind in PLANNED_KINDS:
-        raise DataError(f"model kind {spec.kind!r} is not available yet (lands with the "
-                        f"{PLANNED_KINDS[spec.kind]} issue)", file=graph.source, field=f"{where}.kind")
+    if spec.kind in UNAVAILABLE_KINDS:
+        raise DataError(f"model kind {spec.kind!r} is not available "
+                        f"({UNAVAILABLE_KINDS[spec.kind]})", file=graph.source,
+                        field=f"{where}.kind")
     if spec.kind == "velocity-fixed":
         return FixedVelocity(name=spec.name, sigma=p["sigma"], signal=spec.signal)
     if spec.kind == "velocity-moving":
