@@ -95,8 +95,10 @@ def mean_increment(y, *, mu0: float, dmu: float, sigma: float) -> np.ndarray:
         raise ValueError(f"sigma must be > 0; got {sigma!r}")
     if dmu == 0:
         raise ValueError("dmu must be nonzero (the size of the mean change to detect)")
-    y = np.asarray(y, dtype=float)
-    return (dmu / sigma**2) * (y - mu0 - 0.5 * dmu)
+    out = np.subtract(np.asarray(y, dtype=float), mu0)    # in place after the first
+    out -= 0.5 * dmu                                          # temporary: same rounding
+    out *= dmu / sigma**2                                     # as (dmu/s^2)(y - mu0 - dmu/2)
+    return out
 
 
 def mean_increments(y, *, mu0: float, dmu: float, sigma: float) -> np.ndarray:

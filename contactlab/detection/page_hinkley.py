@@ -240,8 +240,8 @@ class PageHinkley:
         if self.engine == "numba":
             tr = np.empty((n, d, k) if trace else (0, 0, 0))
             stat = np.empty((d, k))
-            table = _cusum_kernel(x, self.threshold_, self.df_, self.last_zero_, t0, tr, trace,
-                                  stat)
+            table = _cusum_run(x, self.threshold_, self.df_, self.last_zero_, t0, tr, trace,
+                               stat)
         else:
             # blocks bound the cost of the alarm rounds (each round is one pass
             # over its block) and the memory of the temporaries
@@ -275,39 +275,142 @@ def cusum_step(df, x):
 
 
 @njit(cache=True)
-def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat):  # pragma: no cover
-    """(6.18) over x (n, D, K); updates df and last_zero in place.
+def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out, d0, i0
+                  ):  # pragma: no cover
+    """(6.18) over x (n, D, K) from detector ``d0``, sample ``i0``; updates df and
+    last_zero in place and writes alarm rows (time, detector, side, change time)
+    into ``out``.
 
-    ``stat`` receives the statistics of the last sample before any reset.
-
-    Returns an (N, 4) int64 table of alarms: time, detector, side, change time.
+    ``stat`` receives the statistics of the last sample before any reset.  Each
+    detector runs over the whole block with its state in registers (one and two
+    sides specialised): one add, one compare and one branch per sample.  When
+    ``out`` is full the kernel stops before the sample that might need a new row
+    and returns ``(rows, d, i)`` to resume from; ``(rows, D, 0)`` when done.  Rows
+    come in (detector, time) order; the caller sorts them by time.
     """
     n, n_det, n_side = x.shape
-    out = np.empty((64, 4), dtype=np.int64)
+    cap = out.shape[0]
     m = 0
-    for i in range(n):
-        t = t0 + i
-        for d in range(n_det):
-            best = -1
-            best_v = 0.0
-            for k in range(n_side):
-                df[d, k] = cusum_step(df[d, k], x[i, d, k])
-                if df[d, k] == 0.0:
-                    last_zero[d, k] = t
+    for d in range(d0, n_det):
+        th = thr[d]
+        start = i0 if d == d0 else 0
+        if n_side == 1:
+            s0 = df[d, 0]
+            z0 = last_zero[d, 0]
+            pre0 = s0
+            for i in range(start, n):
+                if m == cap:
+                    df[d, 0] = s0
+                    last_zero[d, 0] = z0
+                    return m, d, i
+                s0 = cusum_step(s0, x[i, d, 0])
+                if s0 == 0.0:
+                    z0 = t0 + i
                 if keep_trace:
-                    trace[i, d, k] = df[d, k]
-                if i == n - 1:
-                    stat[d, k] = df[d, k]
-                if df[d, k] > thr[d] and (best < 0 or df[d, k] > best_v):
-                    best = k
-                    best_v = df[d, k]
-            if best >= 0:
-                out = push_alarm(out, m, t, d, best, last_zero[d, best])
-                m += 1
+                    trace[i, d, 0] = s0
+                pre0 = s0
+                if s0 > th:
+                    out[m, 0] = t0 + i
+                    out[m, 1] = d
+                    out[m, 2] = 0
+                    out[m, 3] = z0
+                    m += 1
+                    s0 = 0.0
+                    z0 = t0 + i
+            df[d, 0] = s0
+            last_zero[d, 0] = z0
+            stat[d, 0] = pre0
+        elif n_side == 2:
+            s0 = df[d, 0]
+            s1 = df[d, 1]
+            z0 = last_zero[d, 0]
+            z1 = last_zero[d, 1]
+            pre0 = s0
+            pre1 = s1
+            for i in range(start, n):
+                if m == cap:
+                    df[d, 0] = s0
+                    df[d, 1] = s1
+                    last_zero[d, 0] = z0
+                    last_zero[d, 1] = z1
+                    return m, d, i
+                s0 = cusum_step(s0, x[i, d, 0])
+                s1 = cusum_step(s1, x[i, d, 1])
+                if s0 == 0.0:
+                    z0 = t0 + i
+                if s1 == 0.0:
+                    z1 = t0 + i
+                if keep_trace:
+                    trace[i, d, 0] = s0
+                    trace[i, d, 1] = s1
+                pre0 = s0
+                pre1 = s1
+                if s0 > th or s1 > th:
+                    out[m, 0] = t0 + i
+                    out[m, 1] = d
+                    if s0 > th and not s1 > s0:        # ties go to the first side
+                        out[m, 2] = 0
+                        out[m, 3] = z0
+                    else:
+                        out[m, 2] = 1
+                        out[m, 3] = z1
+                    m += 1
+                    s0 = 0.0
+                    s1 = 0.0
+                    z0 = t0 + i
+                    z1 = t0 + i
+            df[d, 0] = s0
+            df[d, 1] = s1
+            last_zero[d, 0] = z0
+            last_zero[d, 1] = z1
+            stat[d, 0] = pre0
+            stat[d, 1] = pre1
+        else:
+            for i in range(start, n):
+                if m == cap:
+                    return m, d, i
+                t = t0 + i
+                best = -1
+                best_v = 0.0
                 for k in range(n_side):
-                    df[d, k] = 0.0
-                    last_zero[d, k] = t
-    return out[:m].copy()
+                    df[d, k] = cusum_step(df[d, k], x[i, d, k])
+                    if df[d, k] == 0.0:
+                        last_zero[d, k] = t
+                    if keep_trace:
+                        trace[i, d, k] = df[d, k]
+                    if i == n - 1:
+                        stat[d, k] = df[d, k]
+                    if df[d, k] > th and (best < 0 or df[d, k] > best_v):
+                        best = k
+                        best_v = df[d, k]
+                if best >= 0:
+                    out[m, 0] = t
+                    out[m, 1] = d
+                    out[m, 2] = best
+                    out[m, 3] = last_zero[d, best]
+                    m += 1
+                    for k in range(n_side):
+                        df[d, k] = 0.0
+                        last_zero[d, k] = t
+    return m, n_det, 0
+
+
+def _cusum_run(x, thr, df, last_zero, t0, trace, keep_trace, stat) -> np.ndarray:
+    """:func:`_cusum_kernel` over the whole block, growing the alarm table as needed;
+    rows in (time, detector) order."""
+    n, n_det, _ = x.shape
+    cap = max(64, min(n * n_det, 4096))
+    parts = []
+    d, i = 0, 0
+    while d < n_det:
+        out = np.empty((cap, 4), dtype=np.int64)
+        m, d, i = _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out, d, i)
+        parts.append(out[:m])
+        cap *= 2
+    table = parts[0] if len(parts) == 1 else np.concatenate(parts)
+    if n_det > 1 and len(table) > 1:
+        table = table[np.lexsort((table[:, 1], table[:, 0]))]
+    return table
 
 
 def _cusum_numpy(x, thr, df0, lz0, t0):
@@ -407,10 +510,11 @@ class MeanChangeDetector:
         """The increments for ``y``: ``y.shape + (K,)``."""
         if not self.dmu > 0:
             raise ValueError(f"dmu must be > 0 (use two_sided for decreases); got {self.dmu!r}")
-        parts = [mean_increment(y, mu0=self.mu0, dmu=self.dmu, sigma=self.sigma)]
-        if self.two_sided:
-            parts.append(mean_increment(y, mu0=self.mu0, dmu=-self.dmu, sigma=self.sigma))
-        return np.stack(parts, axis=-1)
+        up = mean_increment(y, mu0=self.mu0, dmu=self.dmu, sigma=self.sigma)
+        if not self.two_sided:
+            return up[..., None]                                  # a view, no copy
+        return np.stack([up, mean_increment(y, mu0=self.mu0, dmu=-self.dmu, sigma=self.sigma)],
+                        axis=-1)
 
     @property
     def sides(self) -> tuple[str, ...]:
