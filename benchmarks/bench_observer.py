@@ -28,21 +28,21 @@ CHUNK = 250
 
 
 def _setup():
-    from contactlab.experiments import hf_recognition as hr
     from contactlab.acquire.simulated import record_spec
     from contactlab.observer import build_models, load_graph
     from contactlab.observer.training import train_graph
+    from contactlab.peers.hmm import fit_hmm, labelled_points
 
-    graph = load_graph(hr.GRAPHS / "hf-context-free.toml")
+    graph = load_graph("hf-context-free")                 # bundled graph, by name
+    states = list(graph.node_names)
     with tempfile.TemporaryDirectory() as d:
         train = record_spec("hf-train", Path(d) / "train.h5", seed=1)
         test = record_spec("hf-test", Path(d) / "test.h5", seed=2)
-        gm = train_graph(train, graph, order=hr.ORDER, mean=hr.MEAN, block=hr.BLOCK,
-                         reduce="mean")
-        tr_pts, te_pts = hr.labelled_points(train), hr.labelled_points(test)
+        gm = train_graph(train, graph, reduce="mean")      # the library's graph defaults
+        tr_pts, te_pts = labelled_points(train, states), labelled_points(test, states)
     y = np.concatenate([p["y"] for p in te_pts])
     stream = np.ascontiguousarray(np.resize(y, (HOUR, 1)))
-    return graph, build_models(graph, gm.trained), stream, hr.fit_hmm(tr_pts)
+    return graph, build_models(graph, gm.trained), stream, fit_hmm(tr_pts, len(states))
 
 
 def _run(graph, models, y, *, track=False):

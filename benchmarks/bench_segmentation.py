@@ -77,11 +77,15 @@ def run() -> list[dict]:
 
 
 def _peers() -> list[dict]:
-    from contactlab.experiments.stroke_segmentation import (BETA_GRID, SWEEP, load_trial,
-                                                            peer_boundaries)
+    from contactlab.acquire.stroke_phases import stroke_truth
+    from contactlab.defaults import THRESHOLD_SWEEP as SWEEP
+    from contactlab.peers.ruptures_ar import BETA_GRID, peer_boundaries
+    from contactlab.signals import condition
 
-    t = load_trial(load_spec("stroke-a"), 0, 1)
-    y, times, fs, truth = t["y"], t["times"], t["fs"], t["truth_s"]
+    plan, r = simulate_trial(load_spec("stroke-a"), 0, 1)
+    sig = condition(r, "strain")
+    y, times, fs = sig.y, sig.times, sig.fs
+    truth = np.array([p["start_s"] for p in stroke_truth(plan, r)["phases"][1:]])
 
     def f1(found_s):
         return boundary_metrics(truth, found_s, times=times)["f1"]

@@ -3,6 +3,12 @@ over the library (import name ``contactlab.cli``)."""
 
 from __future__ import annotations
 
+import os
+
+# The one place matplotlib's backend is chosen: the CLI writes figures to files, so
+# it uses Agg unless the user set MPLBACKEND.  The library chooses none at import.
+os.environ.setdefault("MPLBACKEND", "Agg")
+
 import click
 
 from contactlab import __version__

@@ -14,6 +14,8 @@ SEGMENT_THRESHOLD = 200.0
 CHANGE_SIZE = 2.5
 #: samples the estimators absorb before their innovation variance is used (fig 7.6)
 WARMUP = 8
+#: thresholds a segmentation sweep tries (fig 7.7 and the stroke-segmentation experiment)
+THRESHOLD_SWEEP = (10.0, 15.0, 25.0, 35.0, 50.0, 70.0, 100.0, 140.0, 200.0, 280.0, 400.0)
 #: seconds within which a found boundary matches a true one (ruptures' margin)
 TOLERANCE_S = 0.1
 

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
+import os
 
-from contactlab.archive import create_archive
+os.environ.setdefault("MPLBACKEND", "Agg")      # as the CLI does: figures go to files
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from contactlab.archive import create_archive  # noqa: E402
 
 RATE_HZ = 1000.0
 LABEL_NAMES = ["free", "contact", "sliding"]

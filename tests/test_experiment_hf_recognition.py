@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from contactlab.experiments import hf_recognition as hr
+from contactlab.peers.hmm import fit_hmm
 
 
 def _runs(seed):
@@ -22,7 +23,7 @@ def _runs(seed):
 
 def test_hmm_is_the_supervised_fit():
     runs = _runs(0)
-    m = hr.fit_hmm(runs, pseudo=1.0)
+    m = fit_hmm(runs, len(hr.STATES), pseudo=1.0)
     y = np.concatenate([r["y"] for r in runs])[:, 0]
     t = np.concatenate([r["truth"] for r in runs])
     for k in range(4):
@@ -37,7 +38,7 @@ def test_hmm_is_the_supervised_fit():
 
 
 def test_hmm_viterbi_recovers_separated_states():
-    m = hr.fit_hmm(_runs(0))
+    m = fit_hmm(_runs(0), len(hr.STATES))
     test = _runs(1)
     conf, secs, states = hr.decode_hmm(m, test)
     assert conf.sum() == sum(len(r["truth"]) for r in test)

@@ -13,9 +13,9 @@ import pytest
 from scipy.signal import lfilter
 
 from contactlab.experiments import get
-from contactlab.experiments.stroke_segmentation import (
-    PHASES, ChannelARCost, FastChannelARCost, detectability, evaluate, merge_short_runs,
-    per_boundary_hits, phase_codes, truth_phases)
+from contactlab.acquire.stroke_phases import PHASES, merge_short_runs, phase_codes, truth_phases
+from contactlab.experiments.stroke_segmentation import detectability, evaluate, per_boundary_hits
+from contactlab.peers.ruptures_ar import ChannelARCost, FastChannelARCost
 from contactlab.segmentation import segment_signal
 
 FS = 250.0

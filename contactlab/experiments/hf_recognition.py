@@ -31,12 +31,10 @@ import shutil
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from contactlab import defaults as D  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.observer.draw import plot_graph  # noqa: E402
 from contactlab.observer.graph import bundled_graphs, load_graph  # noqa: E402
@@ -44,13 +42,13 @@ from contactlab.observer.recognize import (DELAY_BINS, merge_path,  # noqa: E402
                                            recognize_archive)
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.observer.training import train_graph  # noqa: E402
-from contactlab.signals import WINDOW, trial_signals, truth_codes  # noqa: E402
+from contactlab.peers.hmm import fit_hmm, labelled_points  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
 GRAPHS = bundled_graphs()["hf-context"].parent
 STATES = ("H0", "H1", "H2", "H3")
-ORDER, MEAN, BLOCK = 1, True, 100          # 7.3: a mean and one AR coefficient, units of 100
+ORDER, MEAN, BLOCK = D.GRAPH_ORDER, D.GRAPH_MEAN, D.BLOCK   # 7.3: AR(1) with a mean, units of 100
 THRESHOLD, CHANGE_SIZE = 8.0, 2.0          # 7.3.1
 THESIS = {
     "train_cf": {"accuracy": 0.81, "confusion": [[6175, 119, 1508, 0], [19, 2859, 159, 0],
@@ -71,48 +69,6 @@ TITLES = {"train_cf": "training runs, context free (7.3.2)",
 # ---------------------------------------------------------------------------
 # the HMM peer
 # ---------------------------------------------------------------------------
-def labelled_points(archive, *, reduce: str = "mean") -> list[dict]:
-    """Per trial: ``y`` (n, C) y_h, ``truth`` (n,) state index of the newest input sample
-    (-1 unlabelled), ``pure`` (n,) the same only where the whole input window is one label."""
-    from contactlab.archive import open_archive
-
-    out = []
-    with open_archive(archive) as arc:
-        for trial in arc:
-            data, index, _ = trial_signals(trial, ["hf"], reduce=reduce)
-            out.append({"id": trial.id, "y": data["hf"],
-                        "truth": truth_codes(trial, index, STATES),
-                        "pure": truth_codes(trial, index, STATES, window=WINDOW["hf"])})
-    return out
-
-
-def fit_hmm(train: list[dict], *, pseudo: float = 1.0):
-    """A supervised Gaussian HMM: per-state mean/covariance of the pure labelled points,
-    transition and start probabilities from label counts (+ ``pseudo`` per allowed cell)."""
-    from hmmlearn.hmm import GaussianHMM
-
-    K = len(STATES)
-    C = train[0]["y"].shape[1]
-    means, covs = np.zeros((K, C)), np.zeros((K, C, C))
-    for k in range(K):
-        y = np.concatenate([t["y"][t["pure"] == k] for t in train])
-        means[k] = y.mean(axis=0)
-        covs[k] = np.atleast_2d(np.cov(y, rowvar=False)) + 1e-9 * np.eye(C)
-    trans = np.full((K, K), pseudo)
-    start = np.full(K, pseudo)
-    for t in train:
-        lab = t["truth"][t["truth"] >= 0]          # unlabelled gaps skipped
-        np.add.at(trans, (lab[:-1], lab[1:]), 1.0)
-        start[lab[0]] += 1.0
-    model = GaussianHMM(n_components=K, covariance_type="full", init_params="", params="")
-    model.n_features = C
-    model.startprob_ = start / start.sum()
-    model.transmat_ = trans / trans.sum(axis=1, keepdims=True)
-    model.means_ = means
-    model.covars_ = covs
-    return model
-
-
 def decode_hmm(model, runs: list[dict]) -> tuple[np.ndarray, float, list[np.ndarray]]:
     """Viterbi state sequences; pooled confusion counts and decoding time (s)."""
     K = len(STATES)
@@ -162,8 +118,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
             check = {key: recognize_archive(arc, graph=g, models=models["none"], **kw)
                      for key, arc, g in (("test_cf", test, cf), ("test_ctx", test, ctx))}
             pbar.update(1)
-            tr_pts, te_pts = labelled_points(train), labelled_points(test)
-            hmm = fit_hmm(tr_pts)
+            tr_pts, te_pts = labelled_points(train, STATES), labelled_points(test, STATES)
+            hmm = fit_hmm(tr_pts, len(STATES))
             hmm_res = {"train": decode_hmm(hmm, tr_pts), "test": decode_hmm(hmm, te_pts)}
             pbar.update(1)
         with plt.rc_context({"figure.max_open_warning": 0}):

@@ -7,7 +7,7 @@ square-root estimator per strain, chi-square with 8 degrees of freedom into a
 two-sided Page-Hinkley test for a covariance change of 2.5, restart on alarm).
 
 Ground truth.  The thesis's seven phases (7.2) are read off the simulator's
-state (:func:`phase_codes`): resting before the motion command; the
+state (:func:`contactlab.acquire.stroke_phases.phase_codes`): resting before the motion command; the
 start-of-motion burst (an impact interval before the finger first slides);
 strain build-up (command running, finger not yet sliding); sliding over the
 first (rough) and the second (smooth) texture; the drop at the stop (from the
@@ -16,7 +16,7 @@ resting.  The simulator has one regime the thesis does not list: the finger
 stops while the decelerating command still runs ("stopped").  Truth flickers
 at stick-slip (the finger's ``moving`` flag toggles for 3-80 ms at breakaway
 and at the stop), so phases shorter than :data:`MIN_PHASE_S` are given to the
-phase before them (:func:`merge_short_runs`): a run shorter than 0.1 s cannot be resolved, since a
+phase before them (:func:`~contactlab.acquire.stroke_phases.merge_short_runs`): a run shorter than 0.1 s cannot be resolved, since a
 restarted AR(2) segmenter needs 19 conditioned samples (76 ms) before it
 tests again and two boundaries closer than the tolerance cannot both be
 matched.  Truth boundaries are the starts of the merged phases; a found
@@ -26,7 +26,8 @@ via :func:`contactlab.segmentation.boundary_metrics`).
 Peers.  ruptures' ``CostAR`` takes a 1-D signal only: given the 8 strains it
 builds its lagged regressors from the flattened array (rows of the first
 eighth of the trial), so it is applied here per strain and the costs summed
-(:class:`ChannelARCost`, the same per-channel model as ours).
+(:class:`contactlab.peers.ruptures_ar.ChannelARCost`, the same per-channel model
+as ours).
 :class:`FastChannelARCost` computes the identical cost from prefix sums so
 that the penalty grid over all 16 trials runs in seconds; the timings are
 reported for both.
@@ -48,16 +49,17 @@ import json
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab import defaults as D  # noqa: E402
 from contactlab.acquire.sim import simulate_trial  # noqa: E402
+from contactlab.acquire.stroke_phases import (  # noqa: E402
+    MIN_PHASE_S, PHASES, SETTLE_FRACTION, SETTLE_WINDOW_S, THESIS_PHASES, stroke_truth)
+from contactlab.peers.ruptures_ar import (  # noqa: E402
+    BETA_GRID, JUMP, MIN_SIZE, ChannelARCost, FastChannelARCost, noise_variance, peer_boundaries)
+from contactlab.signals import condition  # noqa: E402
 from contactlab.acquire.spec import load_spec  # noqa: E402
-from contactlab.conditioning import condition_strains  # noqa: E402
 from contactlab.detection.increments import variance_increments  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
@@ -70,19 +72,13 @@ from contactlab.segmentation import (  # noqa: E402
 from contactlab.timing import best_time_and_result  # noqa: E402
 
 SPECS = ("stroke-a", "stroke-b")
-ORDER = 2
+ORDER = D.SEGMENT_ORDER
 CHANGE_SIZE = D.CHANGE_SIZE
 FIG_THRESHOLD = 100.0            # fig 7.5
 THESIS_THRESHOLD = D.SEGMENT_THRESHOLD  # 7.2.1: the threshold used to cut training segments
-SWEEP = (10.0, 15.0, 25.0, 35.0, 50.0, 70.0, 100.0, 140.0, 200.0, 280.0, 400.0)
+SWEEP = D.THRESHOLD_SWEEP
 TOLERANCE_S = 0.1
-MIN_PHASE_S = 0.1
-SETTLE_FRACTION = 0.1            # drop phase: until the true wrench is within 10 % of its step
-SETTLE_WINDOW_S = 0.2            # ... of its value this long after the command end
 #: penalty = beta * sigma^2 * log(n) (BIC form), sigma^2 a robust per-trial noise estimate
-BETA_GRID = tuple(float(b) for b in np.logspace(-0.5, 2.5, 13))
-PEER_MIN_SIZE = 10               # samples (40 ms): shortest segment the peers may return
-PEER_JUMP = 5                    # candidate boundaries every 5 samples (20 ms < tolerance)
 PELT_TIMED_TRIALS = 2            # trials on which Pelt with ruptures' own CostAR is timed
 CONTRAST_WINDOW_S = 0.5          # texture contrast: windows this long each side of the boundary
 CONTRAST_GUARD_S = 0.02
@@ -90,164 +86,14 @@ FA_SECONDS = 1000.0              # stationary AR(2) data per threshold for the f
 FA_THRESHOLDS = (6.0, 8.0, 10.0, 12.0, 15.0, 25.0)
 FA_AR = (1.2, -0.5)
 
-PHASES = ("resting", "start-of-motion burst", "strain build-up", "rough texture",
-          "smooth texture", "stopped, command running", "drop at stop", "resting after stop",
-          "sliding off the sample")
-THESIS_PHASES = (0, 1, 2, 3, 4, 6, 7)
 
 
 # ---------------------------------------------------------------------------
 # ground truth
 # ---------------------------------------------------------------------------
-def phase_codes(*, time, moving, impact, texture, wrench, command_start_s: float,
-                command_end_s: float) -> np.ndarray:
-    """Per-sample phase (index into :data:`PHASES`) from the simulator's state.
-
-    ``texture`` is the index of the material under the finger (0 the first,
-    rough one; -1 off the sample); ``wrench`` the noise-free wrench (N, >=3).
-    """
-    time = np.asarray(time, float)
-    moving = np.asarray(moving, bool)
-    n = len(time)
-    codes = np.zeros(n, np.int64)
-    started = time >= command_start_s
-    ended = time >= command_end_s
-    first_move = int(np.argmax(moving)) if moving.any() else n
-    before = np.arange(n) < first_move
-    codes[started & before] = 2
-    codes[started & before & np.asarray(impact, bool)] = 1
-    sliding = ~before & ~ended
-    texture = np.asarray(texture)
-    codes[sliding & moving & (texture == 0)] = 3
-    codes[sliding & moving & (texture >= 1)] = 4
-    codes[sliding & moving & (texture < 0)] = 8
-    codes[sliding & ~moving] = 5
-    codes[ended] = 7
-    i_end = int(np.searchsorted(time, command_end_s))
-    if i_end < n:
-        f = np.asarray(wrench, float)[:, :3]
-        i_ref = min(n - 1, int(np.searchsorted(time, command_end_s + SETTLE_WINDOW_S)))
-        step = np.linalg.norm(f[max(i_end - 1, 0)] - f[i_ref])
-        off = np.linalg.norm(f[i_end:i_ref + 1] - f[i_ref], axis=1) > SETTLE_FRACTION * step
-        settle = i_end + (int(np.flatnonzero(off)[-1]) + 1 if off.any() else 0)
-        codes[i_end:settle] = 6
-    return codes
-
-
-def merge_short_runs(codes, *, min_len: int) -> np.ndarray:
-    """Give runs of equal code shorter than ``min_len`` samples to the phase before them.
-
-    A phase change is confirmed by a run of the new code at least ``min_len``
-    long and starts at that run's first sample; shorter runs (flicker) take the
-    code of the last long run before them (runs before the first long run, that
-    of the first long run).  Without any long run the codes are returned as they are.
-    """
-    codes = np.asarray(codes)
-    if codes.size == 0:
-        return codes.copy()
-    edges = np.flatnonzero(np.diff(codes)) + 1
-    starts = np.r_[0, edges]
-    lengths = np.diff(np.r_[starts, codes.size])
-    long = lengths >= min_len
-    if not long.any():
-        return codes.copy()
-    owner = np.maximum.accumulate(np.where(long, np.arange(len(starts)), -1))
-    owner[owner < 0] = int(np.argmax(long))
-    return np.repeat(codes[starts[owner]], lengths)
-
-
-def truth_phases(codes, time) -> list[dict]:
-    """The runs of ``codes`` as phases: ``{"code", "name", "start_s", "end_s"}``."""
-    time = np.asarray(time, float)
-    edges = np.flatnonzero(np.diff(codes)) + 1
-    starts, ends = np.r_[0, edges], np.r_[edges, len(codes)]
-    dt = float(np.median(np.diff(time)))
-    return [{"code": int(codes[a]), "name": PHASES[int(codes[a])], "start_s": float(time[a]),
-             "end_s": float(time[b - 1] + dt)} for a, b in zip(starts, ends)]
-
-
 # ---------------------------------------------------------------------------
 # the peers' cost: ruptures' CostAR per strain
 # ---------------------------------------------------------------------------
-def _base_cost():
-    from ruptures.base import BaseCost
-    return BaseCost
-
-
-class ChannelARCost(_base_cost()):
-    """ruptures' ``CostAR(order)`` applied to each column and summed (multichannel AR)."""
-
-    model = "ar-channels"
-
-    def __init__(self, order: int = ORDER):
-        self.order = order
-        self.min_size = max(5, order + 1)
-        self.signal = None
-
-    def fit(self, signal):
-        from ruptures.costs import CostAR
-        s = np.asarray(signal, float).reshape(len(signal), -1)
-        self.signal = s
-        self.costs_ = [CostAR(order=self.order).fit(s[:, [c]].copy()) for c in range(s.shape[1])]
-        return self
-
-    def error(self, start, end):
-        return sum(c.error(start, end) for c in self.costs_)
-
-
-class FastChannelARCost(ChannelARCost):
-    """The cost of :class:`ChannelARCost` from prefix sums: O(C p^3) per segment.
-
-    Same regressors as ``CostAR`` (lags of the whole signal, first rows padded
-    with the edge, intercept); the segment's least-squares residual sum is
-    ``y'y - g' S^-1 g`` from prefix sums of ``[X y]' [X y]`` per channel.
-    """
-
-    model = "ar-channels-fast"
-
-    def fit(self, signal):
-        s = np.asarray(signal, float).reshape(len(signal), -1)
-        self.signal = s
-        p = self.order
-        z = s - s.mean(axis=0)                         # the intercept absorbs the offset
-        n, c = z.shape
-        # column k of CostAR's regressors: z[k] repeated p times, then z[k : n - p + k]
-        lags = np.stack([np.concatenate([np.repeat(z[k:k + 1], p, axis=0), z[k:n - p + k]])
-                         for k in range(p)], axis=-1)            # (n, c, p)
-        y = z.copy()
-        y[:p] = z[p]
-        cols = np.concatenate([lags, np.ones((n, c, 1)), y[:, :, None]], axis=-1)   # (n, c, p+2)
-        outer = cols[:, :, :, None] * cols[:, :, None, :]
-        self.prefix_ = np.concatenate([np.zeros((1, c, p + 2, p + 2)), np.cumsum(outer, axis=0)])
-        return self
-
-    def error(self, start, end):
-        from ruptures.exceptions import NotEnoughPoints
-        if end - start < self.min_size:
-            raise NotEnoughPoints
-        m = self.prefix_[end] - self.prefix_[start]
-        k = self.order + 1
-        g = m[:, :k, k]
-        beta = np.linalg.solve(m[:, :k, :k], g[:, :, None])[:, :, 0]
-        return float(np.sum(m[:, k, k] - np.sum(g * beta, axis=1)))
-
-
-def noise_variance(y) -> float:
-    """Robust noise variance summed over channels: (MAD of first differences / 0.6745)^2 / 2."""
-    d = np.diff(np.asarray(y, float).reshape(len(y), -1), axis=0)
-    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0) / 0.6745
-    return float(np.sum(mad ** 2) / 2.0)
-
-
-def peer_boundaries(y, times, *, algo: str, beta: float, fast: bool = True) -> np.ndarray:
-    """Boundaries (s) of ruptures ``algo`` ("Pelt"/"Binseg") at penalty beta sigma^2 log n."""
-    import ruptures as rpt
-    cost = FastChannelARCost() if fast else ChannelARCost()
-    cls = {"Pelt": rpt.Pelt, "Binseg": rpt.Binseg}[algo]
-    det = cls(custom_cost=cost, min_size=PEER_MIN_SIZE, jump=PEER_JUMP).fit(y)
-    pen = beta * noise_variance(y) * np.log(len(y))
-    return np.asarray(times)[np.asarray(det.predict(pen=pen)[:-1], int)]
-
 
 
 # ---------------------------------------------------------------------------
@@ -256,17 +102,11 @@ def peer_boundaries(y, times, *, algo: str, beta: float, fast: bool = True) -> n
 def load_trial(spec, k: int, seed: int, *, keep_result: bool = False) -> dict:
     """Simulate trial ``k`` of ``spec``: conditioned strains, y_h and the merged truth."""
     plan, r = simulate_trial(spec, k, seed)
-    cond = condition_strains(r.strain, fs=r.rate_hz)
-    c = plan.controller
-    raw = phase_codes(time=r.time, moving=r.moving, impact=r.impact, texture=r.texture,
-                      wrench=r.wrench_true, command_start_s=c.command_start_s,
-                      command_end_s=c.command_start_s + c.command_s)
-    merged = merge_short_runs(raw, min_len=round(MIN_PHASE_S * r.rate_hz))
-    phases = truth_phases(merged, r.time)
-    out = {"id": f"{spec.name}-{k:03d}", "spec": spec.name, "k": k, "y": cond.low,
-           "times": r.time[cond.low_index], "fs": cond.fs_out,
-           "yh": cond.hf.mean(axis=1),
-           "yh_times": r.time[np.minimum(cond.hf_index, len(r.time) - 1)],
+    low, hf = condition(r, "strain"), condition(r, "hf")
+    truth = stroke_truth(plan, r)
+    raw, phases = truth["raw"], truth["phases"]
+    out = {"id": f"{spec.name}-{k:03d}", "spec": spec.name, "k": k, "y": low.y,
+           "times": low.times, "fs": low.fs, "yh": hf.y.mean(axis=1), "yh_times": hf.times,
            "raw": r.strain, "raw_time": r.time, "rate_hz": r.rate_hz,
            "phases": phases, "truth_s": np.array([p["start_s"] for p in phases[1:]]),
            "truth_names": [p["name"] for p in phases[1:]], "materials": list(r.materials),
@@ -475,8 +315,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False, trials_per_spec: int |
         for t in progress(trials, desc=f"ruptures {algo} grid", quiet=quiet, unit="trial"):
             if algo == "Binseg":      # one fit, many penalties (ruptures caches the splits)
                 import ruptures as rpt
-                det = rpt.Binseg(custom_cost=FastChannelARCost(), min_size=PEER_MIN_SIZE,
-                                 jump=PEER_JUMP).fit(t["y"])
+                det = rpt.Binseg(custom_cost=FastChannelARCost(), min_size=MIN_SIZE,
+                                 jump=JUMP).fit(t["y"])
                 scale = noise_variance(t["y"]) * np.log(len(t["y"]))
                 for b in beta_grid:
                     found[b][t["id"]] = t["times"][np.asarray(det.predict(pen=b * scale)[:-1],
@@ -1022,7 +862,7 @@ def _side_by_side_section(page, summary, n):
                               "with the prefix-sum cost (ms)", "ratio"],
                caption=f"All {n} trials, tolerance {TOLERANCE_S:g} s. ruptures: custom cost = "
                        f"ruptures' CostAR(order 2) per strain, summed; min_size "
-                       f"{PEER_MIN_SIZE}, jump {PEER_JUMP} (candidates every 20 ms); penalty "
+                       f"{MIN_SIZE}, jump {JUMP} (candidates every 20 ms); penalty "
                        "beta sigma^2 log n with sigma^2 a robust per-trial noise estimate, beta "
                        f"from a grid of {len(peers['Pelt']['grid'])} (log-spaced) chosen by pooled "
                        f"F1 (Binseg beta {peers['Binseg']['best_beta']:.3g}, Pelt beta "

@@ -61,8 +61,6 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
 
 def draw_graph(graph: FeatureGraph, path, *, force: bool = False, probabilities=None) -> Path:
     """Write a drawing of ``graph`` to ``path`` (format from the suffix), atomically."""
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     path = Path(path)

@@ -1,0 +1,60 @@
+"""A supervised Gaussian hidden Markov model decoded by Viterbi (hmmlearn): the
+recognition peer of the observer (7.3).
+
+:func:`labelled_points` gives each trial's y_h with its truth on the
+conditioned time base (:mod:`contactlab.signals`); :func:`fit_hmm` sets a
+Gaussian HMM's per-state mean and covariance from the points whose whole input
+window has one label, and its transition and start probabilities from label
+counts -- no EM, so the peer sees exactly the labels the observer's models are
+trained from.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contactlab.signals import WINDOW, trial_signals, truth_codes
+
+__all__ = ["labelled_points", "fit_hmm"]
+
+
+def labelled_points(archive, states, *, reduce: str = "mean") -> list[dict]:
+    """Per trial: ``y`` (n, C) y_h, ``truth`` (n,) state index of the newest input sample
+    (-1 unlabelled), ``pure`` (n,) the same only where the whole input window is one label."""
+    from contactlab.archive import open_archive
+
+    out = []
+    with open_archive(archive) as arc:
+        for trial in arc:
+            data, index, _ = trial_signals(trial, ["hf"], reduce=reduce)
+            out.append({"id": trial.id, "y": data["hf"],
+                        "truth": truth_codes(trial, index, states),
+                        "pure": truth_codes(trial, index, states, window=WINDOW["hf"])})
+    return out
+
+
+def fit_hmm(train: list[dict], n_states: int, *, pseudo: float = 1.0):
+    """A supervised Gaussian HMM: per-state mean/covariance of the pure labelled points,
+    transition and start probabilities from label counts (+ ``pseudo`` per allowed cell)."""
+    from hmmlearn.hmm import GaussianHMM
+
+    K = int(n_states)
+    C = train[0]["y"].shape[1]
+    means, covs = np.zeros((K, C)), np.zeros((K, C, C))
+    for k in range(K):
+        y = np.concatenate([t["y"][t["pure"] == k] for t in train])
+        means[k] = y.mean(axis=0)
+        covs[k] = np.atleast_2d(np.cov(y, rowvar=False)) + 1e-9 * np.eye(C)
+    trans = np.full((K, K), pseudo)
+    start = np.full(K, pseudo)
+    for t in train:
+        lab = t["truth"][t["truth"] >= 0]          # unlabelled gaps skipped
+        np.add.at(trans, (lab[:-1], lab[1:]), 1.0)
+        start[lab[0]] += 1.0
+    model = GaussianHMM(n_components=K, covariance_type="full", init_params="", params="")
+    model.n_features = C
+    model.startprob_ = start / start.sum()
+    model.transmat_ = trans / trans.sum(axis=1, keepdims=True)
+    model.means_ = means
+    model.covars_ = covs
+    return model
