@@ -57,12 +57,12 @@ def run() -> list[dict]:
     args = dict(theta0=np.zeros(2), theta_sqrt0=1.0, noise_sqrt=0.5)
 
     t0 = time.perf_counter()
-    SquareRootKalman(**args).filter(psi[:10], y[:10])
+    SquareRootKalman(**args).run(psi[:10], y[:10])
     SquareRootRLS().run(psi[:10], y[:10])
     warm = time.perf_counter() - t0
     warm_note = f"numba warm-up {warm:.2f} s (compile or cache load), excluded"
 
-    ours = best_time(lambda: SquareRootKalman(**args).filter(psi, y))
+    ours = best_time(lambda: SquareRootKalman(**args).run(psi, y))
 
     def stream():
         kf = SquareRootKalman(**args)

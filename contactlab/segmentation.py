@@ -292,7 +292,7 @@ def segment_signal(y, *, fs: float, order: int = D.SEGMENT_ORDER,
     while pos < rows:
         end = min(pos + block, rows)
         res = rls.run(psi[pos:end], target[pos:end])
-        chi2 = res.stat.sum(axis=1)                          # NaN if any channel is
+        chi2 = res.chi2.sum(axis=1)                          # NaN if any channel is
         since = np.arange(pos, end) - seg_start           # samples absorbed before this one
         valid = np.isfinite(chi2) & (since >= first_test)
         chi2[since < first_test] = np.nan
@@ -349,7 +349,7 @@ def _segment_channels(a, channels, times, parameters, *, block: int) -> Segmenta
     while pos < rows:
         end = min(pos + block, rows)
         res = rls.run(psi[pos:end], target[pos:end])
-        chi2 = np.array(res.stat, dtype=np.float64).reshape(end - pos, c)   # chi-square(1) each
+        chi2 = np.array(res.chi2, dtype=np.float64).reshape(end - pos, c)   # chi-square(1) each
         since = np.arange(pos, end) - seg_start
         early = since < first_test
         chi2[early] = np.nan

@@ -183,7 +183,7 @@ def _kalman_kernel(psi, y, theta_all, S_all, Lv_fixed, Ve_all, vcount, prior_cou
 
 @dataclass(frozen=True)
 class KalmanResult:
-    """Per-sample output of :meth:`SquareRootKalman.filter` (time axis first).
+    """Per-sample output of :meth:`SquareRootKalman.run` (time axis first).
 
     Attributes
     ----------
@@ -293,9 +293,10 @@ class SquareRootKalman:
         return self._noise_est if self.estimate_noise else self._noise_fixed
 
     # -- recursion -------------------------------------------------------------------
-    def filter(self, psi, y) -> KalmanResult:
+    def run(self, psi, y) -> KalmanResult:
         """Filter N samples for every model; the state carries over between
-        calls (consecutive chunks equal one call on the whole)."""
+        calls (consecutive chunks equal one call on the whole).  ``run`` is the
+        batch name of every estimator and detector (``filter`` is its former name)."""
         psi, y = vector_regression(psi, y)
         N, B, m, p = psi.shape
         self._ensure_state(B, m, p)
@@ -314,15 +315,17 @@ class SquareRootKalman:
         """
         psi = np.asarray(psi, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
-        res = self.filter(psi[None], y[None])
+        res = self.run(psi[None], y[None])
         return KalmanResult(**{k: v[0] for k, v in res.__dict__.items()})
+
+    filter = run           # the former name of run
 
 
 def kalman_step(psi, y, *, theta, theta_sqrt, noise_sqrt, noise_est=None, noise_count=None,
                 structure_sqrt=None, structure="plain", estimate_noise: bool = False,
                 noise_prior_count: float = 8.0) -> KalmanResult:
     """N steps (A.32-A.39) of B independent square-root Kalman filters whose state the
-    caller holds: the stateless form of :meth:`SquareRootKalman.filter`.
+    caller holds: the stateless form of :meth:`SquareRootKalman.run`.
 
     ``psi`` (N, B, m, p), ``y`` (N, B, m) C-contiguous float64.  The state arrays are
     advanced in place: ``theta`` (B, p) estimate, ``theta_sqrt`` (B, p, p) its

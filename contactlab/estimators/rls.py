@@ -171,8 +171,9 @@ class RLSResult:
         before the variance estimate has started.
     loglik : (N, B) per-sample log-likelihood (A.16) of the error at n under
         the variance estimated from the errors before n; NaN until available.
-    stat : (N, B) ``nu(n)^2 / V_nu(n-1)`` -- the chi-square(1) statistic of 6.11
-        that the Page-Hinkley detector sums over channels.
+    chi2 : (N, B) ``nu(n)^2 / V_nu(n-1)`` -- the chi-square(1) statistic of 6.11
+        that the Page-Hinkley detector sums over channels (the name
+        :attr:`KalmanResult.chi2` uses; ``stat`` is its former name).
     """
 
     prior_errors: np.ndarray
@@ -180,7 +181,12 @@ class RLSResult:
     reflection: np.ndarray
     variance: np.ndarray
     loglik: np.ndarray
-    stat: np.ndarray
+    chi2: np.ndarray
+
+    @property
+    def stat(self) -> np.ndarray:
+        """The former name of :attr:`chi2`."""
+        return self.chi2
 
     @property
     def innovations(self) -> np.ndarray:
@@ -294,13 +300,13 @@ class SquareRootRLS:
         out = dict(
             prior_errors=np.empty((N, B, q)), posterior_errors=np.empty((N, B, q)),
             reflection=np.empty((N, B, p)), variance=np.empty((N, B)),
-            loglik=np.empty((N, B)), stat=np.empty((N, B)))
+            loglik=np.empty((N, B)), chi2=np.empty((N, B)))
         start = max(int(self.variance_warmup), p)
         var = np.nan_to_num(self.variance_, nan=0.0)
         _rls_kernel(psi, y, self.factor_, var, self._var_n, self.n_samples_, start,
                     self.variance_source == "prior", float(self.regularization) > 0.0,
                     out["prior_errors"], out["posterior_errors"], out["reflection"],
-                    out["variance"], out["loglik"], out["stat"])
+                    out["variance"], out["loglik"], out["chi2"])
         self.variance_ = np.where(self._var_n > 0, var, np.nan)
         return RLSResult(**out)
 

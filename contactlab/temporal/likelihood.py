@@ -106,6 +106,6 @@ def block_loglik_kalman(y, starts, features: BlockFeatures, model: TemporalModel
                           theta_sqrt0=np.ascontiguousarray(sqrt_cov.reshape(K * C, q, q)),
                           noise_sqrt=noise[:, None, None].copy(), structure="fixed",
                           structure_sqrt0=features.info_sqrt.reshape(K * C, q, q).copy())
-    res = kf.filter(np.ascontiguousarray(psi), np.ascontiguousarray(target))
+    res = kf.run(np.ascontiguousarray(psi), np.ascontiguousarray(target))
     ll = res.loglik.sum(axis=0).reshape(K, C)
     return ll if per_channel else ll.sum(axis=1)
