@@ -1,5 +1,9 @@
 """Cartesian constraint estimation in R^k (thesis 8.1.1).
 
+Long module (~640 lines), kept whole on purpose: the stiffness and constraint forms
+of 8.1.1 share the block statistics, the reciprocity-preserving scaling and the
+Newton/Powell optimisation over rotations; each form is a class over those helpers.
+
 Two estimators over blocks of motion (position or velocity) and force
 measurements, both in units normalised by measurement accuracy with the
 reciprocity-preserving scaling of 8.7-8.9 (:mod:`.scaling`):

@@ -7,6 +7,8 @@
   decision function (6.15)-(6.18) with threshold ``T^2`` (6.16), change-time
   estimate (last zero, fig 6.4) and reset, for many detectors at once;
   streaming (:meth:`PageHinkley.update`) and batch (:meth:`PageHinkley.run`).
+- :mod:`~contactlab.detection.cusum` -- the compiled recursion (6.18) itself,
+  :func:`cusum_step`, shared by the detector, the observer and the ROC Monte Carlo.
 - :mod:`~contactlab.detection.lowpass` -- the lowpass + threshold detector the
   thesis compares against (fig 6.6).
 - :mod:`~contactlab.detection.roc` -- Wald / Siegmund / Hall approximations of
@@ -28,8 +30,8 @@ from contactlab.detection.page_hinkley import (
     MeanChangeDetector,
     PageHinkley,
     VarianceChangeDetector,
-    cusum_step,
 )
+from contactlab.detection.cusum import cusum_step
 
 __all__ = [
     "Alarms",

@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit
 from scipy.special import erfc
 
-from contactlab.detection.page_hinkley import cusum_step
+from contactlab.detection.cusum import cusum_step
 from contactlab.progress import bar
 
 #: Siegmund's overshoot constant rho = -zeta(1/2) / sqrt(2 pi).

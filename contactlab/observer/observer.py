@@ -1,5 +1,10 @@
 """The contact feature observer of section 6.4 (figures 1.3, 6.1).
 
+Long module (~670 lines), kept whole on purpose: the observer of 6.4 -- path
+search, change-triggered spawning with catch-up, merging, probability-mass and gap
+pruning, buffer trimming -- is one algorithm over one shared mutable state; split
+across modules its invariants would have to be read in several places.
+
 Per active path: an estimator instance for each model of its node and a
 Page-Hinkley detector (6.14-6.18, threshold ``T^2``, change size ``q``) on
 each instance's innovations; the path log-likelihood is ``log pi(0)`` plus the
@@ -48,7 +53,7 @@ import numba
 import numpy as np
 
 from contactlab import defaults as D
-from contactlab.detection.page_hinkley import cusum_step
+from contactlab.detection.cusum import cusum_step
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
