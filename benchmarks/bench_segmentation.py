@@ -27,7 +27,7 @@ from scipy.signal import lfilter
 
 from contactlab.acquire.sim import simulate_trial
 from contactlab.acquire.spec import load_spec
-from contactlab.conditioning import condition_strains
+from contactlab.signals import condition_array
 from contactlab.segmentation import boundary_metrics, segment_signal
 
 from benchmarks.timing import best_time
@@ -50,12 +50,12 @@ def run() -> list[dict]:
     spec = load_spec("stroke-a")
     _plan, result = simulate_trial(spec, 0, 1, duration_s=7.0)
     strain = result.strain
-    low = condition_strains(strain, fs=1000.0).low
+    low = condition_array(strain, "strain", fs=1000.0).y
     for mode in ("sum", "channel"):
         tag = "" if mode == "sum" else " (combine=channel)"
         segment_signal(low[:200], fs=FS_LOW, combine=mode)  # compile / load the numba kernels
         t_seg = best_time(lambda: segment_signal(low, fs=FS_LOW, combine=mode))
-        t_all = best_time(lambda: segment_signal(condition_strains(strain, fs=1000.0).low,
+        t_all = best_time(lambda: segment_signal(condition_array(strain, "strain", fs=1000.0).y,
                                                  fs=FS_LOW, combine=mode))
         rows.append({"name": f"segment 7 s 8-strain stroke trial{tag}", "ours_s": t_seg,
                      "peer": None, "peer_s": None, "ratio": None,

@@ -38,7 +38,7 @@ from contactlab.conditioning import condition_strains, lowpass_decimate, quantis
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
-           "source_of", "default_signal", "resolve_signal", "lowpass", "condition",
+           "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE"]
 
 #: conditioned signals of a trial's force sensor (7.1)
@@ -141,21 +141,30 @@ def condition(trial, signal: str | None = None, *, path=None, source: str | None
     if len(time) == 0:
         raise DataError("trial has no samples", file=str(path) if path else None,
                         field=_field(trial, "time"))
-    fs = float(trial.rate_hz)
+    sig = condition_array(raw, signal, fs=float(trial.rate_hz))
+    index = np.minimum(sig.index, len(time) - 1)
+    return Signal(signal, sig.y, index, time[index], sig.fs, str(getattr(trial, "id", "")))
+
+
+def condition_array(raw, signal: str, *, fs: float) -> Signal:
+    """The conditioning of :func:`condition` on a bare array ``raw`` (N,) or (N, C)
+    sampled at ``fs``: ``signal`` ``"strain"`` or ``"hf"`` treat it as strains (y_l,
+    y_h with the log floor at half its converter step), any other name lowpasses and
+    decimates it.  ``times`` count from 0 at input sample 0."""
+    raw = np.asarray(raw, dtype=np.float64)
+    fs = float(fs)
     if signal in ("strain", "hf"):
         floor = quantisation_floor(raw) if signal == "hf" else None
         kw = {} if floor is None else {"log_floor": floor}
         c = condition_strains(raw, fs=fs, cutoff_hz=fs / CUTOFF_DIVISOR, factor=FACTOR, **kw)
         y, index = (c.hf, c.hf_index) if signal == "hf" else (c.low, c.low_index)
-        fs_out = c.fs_out
     else:
         y = lowpass(raw, fs=fs)
         index = FACTOR * np.arange(len(y))
-        fs_out = fs / FACTOR
-    index = np.minimum(np.asarray(index, dtype=np.int64), len(time) - 1)
+    index = np.asarray(index, dtype=np.int64)
     y = np.asarray(y, dtype=np.float64)
     y = y[:, None] if y.ndim == 1 else y
-    return Signal(signal, y, index, time[index], float(fs_out), str(getattr(trial, "id", "")))
+    return Signal(signal, y, index, index / fs, fs / FACTOR)
 
 
 def conditioned_signal(trial, signal: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:

@@ -46,10 +46,10 @@ from contactlab.constraints import (CartesianConstraint, CartesianStiffness,  # 
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.signals import FACTOR  # noqa: E402  (7.1: 1000 Hz -> 250 Hz)
 
 SPEC = "cartesian"
 GROUPS = ("free", "plane", "line", "corner")
-FACTOR = 4                       # 7.1: 1000 Hz -> 250 Hz
 SAMPLE_SIZES = (8, 12, 25, 50, 100, 200, 400, 800, 1600)
 TABLE_MIN_SIZE = 25
 N_DRAWS = 10                     # 8.1.1.2: "Ten examples were drawn for each sample size"
@@ -150,7 +150,7 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
     every run (tests).
     """
     from contactlab.acquire import load_spec, simulate_trial
-    from contactlab.conditioning import lowpass_decimate
+    from contactlab.signals import condition
 
     spec = load_spec(SPEC)
     parts: dict[str, dict[str, list]] = {}
@@ -160,11 +160,10 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
     for g, j in progress(jobs, total=len(jobs), desc="cartesian runs", quiet=quiet):
         _, r = simulate_trial(spec, k, seed, duration_s=duration_s)
         k += 1
-        kw = dict(fs=float(spec.rate_hz), cutoff_hz=float(spec.rate_hz) / 8.0, factor=FACTOR)
         d = parts.setdefault(g.name, {"p": [], "f": [], "v": [], "run": [], "c": []})
-        d["p"].append(lowpass_decimate(r.position, **kw))
-        d["f"].append(lowpass_decimate(r.wrench[:, :3], **kw))
-        d["v"].append(lowpass_decimate(r.velocity, **kw))
+        d["p"].append(condition(r, "position").y)
+        d["f"].append(condition(r, "wrench").y[:, :3])
+        d["v"].append(condition(r, "velocity").y)
         n = len(d["p"][-1])
         d["run"].append(np.full(n, j))
         d["c"].append(np.asarray(r.contact).reshape(len(r.time), -1).sum(axis=1)[::FACTOR][:n])

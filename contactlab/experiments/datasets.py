@@ -238,17 +238,17 @@ def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: 
     the 250 Hz blocks whose input samples all share one truth class: "rest" (not moving, no
     impact) or texture ``t`` (moving over material ``t``, no impact). NaN when a class has
     no whole block."""
-    from contactlab.conditioning import condition_strains, quantisation_floor
+    from contactlab.signals import condition_array
 
-    cond = condition_strains(strain, fs=rate_hz, log_floor=quantisation_floor(strain))
-    yh = np.asarray(cond.hf, float).reshape(len(cond.hf), -1).mean(axis=1)
+    hf = condition_array(strain, "hf", fs=rate_hz)
+    yh = hf.y.mean(axis=1)
     moving = np.asarray(moving, bool)
     impact = np.asarray(impact, bool)
     texture = np.asarray(texture, int)
     cls = np.where(moving, np.where(texture >= 0, 1 + texture, -1), 0)
     cls = np.where(impact, -1, cls)
     block = 8
-    ends = np.asarray(cond.hf_index, int)              # newest input sample + 1 of each block
+    ends = np.asarray(hf.index, int)              # newest input sample + 1 of each block
     out = {}
     starts = np.clip(ends - block, 0, None)
     lo = np.array([cls[a:b].min() for a, b in zip(starts, ends)])

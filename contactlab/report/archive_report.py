@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
-from contactlab.conditioning import condition_strains, quantisation_floor  # noqa: E402
+from contactlab.signals import condition  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -113,10 +113,9 @@ def _plot_measurements(trial):
     if trial.strain is not None:
         panels.append(("strain", t, trial.strain, None))
     if hf_source is not None and len(t) > 16:
-        cond = condition_strains(hf_source, fs=trial.rate_hz,
-                                 log_floor=quantisation_floor(hf_source))
+        hf = condition(trial, "hf", source="strain" if trial.strain is not None else "wrench")
         # plotted at the newest input sample of each block (causal, as on line)
-        panels.append(("log-energy y_h", cond.hf_times(t[0]), cond.hf, None))
+        panels.append(("log-energy y_h", hf.times, hf.y, None))
     has_labels = trial.labels is not None
     n = len(panels) + (1 if has_labels else 0)
     fig, axes = plt.subplots(max(n, 1), 1, figsize=(10, 1.9 * max(n, 1) + 0.6), sharex=True,
