@@ -39,7 +39,7 @@ from contactlab.errors import DataError, UsageError
 
 __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
-           "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE"]
+           "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE", "loudest_channel"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -213,6 +213,13 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
     fs = float(trial.rate_hz) / FACTOR
     return out, index[:n], fs
+
+
+def loudest_channel(strain, rows=slice(None)) -> int:
+    """The strain channel whose first difference has the most energy in ``rows`` (the
+    channel where y_h of 7.1 sees an event best)."""
+    d = np.diff(np.asarray(strain, float)[rows], axis=0)
+    return int(np.argmax((d * d).sum(axis=0)))
 
 
 # -- ground truth at the conditioned rate -------------------------------------------------

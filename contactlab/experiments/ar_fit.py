@@ -154,7 +154,7 @@ def analyse(y, *, fs: float, order: int = ORDER, max_order: int = MAX_ORDER) -> 
 def texture_segment(r, *, trim_s: float = TRIM_S) -> tuple[int, int, str]:
     """[a, b) of the longest run labelled with the sample's first texture, trimmed; its name."""
     from contactlab.acquire.sim import labels_texture
-    from contactlab.experiments.impact_spectrogram import runs
+    from contactlab.temporal.blocks import mask_runs as runs
 
     codes, names = labels_texture(r)
     target = 3                                  # first material of the environment
@@ -171,7 +171,7 @@ def texture_segment(r, *, trim_s: float = TRIM_S) -> tuple[int, int, str]:
 def load_texture_strain(*, seed: int, duration_s: float | None = None) -> dict:
     """Trial 0 of ``stroke-a``: the chosen texture strain and where it came from."""
     from contactlab.acquire import load_spec, simulate_trial
-    from contactlab.experiments.impact_spectrogram import loudest_channel
+    from contactlab.signals import loudest_channel
 
     _, r = simulate_trial(load_spec(SPEC), 0, seed, duration_s=duration_s)
     a, b, name = texture_segment(r)

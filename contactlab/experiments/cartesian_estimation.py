@@ -45,11 +45,10 @@ from contactlab.constraints import (CartesianConstraint, CartesianStiffness,  # 
                                     lognormal_summary)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
+from contactlab.acquire.cartesian_groups import (  # noqa: E402
+    GROUPS, SPEC, GroupData, load_groups)
 from contactlab.report.page import ReportPage  # noqa: E402
-from contactlab.signals import FACTOR  # noqa: E402  (7.1: 1000 Hz -> 250 Hz)
 
-SPEC = "cartesian"
-GROUPS = ("free", "plane", "line", "corner")
 SAMPLE_SIZES = (8, 12, 25, 50, 100, 200, 400, 800, 1600)
 TABLE_MIN_SIZE = 25
 N_DRAWS = 10                     # 8.1.1.2: "Ten examples were drawn for each sample size"
@@ -102,84 +101,6 @@ CONFIGS = (
 
 
 # -- data ------------------------------------------------------------------------------------
-@dataclass
-class GroupData:
-    """One group's four runs lumped into one block, 250 Hz, SI units.
-
-    ``normals`` (3, m): the true unit normals of the surfaces of the group;
-    ``run`` (n,): which run each sample came from; ``contact`` (n,): number of
-    surfaces touched at each sample (ground truth).
-    """
-
-    name: str
-    position: np.ndarray
-    force: np.ndarray
-    velocity: np.ndarray
-    normals: np.ndarray
-    run: np.ndarray
-    contact: np.ndarray
-
-    @property
-    def degree(self) -> int:
-        return int(self.normals.shape[1])
-
-    def __len__(self) -> int:
-        return int(self.position.shape[0])
-
-
-def _true_normals(result) -> np.ndarray:
-    """Orthonormal (3, m) normals of the surfaces of a trial (from the simulator)."""
-    cols = []
-    for s in range(len(result.surfaces)):
-        touched = np.flatnonzero(result.contact[:, s])
-        if touched.size:
-            cols.append(result.contact_normals[touched[touched.size // 2], s])
-    if not cols:
-        return np.zeros((3, 0))
-    q, _ = np.linalg.qr(np.asarray(cols, dtype=np.float64).T)
-    return q
-
-
-def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
-                duration_s: float | None = None) -> dict[str, GroupData]:
-    """Simulate the 16 runs of the ``cartesian`` spec and lump each group.
-
-    Force (``wrench[:, :3]``), position and velocity are lowpassed (fs/8) and
-    decimated 4:1 (7.1).  ``tare``: subtract the free-space group's mean force
-    from every group (sensor zeroing; module notes).  ``duration_s`` shortens
-    every run (tests).
-    """
-    from contactlab.acquire import load_spec, simulate_trial
-    from contactlab.signals import condition
-
-    spec = load_spec(SPEC)
-    parts: dict[str, dict[str, list]] = {}
-    normals: dict[str, np.ndarray] = {}
-    k = 0
-    jobs = [(g, j) for g in spec.groups for j in range(g.trials)]
-    for g, j in progress(jobs, total=len(jobs), desc="cartesian runs", quiet=quiet):
-        _, r = simulate_trial(spec, k, seed, duration_s=duration_s)
-        k += 1
-        d = parts.setdefault(g.name, {"p": [], "f": [], "v": [], "run": [], "c": []})
-        d["p"].append(condition(r, "position").y)
-        d["f"].append(condition(r, "wrench").y[:, :3])
-        d["v"].append(condition(r, "velocity").y)
-        n = len(d["p"][-1])
-        d["run"].append(np.full(n, j))
-        d["c"].append(np.asarray(r.contact).reshape(len(r.time), -1).sum(axis=1)[::FACTOR][:n])
-        if g.name not in normals:
-            normals[g.name] = _true_normals(r)
-    groups = {name: GroupData(name, np.concatenate(d["p"]), np.concatenate(d["f"]),
-                              np.concatenate(d["v"]), normals[name], np.concatenate(d["run"]),
-                              np.concatenate(d["c"]))
-              for name, d in parts.items()}
-    if tare and "free" in groups:
-        zero = groups["free"].force.mean(axis=0)
-        for gd in groups.values():
-            gd.force = gd.force - zero
-    return groups
-
-
 def true_projection(normals: np.ndarray, scaling) -> np.ndarray:
     """The true joint projection (6, 3) of 8.21 in the normalised units of ``scaling``."""
     if normals.shape[1] == 0:

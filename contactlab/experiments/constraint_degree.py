@@ -39,7 +39,8 @@ from contactlab.constraints import (FORCE_SD, POSITION_SD, VELOCITY_SD,  # noqa:
                                     AlignmentDegreeTest, CartesianConstraint,
                                     CartesianStiffness, alignment_statistic,
                                     decide_degree)
-from contactlab.experiments.cartesian_estimation import GROUPS, GroupData, load_groups  # noqa: E402
+from contactlab.acquire.cartesian_groups import (  # noqa: E402
+    GROUPS, GroupData, consecutive_blocks, load_groups, random_blocks)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -53,19 +54,6 @@ THESIS_ALIGNMENT = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, .005, .995, 0], [0,
 
 
 # -- blocks ----------------------------------------------------------------------------------
-def consecutive_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
-    """Indices (n_blocks, block) of runs of consecutive samples inside one run."""
-    ok = np.flatnonzero(np.r_[gd.run[block - 1:] == gd.run[:len(gd.run) - block + 1],
-                              np.zeros(block - 1, dtype=bool)])
-    starts = rng.choice(ok, size=n_blocks, replace=True)
-    return starts[:, None] + np.arange(block)[None]
-
-
-def random_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
-    """Indices (n_blocks, block) of samples drawn at random (no repeats in a block)."""
-    return np.stack([rng.choice(len(gd), size=block, replace=False) for _ in range(n_blocks)])
-
-
 def block_arrays(groups: dict[str, GroupData], *, kind: str, n_blocks: int, block: int, rng):
     """Stacked (B, block, 3) position, force, velocity and the true class (B,)."""
     make = consecutive_blocks if kind == "consecutive" else random_blocks

@@ -38,9 +38,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.constraints import CartesianConstraint, decide_direction, prior_rate  # noqa: E402
-from contactlab.experiments.cartesian_estimation import GroupData, load_groups  # noqa: E402
-from contactlab.experiments.constraint_degree import (consecutive_blocks,  # noqa: E402
-                                                      random_blocks)
+from contactlab.acquire.cartesian_groups import (  # noqa: E402
+    GroupData, consecutive_blocks, load_groups, random_blocks)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 

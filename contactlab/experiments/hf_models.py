@@ -38,7 +38,7 @@ from contactlab.estimators import LinearDecayModel, fit  # noqa: E402
 from contactlab.acquire.simulated import record_spec  # noqa: E402
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.temporal import block_features  # noqa: E402
-from contactlab.temporal.blocks import truth_blocks  # noqa: E402
+from contactlab.temporal.blocks import mask_runs, truth_blocks  # noqa: E402
 from contactlab.temporal.energy import normal_confusion_mc, normal_params  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
@@ -87,7 +87,7 @@ def impact_fits(archive, *, code: int = 3) -> list[dict]:
         for trial in arc:
             b = truth_blocks(trial, signal="hf", block=1, classes=[code])
             y = b["y"].mean(axis=1)
-            runs = _runs(b["codes"] == code)
+            runs = mask_runs(b["codes"] == code)
             for s, e in runs:
                 if e - s < 3:
                     continue
@@ -99,11 +99,6 @@ def impact_fits(archive, *, code: int = 3) -> list[dict]:
                              "y": y[max(s - 25, 0):e + 50].tolist(),
                              "offset": int(s - max(s - 25, 0))})
     return rows
-
-
-def _runs(mask) -> list[tuple[int, int]]:
-    m = np.diff(np.r_[0, np.asarray(mask, np.int8), 0])
-    return list(zip(np.flatnonzero(m == 1).tolist(), np.flatnonzero(m == -1).tolist()))
 
 
 def predicted_confusion(k, labels, *, seed: int) -> dict:

@@ -35,7 +35,8 @@ import numpy as np  # noqa: E402
 
 from contactlab.conditioning import difference, log_energy  # noqa: E402
 from contactlab.estimators import LinearDecayModel, fit  # noqa: E402
-from contactlab.experiments.impact_spectrogram import loudest_channel, mode_prediction  # noqa: E402
+from contactlab.signals import loudest_channel  # noqa: E402
+from contactlab.sim.sensor_modes import mode_prediction  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 

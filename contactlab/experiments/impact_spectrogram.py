@@ -33,7 +33,10 @@ from scipy import optimize, signal  # noqa: E402
 
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.signals import loudest_channel  # noqa: E402
 from contactlab.sim import constants as C  # noqa: E402
+from contactlab.sim.sensor_modes import mode_prediction  # noqa: E402
+from contactlab.temporal.blocks import mask_runs as runs  # noqa: E402
 
 SPEC = "impact-spectrogram"
 NPERSEG = 64                   # fig 7.1: "Sixty-four points ... for each FFT"
@@ -126,43 +129,6 @@ def fit_damped_sinusoid(x, *, fs: float, f0: float | None = None,
     return {"f_hz": w / (2 * math.pi), "decay_per_s": s, "zeta": s / math.hypot(s, w),
             "amplitude": float(math.hypot(p[4], p[5])), "rms_residual": float(res.std()),
             "f_se_hz": float(se[1] / (2 * math.pi)), "decay_se_per_s": float(se[0])}
-
-
-def mode_prediction(apparatus=None) -> dict:
-    """The sensor mode the simulator's constants imply, fixed base and free base.
-
-    Fixed base (thesis 3.3: the shell on a fixed base): ``w^2 = K/m_s``, decay
-    ``B/(2 m_s)``.  Free base (a fingertip in flight: robot mass m_r and shell
-    m_s joined by K, B; the 1 kHz servo and the backdrive friction are far below
-    this mode): relative motion with the reduced mass ``mu = m_s m_r/(m_s+m_r)``,
-    ``w^2 = K/mu``, decay ``B/(2 mu)``.  ``f_damped_hz`` is ``sqrt(w^2 - s^2)/2pi``.
-    """
-    from contactlab.sim import Apparatus
-
-    app = apparatus or Apparatus()
-    K, B, ms, mr = app.sensor_stiffness, app.sensor_damping, app.shell_mass, app.robot_mass
-    out = {}
-    for name, m in (("fixed_base", ms), ("free_base", ms * mr / (ms + mr))):
-        w, s = math.sqrt(K / m), B / (2 * m)
-        out[name] = {"f_hz": w / (2 * math.pi), "f_damped_hz": math.sqrt(w * w - s * s) / (2 * math.pi),
-                     "zeta": s / w, "decay_per_s": s}
-    out["robot_on_sensor_hz"] = math.sqrt(K / mr) / (2 * math.pi)
-    out["constants"] = {"SHELL_MODE_HZ": C.SHELL_MODE_HZ, "SHELL_DAMPING_RATIO": C.SHELL_DAMPING_RATIO,
-                        "SHELL_MASS": ms, "ROBOT_MASS": mr}
-    return out
-
-
-def loudest_channel(strain, rows: slice) -> int:
-    """The strain channel whose first difference has the most energy in ``rows``."""
-    d = np.diff(np.asarray(strain, float)[rows], axis=0)
-    return int(np.argmax((d * d).sum(axis=0)))
-
-
-def runs(mask) -> list[tuple[int, int]]:
-    """[start, end) of the runs of True in a boolean array."""
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    edges = np.flatnonzero(np.diff(m.astype(np.int8)))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
 def free_flights(contact, start: int, end: int) -> list[tuple[int, int]]:

@@ -50,15 +50,11 @@ from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
 from contactlab.signals import REDUCE, WINDOW, trial_signals, truth_codes
+from contactlab.temporal.blocks import mask_runs
 
 __all__ = ["GraphModels", "ImpactPrior", "train_graph", "load_graph_models"]
 
 _TRAINED_SIGNALS = ("hf", "strain", "wrench")
-
-
-def _runs(codes, code) -> list[tuple[int, int]]:
-    m = np.diff(np.r_[0, (np.asarray(codes) == code).astype(np.int8), 0])
-    return list(zip(np.flatnonzero(m == 1).tolist(), np.flatnonzero(m == -1).tolist()))
 
 
 # -- the models file ---------------------------------------------------------------------
@@ -254,14 +250,14 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
                 y = data[s]
                 for k, lab in enumerate(labels):
                     if lab in temporal_specs and s == signal:
-                        runs = np.array([(a, b, k) for a, b in _runs(codes, k)],
+                        runs = np.array([(a, b, k) for a, b in mask_runs(codes == k)],
                                         dtype=np.int64).reshape(-1, 3)
                         starts, _ = cut_blocks(runs, block)
                         if starts.size:
                             feats[lab].append(block_features(y, order=order, mean=mean,
                                                              block=block, starts=starts))
                     if lab in impact_specs and impact_specs[lab].signal == s:
-                        segs[lab].extend(y[a:b] for a, b in _runs(codes, k) if b - a >= 3)
+                        segs[lab].extend(y[a:b] for a, b in mask_runs(codes == k) if b - a >= 3)
     if not ids_used:
         raise DataError("no trial has ground-truth labels", file=str(path),
                         field="/trials/*/ground_truth/labels")

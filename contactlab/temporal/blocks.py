@@ -27,7 +27,7 @@ import numpy as np
 from contactlab.errors import DataError
 from contactlab.signals import WINDOW, Signal, condition, source_of, truth_codes
 
-__all__ = ["TrialSignal", "load_signal", "runs_from_codes", "runs_from_stage",
+__all__ = ["TrialSignal", "load_signal", "runs_from_codes", "mask_runs", "runs_from_stage",
            "cut_blocks", "code_blocks", "label_runs", "truth_blocks"]
 
 #: one trial's conditioned signal (:class:`contactlab.signals.Signal`)
@@ -59,6 +59,13 @@ def runs_from_codes(codes: np.ndarray) -> np.ndarray:
     ends = np.concatenate([change, [n]])
     rows = np.column_stack([starts, ends, codes[starts]])
     return rows[rows[:, 2] >= 0]
+
+
+def mask_runs(mask) -> list[tuple[int, int]]:
+    """``[start, end)`` of the runs of True in a boolean array."""
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    edges = np.flatnonzero(np.diff(m.astype(np.int8)))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
 def runs_from_stage(trial, stage: str, times, codes, *, path=None) -> np.ndarray:

@@ -1,0 +1,118 @@
+"""The simulated hand-moved Cartesian data set of 8.1.1.2, as the library gives it.
+
+The ``cartesian`` dataset spec has four groups of four runs -- free space, one
+wood plane, a line (two planes) and a corner (three) -- moved by hand over the
+constraint.  :func:`load_groups` simulates them, conditions force
+(``wrench[:, :3]``), position and velocity with the 7.1 settings of
+:mod:`contactlab.signals` (250 Hz) and lumps each group's runs into one
+:class:`GroupData` with the true surface normals; :func:`consecutive_blocks`
+and :func:`random_blocks` draw the blocks the chapter-8 decisions are tested on.
+The cartesian-estimation, constraint-degree and constraint-direction
+experiments all read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactlab.progress import progress
+from contactlab.signals import FACTOR
+
+__all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups", "consecutive_blocks",
+           "random_blocks"]
+
+SPEC = "cartesian"
+GROUPS = ("free", "plane", "line", "corner")
+
+
+@dataclass
+class GroupData:
+    """One group's four runs lumped into one block, 250 Hz, SI units.
+
+    ``normals`` (3, m): the true unit normals of the surfaces of the group;
+    ``run`` (n,): which run each sample came from; ``contact`` (n,): number of
+    surfaces touched at each sample (ground truth).
+    """
+
+    name: str
+    position: np.ndarray
+    force: np.ndarray
+    velocity: np.ndarray
+    normals: np.ndarray
+    run: np.ndarray
+    contact: np.ndarray
+
+    @property
+    def degree(self) -> int:
+        return int(self.normals.shape[1])
+
+    def __len__(self) -> int:
+        return int(self.position.shape[0])
+
+
+def true_normals(result) -> np.ndarray:
+    """Orthonormal (3, m) normals of the surfaces of a trial (from the simulator)."""
+    cols = []
+    for s in range(len(result.surfaces)):
+        touched = np.flatnonzero(result.contact[:, s])
+        if touched.size:
+            cols.append(result.contact_normals[touched[touched.size // 2], s])
+    if not cols:
+        return np.zeros((3, 0))
+    q, _ = np.linalg.qr(np.asarray(cols, dtype=np.float64).T)
+    return q
+
+
+def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
+                duration_s: float | None = None) -> dict[str, GroupData]:
+    """Simulate the 16 runs of the ``cartesian`` spec and lump each group.
+
+    Force (``wrench[:, :3]``), position and velocity are lowpassed (fs/8) and
+    decimated 4:1 (7.1).  ``tare``: subtract the free-space group's mean force
+    from every group (sensor zeroing; module notes).  ``duration_s`` shortens
+    every run (tests).
+    """
+    from contactlab.acquire import load_spec, simulate_trial
+    from contactlab.signals import condition
+
+    spec = load_spec(SPEC)
+    parts: dict[str, dict[str, list]] = {}
+    normals: dict[str, np.ndarray] = {}
+    k = 0
+    jobs = [(g, j) for g in spec.groups for j in range(g.trials)]
+    for g, j in progress(jobs, total=len(jobs), desc="cartesian runs", quiet=quiet):
+        _, r = simulate_trial(spec, k, seed, duration_s=duration_s)
+        k += 1
+        d = parts.setdefault(g.name, {"p": [], "f": [], "v": [], "run": [], "c": []})
+        d["p"].append(condition(r, "position").y)
+        d["f"].append(condition(r, "wrench").y[:, :3])
+        d["v"].append(condition(r, "velocity").y)
+        n = len(d["p"][-1])
+        d["run"].append(np.full(n, j))
+        d["c"].append(np.asarray(r.contact).reshape(len(r.time), -1).sum(axis=1)[::FACTOR][:n])
+        if g.name not in normals:
+            normals[g.name] = true_normals(r)
+    groups = {name: GroupData(name, np.concatenate(d["p"]), np.concatenate(d["f"]),
+                              np.concatenate(d["v"]), normals[name], np.concatenate(d["run"]),
+                              np.concatenate(d["c"]))
+              for name, d in parts.items()}
+    if tare and "free" in groups:
+        zero = groups["free"].force.mean(axis=0)
+        for gd in groups.values():
+            gd.force = gd.force - zero
+    return groups
+
+
+def consecutive_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
+    """Indices (n_blocks, block) of runs of consecutive samples inside one run."""
+    ok = np.flatnonzero(np.r_[gd.run[block - 1:] == gd.run[:len(gd.run) - block + 1],
+                              np.zeros(block - 1, dtype=bool)])
+    starts = rng.choice(ok, size=n_blocks, replace=True)
+    return starts[:, None] + np.arange(block)[None]
+
+
+def random_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
+    """Indices (n_blocks, block) of samples drawn at random (no repeats in a block)."""
+    return np.stack([rng.choice(len(gd), size=block, replace=False) for _ in range(n_blocks)])
