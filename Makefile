@@ -39,7 +39,7 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
-## Benchmarks against the peers named in the issues (ratios printed, same run).
+## Benchmarks against the standard peers (ratios printed, same run).
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 

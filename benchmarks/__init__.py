@@ -1,1 +1,1 @@
-"""Benchmarks against the peers named in the issues (``make bench``)."""
+"""Benchmarks against the standard peers (``make bench``)."""

@@ -1,4 +1,4 @@
-"""Cartesian constraint estimation speed (issue 5): estimate with degree decision
+"""Cartesian constraint estimation speed: estimate with degree decision
 for 25-sample blocks, target >= 5,000 blocks per second on one core.
 
 Ours: :meth:`CartesianConstraint.fit_blocks` -- all blocks at once (numpy

@@ -1,6 +1,6 @@
 """Segmentation speed (7.2.1): an 8-strain stroke trial and linear scaling.
 
-The issue's targets: segmenting an 8-strain, 7-second trial at least 1000x
+The targets: segmenting an 8-strain, 7-second trial at least 1000x
 faster than real time on one core, with cost linear in trial length (measured
 at 10 s and 1000 s of stationary 250 Hz AR(2) strains, where no restart
 happens); and the peer side by side on one simulated stroke-a trial (the

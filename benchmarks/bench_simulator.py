@@ -1,6 +1,6 @@
 """Simulator speed: one 7-second trial of each typical dataset, x-real-time factor.
 
-The issue's target is a 7-second trial at least 20x faster than real time on one
+The target is a 7-second trial at least 20x faster than real time on one
 core (``contactlab.sim.simulate``, 1000 Hz output, the integrator's own internal
 rate), plus the full ``contactlab acquire`` path (simulation + ground truth +
 writing the HDF5 trial) for the stroking spec. No peer: there is no other

@@ -839,7 +839,7 @@ def _channel_section(page, summary):
 
 
 def _side_by_side_section(page, summary, n):
-    page.heading("Side by side with ruptures (issue 4: as accurate, 100x faster)")
+    page.heading("Side by side with ruptures: accuracy and speed")
     tm = summary["timing"]
     per = tm["per_trial_s"]
     best = summary["best_threshold"]

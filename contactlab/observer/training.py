@@ -46,7 +46,7 @@ import numpy as np
 from contactlab import __version__
 from contactlab import defaults as D
 from contactlab.errors import DataError
-from contactlab.observer.graph import FeatureGraph, load_graph
+from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
 from contactlab.signals import REDUCE, WINDOW, trial_signals, truth_codes
@@ -210,8 +210,9 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     temporal_specs, impact_specs = {}, {}
     for name, spec in graph.models.items():
         if spec.kind == "constraint":
-            raise DataError("constraint models cannot be trained yet (Constraint estimation "
-                            "issue)", file=gsrc, field=f"models.{name}.kind")
+            raise DataError(f"constraint models cannot be trained by the observer "
+                            f"({UNAVAILABLE_KINDS['constraint']})", file=gsrc,
+                            field=f"models.{name}.kind")
         if spec.kind == "temporal":
             temporal_specs.setdefault(spec.trained, spec)
         elif spec.kind == "impact" and "theta_mean" not in spec.params:
