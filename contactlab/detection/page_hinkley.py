@@ -143,7 +143,9 @@ class PageHinkley:
                 if x.ndim != 3 or x.shape[2] != k:
                     raise ValueError(f"run takes (n, {k}) or (n, D, {k}) increments for sides "
                                      f"{self.sides}; got {x.shape}")
-        if not np.isfinite(x).all():
+        # the sum is finite when every term is (one pass, no temporary); only then
+        # is the elementwise check skipped
+        if not (math.isfinite(x.sum()) or np.isfinite(x).all()):
             raise ValueError("increments must be finite (found NaN or inf)")
         return np.ascontiguousarray(x)
 
@@ -257,6 +259,8 @@ class PageHinkley:
             tr = np.concatenate(traces) if trace else None
         self.statistic_ = stat
         self.n_seen_ = t0 + n
+        if len(table) == 0 and not trace:
+            return self._no_alarms()                  # most blocks of a stream: no alarm
         return alarms_from_table(table, sides=self.sides, with_change_time=True,
                                  trace=tr if trace else None)
 
