@@ -76,7 +76,7 @@ __all__ = ["ARPrefix", "glr_window_statistic", "segment_glr_statistic", "glr_seg
 
 #: defaults of :func:`glr_segment`: the best pooled F1 within 50 ms on the synthetic
 #: piecewise-AR suite (see ``benchmarks/bench_suite.py``)
-GLR_DEFAULTS = dict(order=2, window_s=0.24, threshold=2.0)
+GLR_DEFAULTS = dict(order=2, window_s=0.24, threshold=3.0)
 
 
 class ARPrefix:
