@@ -438,17 +438,10 @@ def segment_glr(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
     if channels.size == 0:
         return Segmentation(empty, empty.copy(), empty.copy(), times, np.full(n, np.nan),
                             channels, parameters)
-    from contactlab.detection.ar_glr import ARPrefix
     found = glr_segment(a[:, channels], fs=fs, order=int(order), window_s=float(window_s),
                         threshold=float(threshold))
     bounds = found["boundaries"]
-    p = int(order)
-    edges = np.r_[p, bounds, n]
-    prefix = ARPrefix(a[:, channels], order=p)
-    rows = edges - p
-    ll = np.array([prefix.loglik(rows[k], rows[k + 1]) / max(rows[k + 1] - rows[k], 1)
-                   for k in range(len(rows) - 1)])        # -(1/2) sum_c log s_c^2 per segment
-    sides = (ll[1:] > ll[:-1]).astype(np.int64)            # log-likelihood up: variance fell
+    sides = found["sides"]
     alarms = np.minimum(bounds + found["window"], n - 1)
     parameters["window"] = int(found["window"])
     return Segmentation(bounds.astype(np.int64), alarms.astype(np.int64), sides, times,

@@ -98,13 +98,7 @@ class ARPrefix:
             raise UsageError(f"signal of {n} samples is too short for AR({p})")
         a = a - a.mean(axis=0)                  # the intercept absorbs it; better conditioning
         rows = n - p
-        z = np.empty((rows, c, p + 2))
-        for i in range(p):
-            z[:, :, i] = a[p - 1 - i:n - 1 - i]
-        z[:, :, p] = 1.0
-        z[:, :, p + 1] = a[p:]
-        outer = z[:, :, :, None] * z[:, :, None, :]
-        self.prefix = np.concatenate([np.zeros((1, c, p + 2, p + 2)), np.cumsum(outer, axis=0)])
+        self.prefix = _prefix_kernel(np.ascontiguousarray(a), p)
         self.order = p
         self.rows = rows
         self.channels = c
@@ -136,6 +130,25 @@ class ARPrefix:
 
 
 @njit(cache=True)
+def _prefix_kernel(a, p):
+    """Prefix sums over rows of ``z z^T``, ``z = [a(n-1) .. a(n-p), 1, a(n)]`` per channel."""
+    n, c = a.shape
+    k = p + 2
+    out = np.zeros((n - p + 1, c, k, k))
+    z = np.empty(k)
+    for r in range(n - p):
+        for ch in range(c):
+            for i in range(p):
+                z[i] = a[r + p - 1 - i, ch]
+            z[p] = 1.0
+            z[p + 1] = a[r + p, ch]
+            for i in range(k):
+                for j in range(k):
+                    out[r + 1, ch, i, j] = out[r, ch, i, j] + z[i] * z[j]
+    return out
+
+
+@njit(cache=True, fastmath=True)
 def _rss_kernel(prefix, starts, ends, out):
     """RSS of every (segment, channel): the Schur complement of the regressors' Gram
     block in ``M = prefix[end] - prefix[start]`` by Gaussian elimination (the last
@@ -143,11 +156,12 @@ def _rss_kernel(prefix, starts, ends, out):
     k1 = prefix.shape[2]
     m = np.empty((k1, k1))
     for i in range(starts.shape[0]):
+        hi, lo = prefix[ends[i]], prefix[starts[i]]
         for c in range(prefix.shape[1]):
             trace = 0.0
             for r in range(k1):
-                for s in range(k1):
-                    m[r, s] = prefix[ends[i], c, r, s] - prefix[starts[i], c, r, s]
+                for s in range(r, k1):             # symmetric: the upper triangle suffices
+                    m[r, s] = hi[c, r, s] - lo[c, r, s]
                 if r < k1 - 1:
                     trace += m[r, r]
             tiny = 1e-12 * trace
@@ -156,8 +170,8 @@ def _rss_kernel(prefix, starts, ends, out):
                 if piv <= tiny:
                     continue
                 for r in range(j + 1, k1):
-                    f = m[r, j] / piv
-                    for s in range(j + 1, k1):
+                    f = m[j, r] / piv
+                    for s in range(r, k1):
                         m[r, s] -= f * m[j, s]
             yy = prefix[ends[i], c, k1 - 1, k1 - 1] - prefix[starts[i], c, k1 - 1, k1 - 1]
             out[i, c] = max(m[k1 - 1, k1 - 1], 1e-12 * max(yy, 1e-300))
@@ -177,9 +191,16 @@ def glr_window_statistic(prefix: ARPrefix, window: int) -> np.ndarray:
     t = np.arange(half, r - half + 1)
     if t.size == 0:
         return out
-    a = np.maximum(t - w, 0)
-    b = np.minimum(t + w, r)
-    out[t] = prefix.glr(a, t, b) / prefix.dof
+    inner = (t >= w) & (t <= r - w)
+    if inner.any():
+        # interior windows share their halves: the left half at t is the right one at t - w
+        one = prefix.loglik(np.arange(0, r - w + 1), np.arange(w, r + 1))      # [s, s + w)
+        two = prefix.loglik(np.arange(0, r - 2 * w + 1), np.arange(2 * w, r + 1))
+        ti = t[inner]
+        out[ti] = 2.0 * (one[ti - w] + one[ti] - two[ti - w]) / prefix.dof
+    te = t[~inner]                                  # windows cut at the ends
+    if te.size:
+        out[te] = prefix.glr(np.maximum(te - w, 0), te, np.minimum(te + w, r)) / prefix.dof
     return out
 
 
@@ -215,7 +236,7 @@ def glr_segment(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
                 threshold: float = GLR_DEFAULTS["threshold"], refine: bool = True) -> dict:
     """Offline two-model GLR segmentation of ``y`` (N,) or (N, C) sampled at ``fs``.
 
-    Returns ``dict(boundaries, statistic, score, window, dof)``: boundaries as
+    Returns ``dict(boundaries, statistic, score, sides, window, dof)``: boundaries as
     sample indices of the first sample of each new segment (ruptures'
     convention), the window statistic per sample (NaN where undefined; per
     degree of freedom), each boundary's refined (*) per degree of freedom, the
@@ -247,6 +268,11 @@ def glr_segment(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
                 break
     statistic = np.full(prefix.rows + p, np.nan)
     statistic[p:] = stat[:prefix.rows]
+    # per segment the channels' mean log residual variance; a fall across a boundary
+    # is side 1 ("decrease"), a rise side 0, as for the covariance tests of 6.14
+    edges = np.r_[0, bounds, prefix.rows].astype(np.int64)
+    m = np.diff(edges).astype(np.float64)
+    logvar = np.mean(np.log(prefix.rss(edges[:-1], edges[1:]) / m[:, None]), axis=1)
     return dict(boundaries=np.asarray(bounds, dtype=np.int64) + p,
                 statistic=statistic, score=np.asarray(scores, dtype=np.float64),
-                window=window, dof=prefix.dof)
+                sides=(np.diff(logvar) < 0).astype(np.int64), window=window, dof=prefix.dof)
