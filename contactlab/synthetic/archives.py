@@ -50,6 +50,8 @@ def write_archive(trials, path, *, force: bool = False, title: str = "",
             if f.get("labels") is not None:
                 tw.set_ground_truth(labels=np.asarray(f["labels"], np.int64), names=f["names"],
                                     segments=segment_table(f["labels"], f["time"], f["names"]))
+            if f.get("truth"):
+                tw.set_truth(**f["truth"])
             if f.get("attrs"):
                 tw.set_attrs(f["attrs"])
             tw.close()
