@@ -17,6 +17,22 @@ whose pooled F1 on the suite is best (the peers get a sweep; we run with
 defaults).  A further row runs ruptures' own ``CostAR`` (a residual sum of
 squares, per channel, summed) as a user would assemble it: it is blind to
 changes of level alone.  F1 within 50 ms, ruptures' metric.
+
+Labelling.  Three AR(2) texture classes (one differing only in frequency, one
+only in level; :mod:`contactlab.synthetic.textures`), 12 training and 12 test
+trials of 8 s, in three variants: the generator's defaults, a strongly varying
+level between trials and segments, a strongly varying frequency.
+``train --labels truth`` then ``label`` (defaults) beside scikit-learn's
+``LinearDiscriminantAnalysis`` on the same 100-sample blocks, fed each
+channel's log-variance and lag-1 and lag-2 autocorrelations (from the blocks'
+AR(2) fit by Yule-Walker's relations).  Time: train + label against LDA fit +
+predict, both from the archives (reading, conditioning and block features
+included).
+
+Constraint decisions.  40 runs (free, plane, edge, corner; random frames,
+friction; :mod:`contactlab.synthetic.contacts`) at 0.1 mm / 20 mN and
+0.01 mm / 10 mN: ``estimate --block 25`` and whole segments (defaults).  No
+peer; the per-degree summary of ``estimate --json``.
 """
 
 from __future__ import annotations
@@ -198,8 +214,96 @@ def segmentation_rows(tmp: Path) -> list[dict]:
     ]
 
 
+TEXTURE_VARIANTS = {
+    "defaults": {},
+    "level varies": dict(trial_level_sd=0.4, segment_level_sd=0.3),
+    "frequency varies": dict(trial_level_sd=0.05, segment_level_sd=0.05, trial_freq_sd=0.15,
+                             segment_freq_sd=0.1),
+}
+
+
+def _lda_features(blocks) -> np.ndarray:
+    """Per block and channel: log-variance and lag-1, lag-2 autocorrelations of the
+    AR(2) fit (Yule-Walker: r1 = a1 / (1 - a2), r2 = a1 r1 + a2)."""
+    from contactlab.synthetic import ar2_variance
+    f = blocks.features
+    a1, a2 = f.coef[..., 0], f.coef[..., 1]
+    r1 = a1 / (1 - a2)
+    r2 = a1 * r1 + a2
+    logvar = np.log(f.noise_var * ar2_variance(a1, a2))
+    return np.concatenate([logvar, r1, r2], axis=1)
+
+
+def labelling_rows(tmp: Path) -> list[dict]:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    from contactlab.synthetic import texture_trials
+    from contactlab.temporal.label import label_archive
+    from contactlab.temporal.train import collect_blocks, train_temporal
+
+    rows = []
+    for name, kw in TEXTURE_VARIANTS.items():
+        train, test = tmp / "tex-train.h5", tmp / "tex-test.h5"
+        write_archive(texture_trials(12, seed=SEED, **kw), train, force=True)
+        write_archive(texture_trials(12, seed=SEED + 100, **kw), test, force=True)
+        models = tmp / "tex-models.h5"
+        cli("train", train, "--labels", "truth", "--out", models, "--force")
+        ours = cli("label", test, "--models", models)
+        btr = collect_blocks(str(train), labels="truth", block=100)
+        bte = collect_blocks(str(test), labels="truth", block=100)
+        xtr, xte = _lda_features(btr), _lda_features(bte)
+        lda = LinearDiscriminantAnalysis().fit(xtr, btr.label)
+        acc_lda = float(np.mean(lda.predict(xte) == bte.label))
+
+        def ours_once():
+            ms = train_temporal(str(train), labels="truth")
+            return label_archive(str(test), models=ms)
+        t_ours = best_time(ours_once, repeats=1)
+        def lda_once():
+            a = collect_blocks(str(train), labels="truth", block=100)
+            b = collect_blocks(str(test), labels="truth", block=100)
+            return LinearDiscriminantAnalysis().fit(_lda_features(a), a.label).predict(
+                _lda_features(b))
+        t_lda = best_time(lda_once, repeats=1)
+        rows.append({"name": f"suite: train + label, textures ({name})", "ours_s": t_ours,
+                     "peer": "LDA (log-var, 2 autocorr.)", "peer_s": t_lda,
+                     "ratio": t_lda / t_ours,
+                     "notes": f"{ours['n_blocks']} test blocks: label accuracy "
+                              f"{ours['accuracy']:.3f}, LDA {acc_lda:.3f}"})
+    return rows
+
+
+def constraint_rows(tmp: Path) -> list[dict]:
+    import time
+
+    from contactlab.synthetic import contact_trials
+
+    rows = []
+    for ps, fsd in ((0.1e-3, 0.02), (0.01e-3, 0.01)):
+        path = tmp / "contacts.h5"
+        write_archive(contact_trials(10, seed=SEED, position_sd=ps, force_sd=fsd), path,
+                      force=True)
+        t0 = time.perf_counter()
+        blocks = cli("estimate", path, "--block", 25)["summary"]
+        t_blocks = time.perf_counter() - t0
+        whole = cli("estimate", path)["summary"]
+        per = blocks["per_true_degree"]
+        by = ", ".join(f"{m}: {e['right']}/{e['pieces']} ({e['undecided']} undecided)"
+                       for m, e in per.items())
+        sds = ", ".join(f"deg {m} 2sd covers {e['angle_within_2sd']:.2f}"
+                        for m, e in per.items() if "angle_within_2sd" in e)
+        wsd = ", ".join(f"deg {m} {e['angle_within_2sd']:.2f}"
+                        for m, e in whole["per_true_degree"].items() if "angle_within_2sd" in e)
+        rows.append({"name": f"suite: estimate --block 25, {ps * 1e3:g} mm / {fsd * 1e3:g} mN",
+                     "ours_s": t_blocks, "peer": None, "peer_s": None, "ratio": None,
+                     "notes": f"{blocks['pieces']} blocks: degree right "
+                              f"{blocks['degree_correct']:.3f} (by true degree {by}); {sds}; "
+                              f"whole segments {whole['degree_correct']:.3f}, 2 sd covers {wsd}"})
+    return rows
+
+
 def run() -> list[dict]:
     with tempfile.TemporaryDirectory(prefix="contactlab-suite-") as tmp:
         tmp = Path(tmp)
-        rows = segmentation_rows(tmp)
+        rows = segmentation_rows(tmp) + labelling_rows(tmp) + constraint_rows(tmp)
     return rows

@@ -20,6 +20,7 @@ Generators are pure functions of a seed (``numpy.random.default_rng``).
 """
 
 from contactlab.synthetic.archives import write_archive
+from contactlab.synthetic.textures import TEXTURES, TextureTrial, texture_trial, texture_trials
 from contactlab.synthetic.contacts import ContactTrial, contact_trial, contact_trials
 
 from contactlab.synthetic.piecewise_ar import (
@@ -32,5 +33,5 @@ from contactlab.synthetic.piecewise_ar import (
 )
 
 
-__all__ = ["CHANGE_KINDS", "ContactTrial", "contact_trial", "contact_trials", "PiecewiseAR", "ar2_coefficients", "ar2_variance", "piecewise_ar",
+__all__ = ["TEXTURES", "TextureTrial", "texture_trial", "texture_trials", "CHANGE_KINDS", "ContactTrial", "contact_trial", "contact_trials", "PiecewiseAR", "ar2_coefficients", "ar2_variance", "piecewise_ar",
            "piecewise_ar_trials", "write_archive"]
