@@ -217,6 +217,29 @@ def min_samples(order: int, warmup: int, variance_samples: int = 8) -> int:
     return order + max(warmup, order) + variance_samples + 1
 
 
+def _as_signal(y) -> np.ndarray:
+    """``y`` as a finite (N, C) float array (UsageError for the shape, DataError naming
+    the field ``signal`` for NaN or infinite values)."""
+    a = np.asarray(y, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[1] < 1:
+        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise DataError("signal has NaN or infinite values", field="signal")
+    return a
+
+
+def _sample_times(n: int, *, fs, t0, times) -> np.ndarray:
+    """``times`` (checked: one per sample) or ``t0 + k / fs``."""
+    if times is None:
+        return t0 + np.arange(n) / float(fs)
+    times = np.asarray(times, dtype=np.float64)
+    if times.shape != (n,):
+        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    return times
+
+
 def _check_combine(combine) -> None:
     if combine not in COMBINE:
         raise UsageError(f"combine must be one of {', '.join(COMBINE)}; got {combine!r}")
@@ -267,23 +290,13 @@ def segment_signal(y, *, fs: float, order: int = 2, threshold: float = 200.0,
     _check_combine(combine)
     if not isinstance(variance_samples, (int, np.integer)) or variance_samples < 1:
         raise UsageError(f"variance_samples must be an integer >= 1; got {variance_samples!r}")
-    a = np.asarray(y, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[:, None]
-    if a.ndim != 2 or a.shape[1] < 1:
-        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
-    if not np.isfinite(a).all():
-        raise DataError("signal has NaN or infinite values", field="signal")
+    a = _as_signal(y)
     n, _ = a.shape
     need = min_samples(int(order), int(warmup), int(variance_samples))
     if n < need:
         raise DataError(f"signal has {n} samples; AR({order}) with a variance warm-up of "
                         f"{warmup} needs at least {need}", field="signal")
-    if times is None:
-        times = t0 + np.arange(n) / float(fs)
-    times = np.asarray(times, dtype=np.float64)
-    if times.shape != (n,):
-        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    times = _sample_times(n, fs=fs, t0=t0, times=times)
     channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
     parameters = dict(order=int(order), threshold=float(threshold),
                       change_size=float(change_size), warmup=int(warmup),
@@ -413,19 +426,9 @@ def segment_glr(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
     freedom.  Constant channels are left out as in :func:`segment_signal`.
     """
     _check_params(order, threshold, 2.0, 0, 1)
-    a = np.asarray(y, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[:, None]
-    if a.ndim != 2 or a.shape[1] < 1:
-        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
-    if not np.isfinite(a).all():
-        raise DataError("signal has NaN or infinite values", field="signal")
+    a = _as_signal(y)
     n = a.shape[0]
-    if times is None:
-        times = t0 + np.arange(n) / float(fs)
-    times = np.asarray(times, dtype=np.float64)
-    if times.shape != (n,):
-        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    times = _sample_times(n, fs=fs, t0=t0, times=times)
     channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
     parameters = dict(method="glr", order=int(order), threshold=float(threshold),
                       window_s=float(window_s), fs=float(fs),

@@ -92,7 +92,7 @@ def _jitter(rng, n, k, rms, fs):
 def contact_trial(*, seed: int, degree: int, duration_s: float = 2.0, fs: float = 1000.0,
                   position_sd: float = 0.1e-3, force_sd: float = 0.02,
                   amplitude_m: float = 4e-3, jitter_m: float = 0.2e-3,
-                  jitter_n: float = 0.05) -> ContactTrial:
+                  jitter_n: float = 0.05, friction=(0.1, 0.4)) -> ContactTrial:
     """One run of the given ``degree`` (0 free, 1 plane, 2 edge, 3 corner)."""
     if degree not in (0, 1, 2, 3):
         raise ValueError(f"degree must be 0..3; got {degree!r}")
@@ -106,7 +106,7 @@ def contact_trial(*, seed: int, degree: int, duration_s: float = 2.0, fs: float 
     g = (rng.uniform(0.5, 2.0, degree) + _slow(rng, t, degree, 0.2)
          + _jitter(rng, len(t), degree, jitter_n, fs))
     force = g @ N.T
-    mu = float(rng.uniform(0.1, 0.4))
+    mu = float(rng.uniform(*friction))
     if 0 < degree < 3:
         v = np.gradient(position, 1.0 / fs, axis=0)
         speed = np.linalg.norm(v, axis=1, keepdims=True)
