@@ -28,7 +28,7 @@ from scipy.signal import lfilter
 from contactlab.acquire.sim import simulate_trial
 from contactlab.acquire.spec import load_spec
 from contactlab.signals import condition_array
-from contactlab.segmentation import boundary_metrics, segment_signal
+from contactlab.segmentation import boundary_metrics, segment_glr, segment_signal
 
 from benchmarks.timing import best_time
 
@@ -105,17 +105,24 @@ def _peers() -> list[dict]:
                      "notes": f"boundary F1 {f1(ours[200.0]):.2f} at the thesis's threshold "
                               f"200, {f1(ours[best_thr]):.2f} at its best threshold "
                               f"{best_thr:g} (tolerance 0.1 s, {len(truth)} true boundaries)"})
+    glr = segment_glr(y, fs=fs, times=times)                  # the verb's default, no sweep
+    t_glr = best_time(lambda: segment_glr(y, fs=fs, times=times))
+    best["glr"] = (t_glr, f1(glr.boundaries_s), "default")
+    rows.append({"name": "contactlab segment, stroke-a trial (method glr)", "ours_s": t_glr,
+                 "peer": None, "peer_s": None, "ratio": None,
+                 "notes": f"boundary F1 {f1(glr.boundaries_s):.2f} with the defaults"})
+    tags = {"sum": "", "channel": " (combine=channel)", "glr": " (method glr)"}
     for name in ("Binseg", "Pelt"):
         scores = {b: f1(peer_boundaries(y, times, algo=name, beta=b)) for b in BETA_GRID}
         beta = max(scores, key=lambda b: (scores[b], b))
         t_peer = best_time(lambda: peer_boundaries(y, times, algo=name, beta=beta, fast=False),
                            repeats=1 if name == "Pelt" else REPEATS)
         for mode, (t_ours, f1_ours, thr) in best.items():
-            tag = "" if mode == "sum" else " (combine=channel)"
+            tag = tags[mode]
             rows.append({"name": f"segment stroke-a trial vs ruptures {name}{tag}",
                          "ours_s": t_ours, "peer": f"ruptures {name} (CostAR per strain)",
                          "peer_s": t_peer, "ratio": t_peer / t_ours,
                          "notes": f"peer F1 {scores[beta]:.2f} at its best beta {beta:.3g} "
                                   f"(grid of {len(BETA_GRID)}), ours {f1_ours:.2f} at "
-                                  f"threshold {thr:g}"})
+                                  f"threshold {thr}"})
     return rows

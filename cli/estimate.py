@@ -23,12 +23,19 @@ from contactlab.constraints.archive import MODELS
                    "(the thesis's degree test uses 25).")
 @click.option("--motion", type=click.Choice(["position", "velocity"]), default="position",
               show_default=True, help="Use positions (preferred, 8.1.1) or velocities.")
+@click.option("--position-noise", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="M", help="Position measurement noise (m, sd per axis, raw rate).  "
+                                "[default: estimated from each trial's data]")
+@click.option("--force-noise", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="N", help="Force measurement noise (N, sd per axis, raw rate).  "
+                                "[default: estimated from each trial's data]")
 @click.option("--no-friction", is_flag=True,
               help="Skip the friction compensation filter (8.29).")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option
 @quiet_option
-def estimate(archive, model, segments, block, motion, no_friction, trials, as_json, quiet):
+def estimate(archive, model, segments, block, motion, position_noise, force_noise, no_friction,
+             trials, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of ARCHIVE.
 
     Force (wrench[:, :3]), position and velocity are lowpassed and decimated
@@ -36,20 +43,26 @@ def estimate(archive, model, segments, block, motion, no_friction, trials, as_js
     (8.21-8.28, log-likelihood criterion) after the friction filter (8.29),
     with the degree of constraint chosen by the highest log-likelihood over
     0..3 (8.2).  Pieces with too little motion or force to decide are reported
-    as undetermined.  Results go to each trial's results/estimate.
+    as undetermined.  Units are normalised by the measurement noise (8.7-8.9),
+    which is estimated from each trial's own data (the spread of second
+    differences, never below the quantisation step) unless given.  The
+    summary counts undetermined pieces as undecided and reports angle errors
+    per true degree.  Results go to each trial's results/estimate.
 
     \b
     Examples:
       contactlab estimate runs.h5
       contactlab estimate runs.h5 --segments auto --json
       contactlab estimate runs.h5 --block 25 --trial cartesian-004 --json
+      contactlab estimate runs.h5 --position-noise 1e-5 --force-noise 0.01
       contactlab estimate planar.h5 --model polygon-B --json
     """
     from contactlab.constraints.archive import estimate_archive
 
     summary = estimate_archive(archive, model=model, segments=segments, block=block,
                                trials=list(trials) or None, friction=not no_friction,
-                               motion=motion, quiet=quiet)
+                               motion=motion, quiet=quiet, position_sd=position_noise,
+                               force_sd=force_noise)
     if as_json:
         echo_json(summary)
         return

@@ -93,6 +93,7 @@ import numpy as np
 
 from contactlab import defaults as D
 from contactlab.detection import PageHinkley, VarianceChangeDetector
+from contactlab.detection.ar_glr import GLR_DEFAULTS, glr_segment
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
 from contactlab.estimators import ARModel, SquareRootRLS
@@ -100,7 +101,8 @@ from contactlab.signals import SIGNALS, conditioned_signal, resolve_signal, sour
 
 __all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
            "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
-           "min_samples", "run_archive", "pooled_metrics", "COMBINE"]
+           "min_samples", "run_archive", "pooled_metrics", "COMBINE", "METHODS",
+           "DEFAULT_METHOD", "segment_glr", "default_threshold"]
 
 #: side codes of :attr:`Segmentation.sides`: 0 increase, 1 decrease of the covariance
 SIDES = VARIANCE_SIDES
@@ -109,6 +111,27 @@ SIDES = VARIANCE_SIDES
 COMBINE = ("sum", "channel")
 
 DEFAULT_BLOCK = 512
+
+#: detectors :func:`segment_trial` and :func:`run_archive` offer: ``glr`` (the two-model
+#: AR GLR of :mod:`contactlab.detection.ar_glr`, offline) and ``page-hinkley`` (the
+#: thesis's sequential test, :func:`segment_signal`)
+METHODS = ("glr", "page-hinkley")
+#: the default: on the synthetic piecewise-AR suite (``make bench``) the GLR finds
+#: every change within 50 ms (F1 1.00) where the thesis's test at T^2 = 200 reaches
+#: 0.61 and misses most coefficient-only changes (module notes of ``ar_glr``)
+DEFAULT_METHOD = "glr"
+_DEFAULT_THRESHOLDS = {"glr": GLR_DEFAULTS["threshold"], "page-hinkley": D.SEGMENT_THRESHOLD}
+
+
+def default_threshold(method: str) -> float:
+    """The default threshold of ``method``: GLR per degree of freedom, or Page-Hinkley T^2."""
+    _check_method(method)
+    return _DEFAULT_THRESHOLDS[method]
+
+
+def _check_method(method) -> None:
+    if method not in METHODS:
+        raise UsageError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,6 +216,29 @@ def min_samples(order: int, warmup: int, variance_samples: int = 8) -> int:
     return order + max(warmup, order) + variance_samples + 1
 
 
+def _as_signal(y) -> np.ndarray:
+    """``y`` as a finite (N, C) float array (UsageError for the shape, DataError naming
+    the field ``signal`` for NaN or infinite values)."""
+    a = np.asarray(y, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[1] < 1:
+        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise DataError("signal has NaN or infinite values", field="signal")
+    return a
+
+
+def _sample_times(n: int, *, fs, t0, times) -> np.ndarray:
+    """``times`` (checked: one per sample) or ``t0 + k / fs``."""
+    if times is None:
+        return t0 + np.arange(n) / float(fs)
+    times = np.asarray(times, dtype=np.float64)
+    if times.shape != (n,):
+        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    return times
+
+
 def _check_combine(combine) -> None:
     if combine not in COMBINE:
         raise UsageError(f"combine must be one of {', '.join(COMBINE)}; got {combine!r}")
@@ -244,23 +290,13 @@ def segment_signal(y, *, fs: float, order: int = D.SEGMENT_ORDER,
     _check_combine(combine)
     if not isinstance(variance_samples, (int, np.integer)) or variance_samples < 1:
         raise UsageError(f"variance_samples must be an integer >= 1; got {variance_samples!r}")
-    a = np.asarray(y, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[:, None]
-    if a.ndim != 2 or a.shape[1] < 1:
-        raise UsageError(f"y must be (N,) or (N, C) with time first; got shape {a.shape}")
-    if not np.isfinite(a).all():
-        raise DataError("signal has NaN or infinite values", field="signal")
+    a = _as_signal(y)
     n, _ = a.shape
     need = min_samples(int(order), int(warmup), int(variance_samples))
     if n < need:
         raise DataError(f"signal has {n} samples; AR({order}) with a variance warm-up of "
                         f"{warmup} needs at least {need}", field="signal")
-    if times is None:
-        times = t0 + np.arange(n) / float(fs)
-    times = np.asarray(times, dtype=np.float64)
-    if times.shape != (n,):
-        raise UsageError(f"times must have one entry per sample ({n}); got {times.shape}")
+    times = _sample_times(n, fs=fs, t0=t0, times=times)
     channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
     parameters = dict(order=int(order), threshold=float(threshold),
                       change_size=float(change_size), warmup=int(warmup),
@@ -376,22 +412,82 @@ def _segment_channels(a, channels, times, parameters, *, block: int) -> Segmenta
                         channels, parameters, as_int(fired))
 
 
+def segment_glr(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
+                threshold: float = GLR_DEFAULTS["threshold"],
+                window_s: float = GLR_DEFAULTS["window_s"], t0: float = 0.0,
+                times=None) -> Segmentation:
+    """Segment ``y`` (N,) or (N, C) with the two-model AR GLR (:mod:`~contactlab.detection.ar_glr`).
+
+    Offline: the whole signal is seen at once, so there is no alarm time; a
+    boundary's ``alarms`` entry is the sample at which the window statistic
+    could first have seen it (``boundary + window``, capped at the end) and
+    ``sides`` says whether the channels' summed log residual variance rose (0)
+    or fell (1) across it.  ``statistic`` is the window statistic per degree of
+    freedom.  Constant channels are left out as in :func:`segment_signal`.
+    """
+    _check_params(order, threshold, 2.0, 0, 1)
+    a = _as_signal(y)
+    n = a.shape[0]
+    times = _sample_times(n, fs=fs, t0=t0, times=times)
+    channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
+    parameters = dict(method="glr", order=int(order), threshold=float(threshold),
+                      window_s=float(window_s), fs=float(fs),
+                      boundary="first sample of the new segment (maximum-likelihood split)")
+    empty = np.empty(0, dtype=np.int64)
+    need = 4 * (int(order) + 2) + int(order)
+    if n < need:
+        raise DataError(f"signal has {n} samples; the AR({order}) GLR needs at least {need}",
+                        field="signal")
+    if channels.size == 0:
+        return Segmentation(empty, empty.copy(), empty.copy(), times, np.full(n, np.nan),
+                            channels, parameters)
+    found = glr_segment(a[:, channels], fs=fs, order=int(order), window_s=float(window_s),
+                        threshold=float(threshold))
+    bounds = found["boundaries"]
+    sides = found["sides"]
+    alarms = np.minimum(bounds + found["window"], n - 1)
+    parameters["window"] = int(found["window"])
+    return Segmentation(bounds.astype(np.int64), alarms.astype(np.int64), sides, times,
+                        found["statistic"], channels, parameters)
+
+
+def _segment_any(y, *, fs, method, threshold, order, change_size, warmup, combine,
+                 window_s, times, block=DEFAULT_BLOCK) -> Segmentation:
+    """:func:`segment_glr` or :func:`segment_signal` by ``method``; ``threshold=None``
+    takes the method's default."""
+    _check_method(method)
+    if threshold is None:
+        threshold = _DEFAULT_THRESHOLDS[method]
+    if method == "glr":
+        return segment_glr(y, fs=fs, order=order, threshold=threshold,
+                           window_s=GLR_DEFAULTS["window_s"] if window_s is None else window_s,
+                           times=times)
+    seg = segment_signal(y, fs=fs, order=order, threshold=threshold, change_size=change_size,
+                         warmup=warmup, times=times, block=block, combine=combine)
+    seg.parameters["method"] = "page-hinkley"
+    return seg
+
+
 def segment_trial(trial, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
-                  threshold: float = D.SEGMENT_THRESHOLD, change_size: float = D.CHANGE_SIZE,
-                  warmup: int = D.WARMUP,
-                  block: int = DEFAULT_BLOCK, combine: str = "sum") -> Segmentation:
+                  threshold: float | None = None, change_size: float = D.CHANGE_SIZE,
+                  warmup: int = D.WARMUP, block: int = DEFAULT_BLOCK, combine: str = "sum",
+                  method: str = DEFAULT_METHOD, window_s: float | None = None) -> Segmentation:
     """Segment one archive trial's conditioned ``signal`` (see
     :func:`contactlab.signals.condition`; default: strain if the trial has strain
     gauges, else wrench).
 
+    ``method`` picks the detector (:data:`METHODS`; default :data:`DEFAULT_METHOD`);
+    ``threshold=None`` is that method's default (:func:`default_threshold`);
+    ``change_size``, ``warmup``, ``block`` and ``combine`` belong to
+    ``page-hinkley``, ``window_s`` to ``glr``.
     Boundaries come back in seconds of the trial's time base.
     """
     signal = resolve_signal(trial, signal)
     y, times, fs = conditioned_signal(trial, signal)
     try:
-        seg = segment_signal(y, fs=fs, order=order, threshold=threshold,
-                             change_size=change_size, warmup=warmup, times=times, block=block,
-                             combine=combine)
+        seg = _segment_any(y, fs=fs, method=method, threshold=threshold, order=order,
+                           change_size=change_size, warmup=warmup, combine=combine,
+                           window_s=window_s, times=times, block=block)
     except DataError as err:
         raise DataError(f"{err.message} (after conditioning to "
                         f"{fs:g} Hz)",
@@ -401,23 +497,30 @@ def segment_trial(trial, *, signal: str | None = None, order: int = D.SEGMENT_OR
 
 
 def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str | None = None,
-          **kwargs) -> dict[float, Segmentation]:
+          method: str = "page-hinkley", **kwargs) -> dict[float, Segmentation]:
     """Segment at each of ``thresholds`` (fig 7.7): ``{threshold: Segmentation}``.
 
     ``y_or_trial`` is an array (then ``fs`` is required) or an archive trial
-    (then ``signal`` picks the signal); ``kwargs`` go to :func:`segment_signal`.
+    (then ``signal`` picks the signal); ``kwargs`` go to :func:`segment_signal`
+    (``method="page-hinkley"``) or :func:`segment_glr` (``method="glr"``).
     """
+    _check_method(method)
     thresholds = [float(t) for t in thresholds]
     if not thresholds:
         raise UsageError("sweep needs at least one threshold")
+    run = segment_glr if method == "glr" else segment_signal
+    window_s = kwargs.pop("window_s", None)
+    if method == "glr":
+        kwargs = {k: v for k, v in kwargs.items() if k == "order"}
+        if window_s is not None:
+            kwargs["window_s"] = window_s
     if isinstance(y_or_trial, np.ndarray) or np.ndim(y_or_trial) > 0:
         if fs is None:
             raise UsageError("sweep over an array needs fs")
-        return {t: segment_signal(y_or_trial, fs=fs, threshold=t, **kwargs) for t in thresholds}
+        return {t: run(y_or_trial, fs=fs, threshold=t, **kwargs) for t in thresholds}
     signal = resolve_signal(y_or_trial, signal)
     y, times, fs_out = conditioned_signal(y_or_trial, signal)
-    out = {t: segment_signal(y, fs=fs_out, times=times, threshold=t, **kwargs)
-           for t in thresholds}
+    out = {t: run(y, fs=fs_out, times=times, threshold=t, **kwargs) for t in thresholds}
     for seg in out.values():
         seg.parameters["signal"] = signal
     return out
@@ -496,10 +599,11 @@ _pooled = pooled_metrics          # the former private name
 
 
 def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
-                threshold: float = D.SEGMENT_THRESHOLD,
-                thresholds=None, change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
+                threshold: float | None = None, thresholds=None,
+                change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
                 tolerance_s: float = D.TOLERANCE_S, trials=None, quiet: bool = True,
-                write: bool = True, combine: str = "sum") -> dict:
+                write: bool = True, combine: str = "sum", method: str = DEFAULT_METHOD,
+                window_s: float | None = None) -> dict:
     """Segment the trials of the archive ``path`` (``contactlab segment``).
 
     Without ``thresholds``: every trial (or those named in ``trials``) is
@@ -512,6 +616,9 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
     ``alarm_channels``), with the parameters.  With ``thresholds`` (a sweep, fig 7.7) nothing is
     written.
 
+    ``method`` picks the detector (:data:`METHODS`, default :data:`DEFAULT_METHOD`),
+    ``threshold=None`` its default threshold; ``window_s`` is the GLR's window.
+
     Returns ``{"trials": {id: {...}}, "metrics": {...}}``; ``metrics`` only
     when some trial has ground-truth segments (pooled over trials, and per
     trial under ``metrics["trials"]``; per threshold for a sweep).
@@ -521,8 +628,12 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
 
     if signal is not None and signal not in SIGNALS:
         raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
+    threshold = default_threshold(method) if threshold is None else threshold
     _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
     _check_combine(combine)
+    if method == "glr" and combine != "sum":
+        raise UsageError("combine belongs to method page-hinkley (the glr test pools "
+                         "its channels' likelihoods)")
     levels = None if thresholds is None else [float(t) for t in thresholds]
     for t in levels or []:
         _check_params(order, t, change_size, warmup, DEFAULT_BLOCK)
@@ -536,11 +647,12 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
                 if levels is None:
                     runs[tid] = {float(threshold): segment_trial(
                         trial, signal=signal, order=order, threshold=threshold,
-                        change_size=change_size, warmup=warmup, combine=combine)}
+                        change_size=change_size, warmup=warmup, combine=combine,
+                        method=method, window_s=window_s)}
                 else:
                     runs[tid] = sweep(trial, levels, signal=signal, order=order,
                                       change_size=change_size, warmup=warmup,
-                                      combine=combine)
+                                      combine=combine, method=method, window_s=window_s)
             except DataError as err:
                 raise DataError(err.message, file=str(path), field=err.field) from None
             truths[tid] = truth_boundaries_s(trial)

@@ -219,7 +219,7 @@ def test_bad_combine_and_sweep_passes_it_on():
 
 def test_run_archive_channel_writes_alarm_channels(tmp_path):
     path = write_changing_archive(tmp_path / "c.h5", trials=("a",))
-    out = run_archive(path, combine="channel")
+    out = run_archive(path, combine="channel", method="page-hinkley")
     entry = out["trials"]["a"]
     assert any(abs(b - 4.0) < 0.05 for b in entry["boundaries_s"])
     assert len(entry["alarm_channels"]) == len(entry["boundaries_s"])
@@ -232,7 +232,8 @@ def test_run_archive_channel_writes_alarm_channels(tmp_path):
 
 def test_cli_combine_channel_json_and_bad_value(tmp_path):
     path = write_changing_archive(tmp_path / "c.h5", trials=("a",))
-    res = run_cli("segment", path, "--combine", "channel", "--sweep", "25,200", "--json", "-q")
+    res = run_cli("segment", path, "--method", "page-hinkley", "--combine", "channel", "--sweep",
+                  "25,200", "--json", "-q")
     assert res.exit_code == 0, res.output
     out = one_json_object(res.stdout)
     assert out["metrics"]["200"]["recall"] == 1.0

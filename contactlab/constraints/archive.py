@@ -13,6 +13,8 @@ of the estimate is reported beside it.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from contactlab.constraints.alignment import angular_error_deg
@@ -92,12 +94,17 @@ def _true_normals(trial, start_s: float, end_s: float):
 def estimate_archive(path, *, model: str = "cartesian", segments: str | None = None,
                      block: int | None = None, trials=None, friction: bool = True,
                      motion: str = "position", quiet: bool = True, write: bool = True,
-                     estimator: CartesianConstraint | None = None) -> dict:
+                     estimator: CartesianConstraint | None = None,
+                     position_sd: float | None = None, force_sd: float | None = None) -> dict:
     """Estimate the constraint of every segment of every trial of archive ``path``.
 
     ``segments``: "truth", "auto", a results stage name, or None (truth when the
     trial has it, else auto).  ``block``: estimate consecutive blocks of this
     many 250 Hz samples inside each segment instead of whole segments.
+    ``position_sd`` (m) and ``force_sd`` (N): the measurement noise of the raw
+    signals; each one not given is estimated from every trial's own data
+    (:mod:`contactlab.constraints.noise`) -- unless an ``estimator`` is given,
+    whose accuracies are then used as they are.
     Writes ``results/estimate`` of each trial when ``write``.  Returns
     ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
     """
@@ -111,19 +118,26 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
     est = estimator or CartesianConstraint(friction=friction, motion=motion)
     out: dict = {}
     results: dict = {}
+    used: dict = {}
     with open_archive(path) as archive:
         ids = archive.select(trials)
         for tid in progress(ids, desc="estimate", quiet=quiet, unit="trial"):
             trial = archive.trial(tid)
             try:
                 if model == "cartesian":
-                    rows, arrays = _estimate_trial(trial, est, segments, block)
+                    trial_est = est if estimator is not None else _with_noise(
+                        est, trial, position_sd, force_sd)
+                    rows, arrays = _estimate_trial(trial, trial_est, segments, block)
                 else:
                     rows, arrays = _estimate_trial_polygon(trial, model[len("polygon-"):],
                                                            segments, block)
             except DataError as err:
                 raise DataError(err.message, file=str(path), field=err.field) from None
             out[tid] = {"segments": rows}
+            used[tid] = trial_est.get_params() if model == "cartesian" else {}
+            if model == "cartesian":
+                out[tid]["noise"] = {"position_sd": float(np.mean(trial_est.position_sd)),
+                                     "force_sd": float(np.mean(trial_est.force_sd))}
             results[tid] = arrays
     if write:
         for tid, arrays in results.items():
@@ -133,9 +147,32 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
                                  "normals": "normals[i, :, j]: unit normal j of piece i "
                                             "(NaN padded); log_likelihoods: 8.18 per "
                                             "degree 0..3"},
-                          parameters={**(est.get_params() if model == "cartesian" else {}),
+                          parameters={**used[tid],
                                       "block": block, "model": model})
     return {"trials": out, "summary": _summary(out)}
+
+
+def _with_noise(est: CartesianConstraint, trial, position_sd, force_sd) -> CartesianConstraint:
+    """``est`` with the trial's measurement accuracies at the conditioned rate: the raw
+    noise given, or estimated from the trial (one level per quantity, the RMS over
+    axes), times the lowpass's noise gain (:mod:`contactlab.constraints.noise`)."""
+    from contactlab.constraints.noise import lowpass_noise_gain, raw_noise_sd
+
+    fs = float(trial.rate_hz)
+    gain = math.sqrt(lowpass_noise_gain(fs=fs, cutoff_hz=fs / 8.0))
+
+    def level(given, data):
+        if given is not None:
+            return float(given) * gain
+        s = raw_noise_sd(np.asarray(data, dtype=np.float64))
+        return float(np.sqrt(np.mean(s ** 2))) * gain
+
+    params = est.get_params()
+    params["position_sd"] = level(position_sd, trial.position)
+    params["force_sd"] = level(force_sd, np.asarray(trial.wrench)[:, :3])
+    if trial.velocity is not None:
+        params["velocity_sd"] = level(None, trial.velocity)
+    return CartesianConstraint(**params)
 
 
 def _estimate_trial(trial, est, segments, block):
@@ -262,11 +299,29 @@ def _summary(out: dict) -> dict:
         return {"pieces": len(rows), "decided": sum(r["status"] == "ok" for r in rows),
                 "undetermined": sum(r["status"] == "undetermined" for r in rows)}
     decided = [r for r in rows if r.get("degree") is not None and r.get("status") == "ok"]
-    with_truth = [r for r in decided if "true_degree" in r]
-    errs = [r["angle_error_deg"] for r in decided if r.get("angle_error_deg") is not None]
+    with_truth = [r for r in rows if "true_degree" in r]
+    # undetermined and too-short pieces with a true degree count as undecided (not right)
+    right = sum(r.get("degree") == r["true_degree"] and r.get("status") == "ok"
+                for r in with_truth)
+    per_degree = {}
+    for m in sorted({r["true_degree"] for r in with_truth}):
+        rs = [r for r in with_truth if r["true_degree"] == m]
+        ok = [r for r in rs if r.get("status") == "ok" and r.get("degree") is not None]
+        entry = {"pieces": len(rs), "right": sum(r["degree"] == m for r in ok),
+                 "wrong": sum(r["degree"] != m for r in ok), "undecided": len(rs) - len(ok)}
+        # degrees 0 and k have no frame to estimate: no angle error is reported for them
+        errs = [r for r in rs if r.get("angle_error_deg") is not None]
+        if errs and 0 < m < 3:
+            e = np.array([r["angle_error_deg"] for r in errs])
+            sd = np.array([r.get("angle_sd_deg", np.nan) for r in errs])
+            entry.update(median_angle_error_deg=float(np.median(e)),
+                         angle_within_2sd=float(np.mean(e <= 2 * sd)))
+        per_degree[str(m)] = entry
+    errs = [r["angle_error_deg"] for r in decided if r.get("angle_error_deg") is not None
+            and 0 < r.get("true_degree", 0) < 3]
     return {"pieces": len(rows), "decided": len(decided),
             "undetermined": sum(r.get("status") == "undetermined" for r in rows),
             "too_short": sum(r.get("status") == "too short" for r in rows),
-            "degree_correct": (sum(r["degree"] == r["true_degree"] for r in with_truth)
-                               / len(with_truth)) if with_truth else None,
-            "median_angle_error_deg": float(np.median(errs)) if errs else None}
+            "degree_correct": right / len(with_truth) if with_truth else None,
+            "median_angle_error_deg": float(np.median(errs)) if errs else None,
+            "per_true_degree": per_degree}

@@ -120,8 +120,8 @@ def _prepare(est, position, force, velocity):
     if est.friction:
         if vel is not None:
             v, v_sd = vel, est.velocity_sd
-        else:                     # per-sample central difference of position
-            v, v_sd = np.gradient(pos, axis=1), est.position_sd / math.sqrt(2.0)
+        else:
+            v, v_sd = _smooth_velocity(pos, est.position_sd)
         frc = friction_filter(frc, v, min_speed=3.0 * float(np.max(v_sd)))
     scaling = reciprocal_scaling(motion_sd, est.force_sd, k)
     center_motion, center_force = est._centering()
@@ -129,6 +129,30 @@ def _prepare(est, position, force, velocity):
     w = frc - frc.mean(axis=1, keepdims=True) if center_force else frc
     y = np.concatenate([x * scaling.beta, w * scaling.alpha], axis=2)
     return y, scaling
+
+
+def _smooth_velocity(pos: np.ndarray, position_sd) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample velocity (per sample step) of positions (B, n, k) for the friction
+    filter, and its noise standard deviation.
+
+    The filter needs the *direction* of sliding (8.29).  A central difference
+    of noisy positions has noise ``sd / sqrt(2)`` per step, which at 0.1 mm of
+    position noise and 0.1 mm per step of sliding turns the direction by tens
+    of degrees and leaks friction into the free directions as spurious
+    constraint force.  A local quadratic (Savitzky-Golay, up to 11 samples,
+    44 ms at 250 Hz) cuts that noise by ~8 for an 11-sample window while
+    following the slow curvature of a sliding motion.
+    """
+    from scipy.signal import savgol_filter
+
+    n = pos.shape[1]
+    window = min(11, n if n % 2 else n - 1)
+    if window < 5:
+        return np.gradient(pos, axis=1), np.asarray(position_sd) / math.sqrt(2.0)
+    v = savgol_filter(pos, window, 2, deriv=1, axis=1, mode="interp")
+    half = (window - 1) // 2
+    gain = math.sqrt(3.0 / (half * (half + 1) * (2 * half + 1)))   # sd of the LS slope
+    return v, np.asarray(position_sd) * gain
 
 
 def _information(y: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ File format (HDF5, documented in ``datasets_spec/MODELS.md``)::
         theta_cov          (C, q, q) float64
         structure_sqrt     (C, q, q) float64
         noise_var          (C,) float64
+        level_sd           (C,) float64   (format 1.1; optional: absent reads as 0)
 
 Groups are numbered (labels are free text); ``labels`` gives their order.
 """
@@ -32,7 +33,7 @@ from contactlab.temporal.features import BlockFeatures
 __all__ = ["TemporalModel", "ModelSet", "fit_class", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "contactlab-models"
-FORMAT_VERSION = "1.0"
+FORMAT_VERSION = "1.1"
 _ARRAYS = ("theta_mean", "theta_cov", "structure_sqrt", "noise_var")
 
 
@@ -53,6 +54,8 @@ class TemporalModel:
     noise_var : (C,) driving-noise variance V_nu (mean over blocks of the
         unbiased per-block estimate).
     n_blocks : training blocks; block : training block length (samples).
+    level_sd : (C,) spread of the log amplitude over the training blocks
+        (:mod:`contactlab.temporal.level`); zeros give 7.4-7.5 exactly.
     """
 
     label: str
@@ -64,6 +67,11 @@ class TemporalModel:
     noise_var: np.ndarray
     n_blocks: int
     block: int
+    level_sd: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.level_sd is None:
+            object.__setattr__(self, "level_sd", np.zeros(np.shape(self.noise_var)))
 
     @property
     def channels(self) -> int:
@@ -103,7 +111,8 @@ class TemporalModel:
         return (self.label == other.label and self.order == other.order
                 and self.mean == other.mean and self.n_blocks == other.n_blocks
                 and self.block == other.block
-                and all(np.array_equal(getattr(self, a), getattr(other, a)) for a in _ARRAYS))
+                and all(np.array_equal(getattr(self, a), getattr(other, a))
+                        for a in _ARRAYS + ("level_sd",)))
 
 
 def fit_class(label: str, features: BlockFeatures, *, block: int) -> TemporalModel:
@@ -132,10 +141,11 @@ def fit_class(label: str, features: BlockFeatures, *, block: int) -> TemporalMod
                          "is singular (identical blocks or a constant channel)") from None
     info = np.einsum("kcij,kclj->cil", features.info_sqrt, features.info_sqrt)
     structure = np.linalg.cholesky(info)
+    from contactlab.temporal.level import level_sd
     return TemporalModel(label=str(label), order=features.order, mean=features.mean,
                          theta_mean=mean, theta_cov=cov, structure_sqrt=structure,
                          noise_var=features.noise_var.mean(axis=0), n_blocks=int(K),
-                         block=int(block))
+                         block=int(block), level_sd=level_sd(features))
 
 
 @dataclass
@@ -203,7 +213,7 @@ class ModelSet:
                     g.attrs["mean"] = bool(m.mean)
                     g.attrs["n_blocks"] = int(m.n_blocks)
                     g.attrs["block"] = int(m.block)
-                    for name in _ARRAYS:
+                    for name in _ARRAYS + ("level_sd",):
                         g.create_dataset(name, data=np.asarray(getattr(m, name), np.float64))
 
     @classmethod
@@ -280,6 +290,12 @@ class ModelSet:
                     raise err("has NaN or infinite values", f"{where}/{name}")
             if np.any(arrays["noise_var"] <= 0):
                 raise err("noise variances must be > 0", f"{where}/noise_var")
+            ds = g.get("level_sd")
+            if isinstance(ds, h5py.Dataset):
+                arrays["level_sd"] = np.asarray(ds[()], dtype=np.float64)
+                if arrays["level_sd"].shape != (C,) or not (
+                        np.isfinite(arrays["level_sd"]).all() and (arrays["level_sd"] >= 0).all()):
+                    raise err(f"expected ({C},) finite values >= 0", f"{where}/level_sd")
             if shape is not None and (C, order, mean) != shape:
                 raise err("models of one file must share channels, order and mean", where)
             shape = (C, order, mean)

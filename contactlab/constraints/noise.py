@@ -1,0 +1,80 @@
+"""Measurement noise levels estimated from the data (the accuracies of 8.7-8.9).
+
+The constraint estimators work in units normalised by measurement accuracy
+(8.7-8.9): a residual of one unit is one standard deviation of the
+instrument's noise.  The likelihoods of the degrees of constraint (8.18, 8.2)
+and the frame's standard error compare residuals *in those units*, so a wrong
+accuracy biases both: with the position noise taken as 8.7 um while the
+instrument has 0.1 mm, every block's motion noise along a normal looks like 11
+standard deviations of motion, and a plane is taken for an edge; with it
+taken as 8.7 um while the instrument has 10 um and force noise 10 mN for 5 mN
+after lowpassing, the exploration test (9.1.2) misses real pushing.
+
+Estimate.  Contact signals are smooth on the scale of a raw sample: the
+second difference of a motion of 0.2 m/s^2 at 1000 Hz is 0.2 um, far below
+any position noise of interest, and likewise for forces.  For white noise of
+standard deviation ``s``, the second difference ``y(n+1) - 2 y(n) + y(n-1)``
+has standard deviation ``sqrt(6) s``; its median absolute deviation
+(``0.6745`` standard deviations for a normal) makes the estimate robust to
+the few samples at impacts or stick-slip:
+
+    s_raw = MAD(d2 y) / (0.6745 sqrt(6))                                      (1)
+
+A quantised channel (an encoder) whose noise is below one step has second
+differences that are mostly zero; its accuracy is then the quantisation
+error ``step / sqrt(12)`` (a uniform error), with ``step`` the smallest
+non-zero change of the channel, and the estimate is the larger of the two.
+
+The estimators see the signals after the 7.1 conditioning (lowpass, 4:1
+decimation); white noise of ``s_raw`` leaves it with
+
+    s = s_raw sqrt(sum_j h_j^2)                                               (2)
+
+with ``h`` the impulse response of the lowpass (its noise gain; 0.264 for the
+second-order Butterworth at fs/8, a little above the quarter of Nyquist it
+passes, so ``s = 0.51 s_raw``).  Both steps are checked against white noise
+of known level in the tests.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal
+
+__all__ = ["raw_noise_sd", "lowpass_noise_gain", "conditioned_noise_sd"]
+
+_MAD_NORMAL = 0.6744897501960817
+
+
+def raw_noise_sd(y) -> np.ndarray:
+    """Per-column white-noise standard deviation of ``y`` (N,) or (N, k), by (1) of
+    the module notes, never below the quantisation error ``step / sqrt(12)``."""
+    a = np.asarray(y, dtype=np.float64)
+    a = a[:, None] if a.ndim == 1 else a
+    if len(a) < 5:
+        return np.full(a.shape[1], np.nan)
+    d2 = np.diff(a, n=2, axis=0)
+    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+    s = mad / (_MAD_NORMAL * math.sqrt(6.0))
+    steps = np.abs(np.diff(a, axis=0))
+    quant = np.array([(col[col > 0].min() if (col > 0).any() else 0.0) for col in steps.T])
+    return np.maximum(s, quant / math.sqrt(12.0))
+
+
+def lowpass_noise_gain(*, fs: float, cutoff_hz: float, order: int = 2) -> float:
+    """``sum_j h_j^2`` of the 7.1 Butterworth lowpass (the variance ratio of white noise)."""
+    from contactlab.conditioning import butter_sos
+
+    sos = butter_sos(fs=fs, cutoff_hz=cutoff_hz, order=order)
+    impulse = np.zeros(int(20 * fs / cutoff_hz) + 64)
+    impulse[0] = 1.0
+    h = signal.sosfilt(sos, impulse)
+    return float(h @ h)
+
+
+def conditioned_noise_sd(y, *, fs: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
+    """Per-column noise standard deviation of ``y`` after the 7.1 lowpass, (1) and (2)."""
+    return raw_noise_sd(y) * math.sqrt(lowpass_noise_gain(fs=fs, cutoff_hz=cutoff_hz,
+                                                          order=order))

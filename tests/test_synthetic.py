@@ -1,0 +1,58 @@
+"""The synthetic suite's generators hold the truth they claim (contactlab.synthetic)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from contactlab.archive import open_archive
+from contactlab.synthetic import (ar2_coefficients, ar2_variance, contact_trial, piecewise_ar,
+                                  texture_trial, write_archive)
+
+
+def test_ar2_variance_closed_form_against_simulation():
+    a1, a2 = ar2_coefficients(40.0, 0.95, 1000.0)
+    e = np.random.default_rng(0).standard_normal(400000)
+    y = lfilter([1.0], [1.0, -a1, -a2], e)[2000:]
+    assert np.var(y) == pytest.approx(float(ar2_variance(a1, a2)), rel=0.05)
+
+
+def test_piecewise_changes_are_of_their_kind():
+    t = piecewise_ar(seed=3, duration_s=30.0, segment_s=(4.0, 6.0))
+    edges = np.r_[0, t.boundaries, len(t.y)]
+    sd = np.array([t.y[a + 200:b].std(axis=0) for a, b in zip(edges[:-1], edges[1:])])
+    for j, kind in enumerate(t.kinds):
+        ratio = sd[j + 1] / sd[j]
+        want = t.sd[j + 1] / t.sd[j]
+        assert np.allclose(ratio, want, rtol=0.35)           # the marginal level as drawn
+        moved = not np.allclose(t.freq_hz[j + 1], t.freq_hz[j])
+        assert moved == (kind != "variance")
+        if kind == "coefficients":
+            assert np.allclose(t.sd[j + 1], t.sd[j])         # level held
+
+
+def test_archives_carry_the_truth(tmp_path):
+    t = piecewise_ar(seed=4)
+    tex = texture_trial(seed=5, duration_s=4.0)
+    write_archive([t], tmp_path / "p.h5")
+    write_archive([tex], tmp_path / "t.h5")
+    with open_archive(tmp_path / "p.h5") as a:
+        trial = a.trial(a.select(None)[0])
+        assert np.allclose(trial.segments["start_s"].to_numpy()[1:], t.boundaries_s)
+        assert np.array_equal(np.asarray(trial.strain), t.y)
+    with open_archive(tmp_path / "t.h5") as a:
+        trial = a.trial(a.select(None)[0])
+        assert trial.segments["end_s"].to_numpy()[-1] == pytest.approx(len(tex.y) / tex.fs)
+
+
+def test_contact_moves_only_freely_and_pushes_only_along_normals():
+    for degree in (1, 2):
+        t = contact_trial(seed=6, degree=degree, position_sd=0.0, force_sd=0.0,
+                          friction=(0.0, 0.0))
+        N = t.normals
+        free = np.linalg.svd(N, full_matrices=True)[0][:, degree:]
+        x = t.position - t.position.mean(axis=0)
+        assert np.abs(x @ N).max() < 1e-12                     # no motion along a normal
+        assert np.abs(t.force @ free).max() < 1e-12           # no force along a free direction
+        assert (np.linalg.norm(t.force @ N, axis=1) > 0.1).all()
