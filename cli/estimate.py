@@ -43,7 +43,11 @@ def estimate(archive, model, segments, block, motion, no_friction, trials, as_js
       contactlab estimate runs.h5
       contactlab estimate runs.h5 --segments auto --json
       contactlab estimate runs.h5 --block 25 --trial cartesian-004 --json
-      contactlab estimate planar.h5 --model polygon-B --json
+      contactlab estimate runs.h5 --motion velocity --no-friction
+
+    The polygon models (--model polygon-B, ...) need a planar archive: position
+    columns x, y, theta and wrench columns fx, fy, tz ('contactlab import'
+    with --columns "time=t;position=x,y,theta;wrench=fx,fy,fz,tx,ty,tz").
     """
     from contactlab.constraints.archive import estimate_archive
 

@@ -57,4 +57,6 @@ def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
         return
     for name, summary in summaries.items():
         click.echo(f"{name}: {out / name / 'index.html'} ({summary.get('wall_time_s', 0):.1f} s)")
+        if summary.get("headline"):
+            click.echo(f"  {summary['headline']}")
     click.echo(f"index: {out / 'index.html'}")

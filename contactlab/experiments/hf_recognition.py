@@ -314,6 +314,7 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
                "confusion": {k: res[k]["confusion"]["matrix"] for k in res},
                "confusion_hmm": {k: v[0].tolist() for k, v in hmm_res.items()},
                "delays": {k: res[k]["delays"] for k in res},
+               "headline": _headline(res, hmm_res),
                "thesis": THESIS, "seconds": secs,
                "hmm_decode_s": {k: v[1] for k, v in hmm_res.items()},
                "paths": {k: {tid: e["merged_path"] for tid, e in res[k]["trials"].items()}
@@ -321,6 +322,16 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
                "report": {k: str(v) for k, v in paths.items()}}
     write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
     return summary
+
+
+def _headline(res, hmm_res) -> str:
+    """One line: points marked correctly on the test runs, ours beside the thesis and the HMM."""
+    cf, ctx = res["test_cf"], res["test_ctx"]
+    return (f"test runs marked correctly: context free {100 * cf['accuracy']:.0f} % (thesis "
+            f"{100 * THESIS['test_cf']['accuracy']:.0f} %, HMM peer "
+            f"{100 * _acc(hmm_res['test'][0]):.0f} %), with context "
+            f"{100 * ctx['accuracy']:.0f} % (thesis {100 * THESIS['test_ctx']['accuracy']:.0f} "
+            "%); the simulated H0-H2 sit at the converter floor, see 'Where ours differ'")
 
 
 def _differences(res, hmm_res, gm) -> list[str]:
