@@ -3,6 +3,8 @@ over the library (import name ``contactlab.cli``)."""
 
 from __future__ import annotations
 
+import copy
+
 import click
 
 from contactlab import __version__
@@ -28,8 +30,8 @@ def main(debug: bool) -> None:
     """Statistical contact sensing over HDF5 trace archives (Eberman 1995).
 
     \b
-    Stages: acquire, segment, label, estimate, recognize, train, report,
-    plus validate, import, info and reproduce. Example:
+    Stages: acquire, segment, label, estimate, recognize (or recognise),
+    train, report, plus validate, import, info and reproduce. Example:
       contactlab reproduce ph-demo --out reports
     """
 
@@ -38,3 +40,8 @@ def main(debug: bool) -> None:
 for _command in (acquire, import_cmd, validate, info, segment, train, label, estimate,
                  recognize, report, reproduce, graph):
     main.add_command(_command)
+
+# the British spelling of the recognising verb, accepted and not listed
+_recognise = copy.copy(recognize)
+_recognise.hidden = True
+main.add_command(_recognise, name="recognise")

@@ -85,3 +85,23 @@ def test_click_usage_errors_are_one_line_with_exit_2(args):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "error" in lines[0], proc.stderr
+
+
+def test_recognise_is_accepted_as_recognize_and_validate_takes_several(tmp_path):
+    from conftest import write_archive
+
+    res = CliRunner().invoke(main, ["recognise", "--help"])
+    assert res.exit_code == 0 and "--graph" in res.output
+    assert "recognise" not in CliRunner().invoke(main, ["--help"]).output.split("Commands:")[1]
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    write_archive(a, trials=("t1",))
+    write_archive(b, trials=("t1", "t2"))
+    res = CliRunner().invoke(main, ["validate", str(a), str(b)])
+    assert res.exit_code == 0
+    assert [ln.split(":")[0] for ln in res.stdout.splitlines()] == [str(a), str(b)]
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"not hdf5")
+    res = CliRunner().invoke(main, ["validate", str(a), str(bad), "--json"])
+    out = json.loads(res.stdout)
+    assert res.exit_code == 1 and out["ok"] is False
+    assert [r["ok"] for r in out["archives"]] == [True, False]
