@@ -74,7 +74,7 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
     spec = None
     if source == "sim":
         if spec_name is None:
-            raise click.UsageError("--source sim needs --spec (see --list-specs)")
+            raise click.UsageError("--source sim needs --spec NAME; --list-specs lists the names")
         for name, value in (("--host", host), ("--duration", duration_s)):
             if value is not None:
                 raise click.UsageError(f"{name} is for hardware sources, not --source sim")

@@ -105,3 +105,24 @@ def test_recognise_is_accepted_as_recognize_and_validate_takes_several(tmp_path)
     out = json.loads(res.stdout)
     assert res.exit_code == 1 and out["ok"] is False
     assert [r["ok"] for r in out["archives"]] == [True, False]
+
+
+def test_reproduce_list_shows_the_readme_table_what_and_headline():
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    table = {}
+    for line in readme.splitlines():
+        m = re.match(r"^\| `([a-z0-9-]+)` \| [^|]+ \| ([^|]+) \| ([^|]+) \|$", line)
+        if m and m.group(1) in EXPERIMENTS:
+            table[m.group(1)] = (m.group(2).strip(), m.group(3).strip())
+    assert set(table) == set(EXPERIMENTS)
+    result = CliRunner().invoke(main, ["reproduce", "--list", "--json"])
+    rows = {e["name"]: e for e in json.loads(result.stdout)["experiments"]}
+    for name, (what, headline) in table.items():
+        assert rows[name]["what"] == what
+        if EXPERIMENTS[name].implemented:
+            assert rows[name]["headline"] == headline
+    text = CliRunner().invoke(main, ["reproduce", "--list"]).stdout
+    assert table["ph-demo"][1] in text
