@@ -57,7 +57,7 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
     Examples:
       contactlab import run1.csv run2.csv --out recording.h5 \\
           --columns "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"
-      contactlab import strokes/*.csv --out strokes.h5 --rate 1000 --columns "strain=s*"
+      contactlab import strokes/*.csv --out imported.h5 --rate 1000 --columns "strain=s*"
       contactlab import run1.csv --out recording.h5 --columns columns.json --force
 
     A recording without strain gauges (wrench and position only) is analysed

@@ -47,9 +47,17 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
 
     \b
     Examples:
-      contactlab train train.h5 --graph datasets_spec/graphs/hf-context-free.toml --out m.h5
-      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml --models m.h5
-      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml --models m.h5 --json
+      contactlab train train.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
+          --out graph-models.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
+          --models graph-models.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
+          --models graph-models.h5 --json
+
+    Train the models first ('contactlab train --graph' on labelled runs, with
+    labels named like the graph's models' 'trained' labels); the context
+    graph's action-dependent edges read the archive's action channel, or
+    --action.  'contactlab recognise' is the same command.
     """
     from contactlab.observer.recognize import DELAY_BINS, recognize_archive
 

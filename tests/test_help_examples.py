@@ -3,7 +3,10 @@
 The examples run in pipeline order in one scratch directory, so the files one
 example writes (models.h5, strokes.h5) are the inputs of later ones; the
 archives they start from are small synthetic ones made here.  Examples that
-need hardware or take minutes are listed in SKIP with the reason.
+need hardware or take minutes are listed in SKIP with the reason.  Verbs that
+run on what earlier examples wrote (train hf.h5 after acquire --out hf.h5) use
+those files; the examples' repository paths resolve through a link to
+datasets_spec/.
 """
 
 from __future__ import annotations
@@ -29,9 +32,6 @@ SKIP = {
     "--source netft": "needs a Net F/T sensor on the network",
     "--source phantom": "needs a PHANToM and its HD library",
     "reproduce --all": "runs every experiment for minutes: 'make reproduce'",
-    "--spec stroke-a": "simulates 7-s strokes for tens of seconds: 'make demo' covers acquire",
-    "--spec hf-train": "needs the 15 simulated training runs: 'make demo' covers them",
-    "--graph": "trains on the 15 simulated hf runs: 'make demo' and the hf tests cover it",
     "reproduce ph-demo": "an experiment run: tests/test_experiments_ph.py covers it",
 }
 
@@ -90,6 +90,33 @@ def _write_runs(path: Path) -> None:
             trial.close()
 
 
+def _write_hf(path: Path, n_trials: int, seed: int) -> None:
+    """Labelled 8-gauge runs of the four high-frequency states (7.3) and an action
+    channel: a noise level per state, impacts whose log-amplitude decays linearly."""
+    rng = np.random.default_rng(seed)
+    fs = 1000.0
+    plan = [("H0", 1.0, 0.002), ("H1", 1.0, 0.006), ("H3", 0.15, None), ("H2", 1.2, 0.003)]
+    names = ["H0", "H1", "H2", "H3"]
+    moving = {"H0": 0, "H1": 1, "H3": 1, "H2": 0}       # action codes: rest 0, move 1
+    with create_archive(path, title="hf states") as archive:
+        for k in range(n_trials):
+            parts, labels, actions = [], [], []
+            for name, dur, sd in plan:
+                m = int(dur * fs)
+                if sd is None:
+                    sd = 0.2 * np.exp(-np.arange(m) / (0.03 * fs))[:, None] + 0.003
+                parts.append(rng.normal(size=(m, 8)) * sd)
+                labels.append(np.full(m, names.index(name), np.int16))
+                actions.append(np.full(m, moving[name], np.int16))
+            s = np.vstack(parts)
+            tr = archive.add_trial(f"hf-{k:03d}", rate_hz=fs, controller="position",
+                                   environment="free", seed=k, source="simulator",
+                                   action_names=["rest", "move"])
+            tr.append(time=np.arange(len(s)) / fs, strain=s, action=np.concatenate(actions))
+            tr.set_ground_truth(labels=np.concatenate(labels), names=names)
+            tr.close()
+
+
 def _write_csvs(root: Path) -> None:
     rng = np.random.default_rng(0)
     t = np.arange(400) / 200.0
@@ -119,6 +146,8 @@ def scratch(tmp_path_factory):
     root = tmp_path_factory.mktemp("examples")
     (root / "datasets_spec").symlink_to(REPO / "datasets_spec")  # the examples' repo paths
     _write_runs(root / "runs.h5")
+    _write_hf(root / "train.h5", 4, seed=0)
+    _write_hf(root / "test.h5", 2, seed=1)
     _write_csvs(root)
     return root
 
