@@ -47,7 +47,11 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
         ax.text(*xy[k], n.name, ha="center", va="center", zorder=4, fontsize=9)
         # the description goes outside the circle, away from the edges between nodes,
         # on a white box so that arrows passing behind it do not cross the words
+        # (the top and bottom nodes' descriptions go to their right, clear of the
+        # title above and the legend below)
         u = xy[k] if K > 1 else np.array([0.0, -1.0])
+        if abs(u[0]) < 0.3:
+            u = np.array([1.0, 0.0])
         ha = "left" if u[0] > 0.3 else "right" if u[0] < -0.3 else "center"
         va = "bottom" if u[1] > 0.3 else "top" if u[1] < -0.3 else "center"
         loop = "\u21bb " if n.self_transition else ""
@@ -65,7 +69,7 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
             handles.append(plt.Line2D([], [], ls="none", marker="o", markersize=8,
                                       markerfacecolor=plt.get_cmap("Reds")(0.85),
                                       markeredgecolor="black", label="darker: more probable"))
-        ax.legend(handles=handles, loc="lower right", fontsize=7, frameon=False)
+        ax.legend(handles=handles, loc="lower left", fontsize=7, frameon=False)
     ax.set_xlim(-1.9, 1.9)
     ax.set_ylim(-1.7, 1.6)
     ax.set_aspect("equal")
