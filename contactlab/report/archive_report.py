@@ -90,7 +90,7 @@ def recognition_summary(archive, ids) -> dict | None:
     """
     from contactlab.observer.recognize import confusion
 
-    names, total, online, per_trial = None, None, None, []
+    names, total, online, per_trial, graph = None, None, None, [], None
     for tid in ids:
         trial = archive.trial(tid)
         if "recognize" not in trial.result_stages():
@@ -101,6 +101,7 @@ def recognition_summary(archive, ids) -> dict | None:
             names = nodes
             total = np.zeros((len(names), len(names)), np.int64)
             online = total.copy()
+            graph = _parameters(res).get("graph")
         if nodes != names or "truth" not in res:
             per_trial.append({"trial": tid, "accuracy": None, "points": 0})
             continue
@@ -116,7 +117,9 @@ def recognition_summary(archive, ids) -> dict | None:
         return None
     n = int(total.sum())
     counts = total.sum(axis=1)
-    return {"nodes": names, "points": n,
+    title, thesis = _graph_info(graph)
+    return {"graph": graph, "graph_title": title, "graph_thesis": thesis, "nodes": names,
+            "points": n,
             "accuracy": float(np.trace(total) / n) if n else None,
             "accuracy_online": float(np.trace(online) / online.sum()) if online.sum() else None,
             "chance_majority": float(counts.max() / n) if n else None,
@@ -125,8 +128,30 @@ def recognition_summary(archive, ids) -> dict | None:
             "confusion": total.tolist(), "trials": per_trial}
 
 
+def _graph_info(graph) -> tuple[str | None, str]:
+    """Title and thesis section of the graph file the results name (None, "" if unreadable)."""
+    from contactlab.errors import ContactlabError
+    from contactlab.observer.graph import load_graph
+
+    if not graph:
+        return None, ""
+    try:
+        g = load_graph(graph)
+    except (ContactlabError, OSError, ValueError):
+        return None, ""
+    return g.title, str(g.thesis or "")
+
+
 def _recognition_section(page, r: dict) -> None:
     page.heading("What was recognised, and how well")
+    if r.get("graph"):
+        text = f"Feature graph: {r['graph']}" + (f" ({r['graph_title']})"
+                                                 if r.get("graph_title") else "") + "."
+        if r.get("graph_thesis", "").startswith("7.3"):
+            text += (" 'contactlab reproduce hf-recognition' runs the same pipeline on the "
+                     "thesis's 15 training and 12 test runs and puts its accuracy beside the "
+                     "thesis's and a Gaussian HMM's on the same data.")
+        page.paragraph(text)
     if not r["points"]:
         page.paragraph("No trial with recognition results has ground truth named like the "
                        "graph's nodes, so no accuracy can be given.")
