@@ -3,7 +3,7 @@
 The examples run in pipeline order in one scratch directory, so the files one
 example writes (models.h5, strokes.h5) are the inputs of later ones; the
 archives they start from are small synthetic ones made here.  Examples that
-need hardware or take minutes are listed in SKIP with the reason.  Verbs that
+need hardware or take minutes are listed in SKIP with the reason (3 of 45).  Verbs that
 run on what earlier examples wrote (train hf.h5 after acquire --out hf.h5) use
 those files; the examples' repository paths resolve through a link to
 datasets_spec/.
@@ -32,7 +32,6 @@ SKIP = {
     "--source netft": "needs a Net F/T sensor on the network",
     "--source phantom": "needs a PHANToM and its HD library",
     "reproduce --all": "runs every experiment for minutes: 'make reproduce'",
-    "reproduce ph-demo": "an experiment run: tests/test_experiments_ph.py covers it",
 }
 
 
