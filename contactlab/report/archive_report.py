@@ -353,8 +353,8 @@ def _signal_panel(ax, trial) -> str:
 def _plot_segment(trial, results: dict, fig) -> str:
     """``segment``: the signal with detected (and true) boundaries, and the detector input."""
     stat = results.get("statistic")
-    ax1, ax2 = _stage_axes(fig, 2 if stat is not None else 1).tolist() + [None] * (
-        2 - (2 if stat is not None else 1))
+    axes = _stage_axes(fig, 1 if stat is None else 2)
+    ax1, ax2 = axes[0], (axes[1] if stat is not None else None)
     drew = _signal_panel(ax1, trial)
     for j, b in enumerate(np.asarray(results.get("boundaries_s", [])).ravel()):
         for ax in (ax1, ax2):
@@ -400,14 +400,14 @@ def _plot_label(trial, results: dict, fig) -> str:
     ax = _stage_axes(fig, 1)[0]
     ticks = sorted(set(pred.tolist()) | set(true.tolist()))
     row = {c: i for i, c in enumerate(ticks)}
-    for k in range(len(pred)):
-        ok = true[k] == pred[k]
-        ax.plot([start[k], end[k]], [row[true[k]] + 0.12] * 2, color="k", lw=3,
-                label="true class" if k == 0 else None)
-        ax.plot([start[k], end[k]], [row[pred[k]] - 0.12] * 2, lw=3,
-                color="C2" if ok else "C3", label=None)
-    ax.plot([], [], color="C2", lw=3, label="chosen, correct")
-    ax.plot([], [], color="C3", lw=3, label="chosen, wrong")
+    to_row = np.vectorize(row.get, otypes=[float])
+    ok = true == pred
+    ax.hlines(to_row(true) + 0.12, start, end, color="k", lw=3, label="true class")
+    for good, color, what in ((True, "C2", "correct"), (False, "C3", "wrong")):
+        sel = ok == good
+        if sel.any():
+            ax.hlines(to_row(pred[sel]) - 0.12, start[sel], end[sel], color=color, lw=3,
+                      label=f"chosen, {what}")
     ax.set_yticks(range(len(ticks)), [names[c] if 0 <= c < len(names) else "unlabelled / "
                                       "not a model class" for c in ticks], fontsize=7)
     ax.set_ylim(-0.6, len(ticks) - 0.4)
@@ -431,14 +431,13 @@ def _plot_estimate(trial, results: dict, fig) -> str:
     end = np.asarray(results["end_s"], float)
     panels = [(k, lab) for k, lab in (("degree", "degree of constraint (-)"),
                                       ("angle_sd_deg", "normal direction sd (deg)"),
+                                      ("angle_error_deg", "error vs true normal (deg)"),
                                       ("log_likelihood", "log-likelihood (-)"))
               if k in results]
     axes = _stage_axes(fig, max(len(panels), 1))
     for ax, (k, lab) in zip(axes, panels):
-        v = np.asarray(results[k], float)
-        for j in range(len(v)):
-            ax.plot([start[j], end[j]], [v[j]] * 2, lw=3, color="C0",
-                    label="estimated, per piece" if j == 0 else None)
+        ax.hlines(np.asarray(results[k], float), start, end, lw=3, color="C0",
+                  label="estimated, per piece")
         ax.set_ylabel(lab, fontsize=8)
         if k == "degree":
             ax.set_yticks(range(4))
@@ -456,6 +455,8 @@ def _plot_estimate(trial, results: dict, fig) -> str:
                                    "log-likelihood over 0..3 (8.2)",
                          "angle_sd_deg": "the standard deviation of the constraint normals' "
                                          "direction",
+                         "angle_error_deg": "the angle between the estimated and the true "
+                                            "normals",
                          "log_likelihood": "the fit's log-likelihood"}[k] for k, _ in panels)
             + ". Undetermined pieces are gaps.")
 
