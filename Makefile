@@ -15,8 +15,11 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
+# setuptools prints a note on every editable install that folders named like the
+# package may shadow it on import; here that folder is the package source itself, so
+# the note is filtered out (only that message: other build warnings still show).
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install -q -e '.[test,bench]'
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/pip install -q -e '.[test,bench]'
 	touch $(STAMP)
 
 env: $(STAMP)
