@@ -22,6 +22,10 @@ def report(archive, out, trials, as_json, quiet):
     Each trial's position, velocity, force, strains, high-frequency
     log-energy and ground truth, plus whatever later stages wrote in its
     results part, as OUT/index.html with PNG figures and OUT/report.pdf.
+    After 'contactlab recognize' the report adds what was recognised and how
+    well: the share of labelled points marked correctly beside two chance
+    levels (always the most frequent true node; uniform), the pooled confusion
+    and each trial's path; the same line is printed.
 
     \b
     Examples:
