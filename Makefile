@@ -1,5 +1,7 @@
 # contactlab: two commands on a fresh machine — `make demo` and `make test`.
 PYTHON ?= python3
+SHELL  := /bin/bash
+.SHELLFLAGS := -o pipefail -c
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
@@ -13,27 +15,40 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
+# setuptools prints a note on every editable install that folders named like the
+# package may shadow it on import; here that folder is the package source itself, so
+# the note is filtered out (only that message: other build warnings still show).
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install -q -e '.[test,bench]'
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/pip install -q -e '.[test,bench]'
 	touch $(STAMP)
 
 env: $(STAMP)
 
-## Run the main job end to end on simulated data and write a report under reports/:
-## simulate the thesis's high-frequency training and test runs (7.3), train every model
-## of the four-node feature graph, recognise the contact state of the test runs with the
-## observer (6.4), report the archive with its results, then reproduce two experiments.
+## Run the main job end to end on simulated data and write a report: simulate the
+## thesis's high-frequency training and test runs (7.3), train every model of the
+## four-node feature graph, recognise the contact state of the test runs with the
+## observer (6.4), report the archive with its results (reports/demo/), then reproduce
+## two experiments (build/demo/reports/). Every output is untracked: the demo leaves
+## `git status` clean. About 3 minutes on 2 cores.
 GRAPH := datasets_spec/graphs/hf-context-free.toml
+DEMO  := build/demo
 demo: $(STAMP)
-	@mkdir -p build/demo
-	$(BIN)/contactlab acquire --spec hf-train --seed $(SEED) --out build/demo/hf-train.h5 --force
-	$(BIN)/contactlab acquire --spec hf-test --seed $(SEED) --out build/demo/hf-test.h5 --force
-	$(BIN)/contactlab validate build/demo/hf-test.h5
-	$(BIN)/contactlab train build/demo/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out build/demo/hf-models.h5 --force
-	$(BIN)/contactlab recognize build/demo/hf-test.h5 --graph $(GRAPH) --models build/demo/hf-models.h5
-	$(BIN)/contactlab report build/demo/hf-test.h5 --out reports/demo
-	$(BIN)/contactlab reproduce ph-demo hf-recognition --out reports --seed $(SEED)
-	@echo "demo report: reports/demo/index.html (experiments: reports/index.html)"
+	@mkdir -p $(DEMO)
+	$(BIN)/contactlab acquire --spec hf-train --seed $(SEED) --out $(DEMO)/hf-train.h5 --force
+	$(BIN)/contactlab acquire --spec hf-test --seed $(SEED) --out $(DEMO)/hf-test.h5 --force
+	$(BIN)/contactlab validate $(DEMO)/hf-test.h5
+	$(BIN)/contactlab train $(DEMO)/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out $(DEMO)/hf-models.h5 --force
+	$(BIN)/contactlab recognize $(DEMO)/hf-test.h5 --graph $(GRAPH) --models $(DEMO)/hf-models.h5
+	$(BIN)/contactlab report $(DEMO)/hf-test.h5 --out reports/demo | tee $(DEMO)/summary.txt
+	$(BIN)/contactlab reproduce ph-demo hf-recognition --out $(DEMO)/reports --seed $(SEED) | tee -a $(DEMO)/summary.txt
+	@echo
+	@echo "== demo summary =="
+	@echo "The observer (6.4) recognised the contact state of the 12 simulated test runs"
+	@echo "with the context-free four-node graph of 7.3.2, trained on the 15 training runs:"
+	@grep -h -e "^recognised:" -e "test runs marked correctly" $(DEMO)/summary.txt | sed 's/^ */  /'
+	@echo "Low scores are a measured finding, not a failure: the simulated sensor's"
+	@echo "converter hides the stationary, moving and pressed states (see the reports)."
+	@echo "demo report: reports/demo/index.html (experiments: $(DEMO)/reports/index.html)"
 
 ## Run the test suite.
 test: $(STAMP)

@@ -8,6 +8,7 @@ import os
 # The one place matplotlib's backend is chosen: the CLI writes figures to files, so
 # it uses Agg unless the user set MPLBACKEND.  The library chooses none at import.
 os.environ.setdefault("MPLBACKEND", "Agg")
+import copy
 
 import click
 
@@ -34,8 +35,8 @@ def main(debug: bool) -> None:
     """Statistical contact sensing over HDF5 trace archives (Eberman 1995).
 
     \b
-    Stages: acquire, segment, label, estimate, recognize, train, report,
-    plus validate, import, info and reproduce. Example:
+    Stages: acquire, segment, label, estimate, recognize (or recognise),
+    train, report, plus validate, import, info and reproduce. Example:
       contactlab reproduce ph-demo --out reports
     """
 
@@ -44,3 +45,8 @@ def main(debug: bool) -> None:
 for _command in (acquire, import_cmd, validate, info, segment, train, label, estimate,
                  recognize, report, reproduce, graph):
     main.add_command(_command)
+
+# the British spelling of the recognising verb, accepted and not listed
+_recognise = copy.copy(recognize)
+_recognise.hidden = True
+main.add_command(_recognise, name="recognise")

@@ -48,9 +48,9 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
     \b
     Examples:
       contactlab acquire --spec stroke-a --out strokes.h5
-      contactlab acquire --spec hf-train --out hf.h5 --trials 5 --seed 7
+      contactlab acquire --spec hf-train --out hf.h5 --seed 7
       contactlab acquire --spec stroke-a --out strokes.h5 --append --trials 2
-      contactlab acquire --spec my-spec.toml --out mine.h5 --json
+      contactlab acquire --spec my-spec.toml --out mine.h5 --trials 3 --json
       contactlab acquire --source netft --host 192.168.1.1 --duration 10 --out ft.h5
       contactlab acquire --source phantom --duration 5 --out ph.h5
       contactlab acquire --list-specs
@@ -74,7 +74,7 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
     spec = None
     if source == "sim":
         if spec_name is None:
-            raise click.UsageError("--source sim needs --spec (see --list-specs)")
+            raise click.UsageError("--source sim needs --spec NAME; --list-specs lists the names")
         for name, value in (("--host", host), ("--duration", duration_s)):
             if value is not None:
                 raise click.UsageError(f"{name} is for hardware sources, not --source sim")

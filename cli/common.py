@@ -18,7 +18,20 @@ from contactlab.errors import ContactlabError
 PROG = "contactlab"
 
 
-class ContactlabGroup(click.Group):
+class _ClosingBars(click.Group):
+    """Clears live progress bars when a command fails, so its error starts a line."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except BaseException:
+            from contactlab.progress import close_bars
+
+            close_bars()
+            raise
+
+
+class ContactlabGroup(_ClosingBars):
     """A click group that turns library errors into one line and an exit status.
 
     Data errors exit 1, usage errors 2; any other exception is reported in one

@@ -55,7 +55,11 @@ def estimate(archive, model, segments, block, motion, position_noise, force_nois
       contactlab estimate runs.h5 --segments auto --json
       contactlab estimate runs.h5 --block 25 --trial cartesian-004 --json
       contactlab estimate runs.h5 --position-noise 1e-5 --force-noise 0.01
-      contactlab estimate planar.h5 --model polygon-B --json
+      contactlab estimate runs.h5 --motion velocity --no-friction
+
+    The polygon models (--model polygon-B, ...) need a planar archive: position
+    columns x, y, theta and wrench columns fx, fy, tz ('contactlab import'
+    with --columns "time=t;position=x,y,theta;wrench=fx,fy,fz,tx,ty,tz").
     """
     from contactlab.constraints.archive import estimate_archive
 

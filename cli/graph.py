@@ -35,7 +35,7 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
     \b
     Example:
       contactlab graph show datasets_spec/graphs/hf-context-free.toml
-      contactlab graph show datasets_spec/graphs/hf-context.toml --out hf.png --json
+      contactlab graph show datasets_spec/graphs/hf-context.toml --out hf-graph.png --json
     """
     g = load_graph(graph_file)
     if out is not None:
@@ -46,7 +46,8 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
             d["figure"] = str(out)
         echo_json(d)
         return
-    click.echo(f"{g.name}: {g.title}" + (f" (thesis {g.thesis})" if g.thesis else ""))
+    named = g.thesis and f"({g.thesis})" not in g.title
+    click.echo(f"{g.name}: {g.title}" + (f" (thesis {g.thesis})" if named else ""))
     for n in g.nodes:
         models = ", ".join(f"{r}={m}" if r != m else m for r, m in n.models)
         flags = [f for f, on in (("transient", n.transient), ("self", n.self_transition)) if on]

@@ -55,10 +55,13 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
 
     \b
     Examples:
-      contactlab import run1.csv run2.csv --out runs.h5 \\
+      contactlab import run1.csv run2.csv --out recording.h5 \\
           --columns "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"
-      contactlab import strokes/*.csv --out strokes.h5 --rate 1000 --columns "strain=s*"
-      contactlab import run1.csv --out runs.h5 --columns columns.json --force
+      contactlab import strokes/*.csv --out imported.h5 --rate 1000 --columns "strain=s*"
+      contactlab import run1.csv --out recording.h5 --columns columns.json --force
+
+    A recording without strain gauges (wrench and position only) is analysed
+    with --signal wrench in segment and train.
     """
     names = None if label_names is None else [n.strip() for n in label_names.split(",")]
     path = import_csv(list(csv_files), out=out, columns=columns, rate_hz=rate_hz, force=force,
@@ -69,5 +72,5 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
         echo_json({"file": str(path), "trials": [t["id"] for t in summary["trials"]],
                    "n_samples": summary["n_samples"], "duration_s": summary["duration_s"]})
     else:
-        click.echo(f"{path}: imported {summary['n_trials']} trials, {summary['n_samples']} "
+        click.echo(f"{path}: imported {summary['n_trials']} trial{'s' if summary['n_trials'] != 1 else ''}, {summary['n_samples']} "
                    f"samples ({summary['duration_s']:.3g} s)")

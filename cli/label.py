@@ -63,8 +63,8 @@ def label(archive, models, block, loo, loo_unit, labels, trials, as_json, quiet)
         width = max(len(x) for x in conf["labels"])
         click.echo(f"accuracy {100 * summary['accuracy']:.1f}% over {summary['n_blocks']} blocks"
                    + (f" (leave-one-{summary['loo']}-out)" if summary["loo"] else ""))
-        click.echo("confusion (rows true, columns chosen): "
-                   + " ".join(x.rjust(width) for x in conf["labels"]))
+        click.echo("confusion, share of each true class's blocks (rows true, columns chosen):")
+        click.echo(f"  {'':{width}} " + " ".join(x.rjust(width) for x in conf["labels"]))
         for name, row in zip(conf["labels"], conf["rates"]):
             cells = " ".join("   -".rjust(width) if v is None or v != v else
                              f"{v:.3f}".rjust(width) for v in row)

@@ -49,9 +49,17 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
 
     \b
     Examples:
-      contactlab train train.h5 --graph datasets_spec/graphs/hf-context-free.toml --out m.h5
-      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml --models m.h5
-      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml --models m.h5 --json
+      contactlab train train.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
+          --out graph-models.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
+          --models graph-models.h5
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
+          --models graph-models.h5 --json
+
+    Train the models first ('contactlab train --graph' on labelled runs, with
+    labels named like the graph's models' 'trained' labels); the context
+    graph's action-dependent edges read the archive's action channel, or
+    --action.  'contactlab recognise' is the same command.
     """
     from contactlab.observer.recognize import DELAY_BINS, recognize_archive
 
@@ -90,11 +98,18 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
         click.echo(f"{tid}: {path}{acc}")
     if summary["accuracy"] is not None:
         labels = summary["confusion"]["labels"]
+        matrix = summary["confusion"]["matrix"]
+        counts = [sum(row) for row in matrix]
+        top = max(range(len(counts)), key=counts.__getitem__)
         click.echo(f"points marked correctly: {100 * summary['accuracy']:.1f} % "
-                   f"(on-line MAP node: {100 * summary['accuracy_online']:.1f} %)")
-        click.echo("confusion (rows true, columns chosen): " + " ".join(labels))
-        for name, row in zip(labels, summary["confusion"]["matrix"]):
-            click.echo(f"  {name}: {row}")
+                   f"(on-line MAP node: {100 * summary['accuracy_online']:.1f} %; "
+                   f"always choosing the most frequent true node, {labels[top]}: "
+                   f"{100 * counts[top] / max(sum(counts), 1):.1f} %)")
+        width = max(8, *(len(x) for x in labels))
+        click.echo("confusion, labelled points (rows true, columns chosen):")
+        click.echo(f"  {'':{width}} " + " ".join(x.rjust(width) for x in labels))
+        for name, row in zip(labels, matrix):
+            click.echo(f"  {name:>{width}} " + " ".join(str(v).rjust(width) for v in row))
         d = summary["delays"]
         click.echo("delays (samples): " + " ".join(f"{b}:{d['counts'][b]}" for b in DELAY_BINS)
                    + f"  missed {d['missed']}, extra marks {d['extra']}")

@@ -22,6 +22,10 @@ def report(archive, out, trials, as_json, quiet):
     Each trial's position, velocity, force, strains, high-frequency
     log-energy and ground truth, plus whatever later stages wrote in its
     results part, as OUT/index.html with PNG figures and OUT/report.pdf.
+    After 'contactlab recognize' the report adds what was recognised and how
+    well: the share of labelled points marked correctly beside two chance
+    levels (always the most frequent true node; uniform), the pooled confusion
+    and each trial's path; the same line is printed.
 
     \b
     Examples:
@@ -34,5 +38,11 @@ def report(archive, out, trials, as_json, quiet):
     summary = report_archive(archive, out_dir=out, trials=list(trials) or None, quiet=quiet)
     if as_json:
         echo_json(summary)
-    else:
-        click.echo(f"{archive}: {len(summary['trials'])} trials -> {summary['html']}, {summary['pdf']}")
+        return
+    click.echo(f"{archive}: {len(summary['trials'])} trials -> {summary['html']}, {summary['pdf']}")
+    r = summary.get("recognition")
+    if r and r["points"]:
+        click.echo(f"recognised: {100 * r['accuracy']:.1f} % of {r['points']} labelled points "
+                   f"marked correctly by the MAP path (on-line {100 * r['accuracy_online']:.1f} "
+                   f"%); chance: {100 * r['chance_majority']:.1f} % always {r['majority_node']},"
+                   f" {100 * r['chance_uniform']:.0f} % uniform")

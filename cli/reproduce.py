@@ -37,14 +37,20 @@ def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
       contactlab reproduce --all
     """
     if list_only:
-        rows = [{"name": e.name, "title": e.title, "thesis": e.thesis, "status": e.status}
+        from contactlab.experiments.headlines import HEADLINES
+
+        rows = [{"name": e.name, "title": e.title, "thesis": e.thesis, "status": e.status,
+                 "what": HEADLINES.get(e.name, ("", ""))[0],
+                 "headline": HEADLINES.get(e.name, ("", ""))[1]}
                 for e in EXPERIMENTS.values()]
         if as_json:
             echo_json({"experiments": rows})
         else:
             width = max(len(r["name"]) for r in rows)
+            status = max(len(r["status"]) for r in rows)
             for r in rows:
-                click.echo(f"{r['name']:<{width}}  {r['status']:<40}  {r['thesis']}")
+                click.echo(f"{r['name']:<{width}}  {r['status']:<{status}}  {r['thesis']}")
+                click.echo(f"    {r['what']}" + (f": {r['headline']}" if r["headline"] else ""))
         return
     experiments = resolve(list(names), run_all=run_all)
     summaries = run_experiments(experiments, out=out, seed=seed, quiet=quiet)
@@ -57,4 +63,6 @@ def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
         return
     for name, summary in summaries.items():
         click.echo(f"{name}: {out / name / 'index.html'} ({summary.get('wall_time_s', 0):.1f} s)")
+        if summary.get("headline"):
+            click.echo(f"  {summary['headline']}")
     click.echo(f"index: {out / 'index.html'}")

@@ -54,10 +54,13 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     \b
     Examples:
       contactlab train runs.h5 --labels truth --out models.h5
-      contactlab train runs.h5 --labels segment --classes sanded,polished --out m.h5
-      contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --json
-      contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \
+      contactlab train runs.h5 --classes free,contact --out m.h5 --force
+      contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --force --json
+      contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
           --order 1 --mean --reduce mean --out hf-models.h5
+
+    --classes takes label names as the archive spells them ('contactlab info'
+    lists them), e.g. sanded_aluminium_80,polished_aluminium for stroke-a.
 
     With --graph GRAPH every model the graph names is trained from the
     ground-truth labels its declarations name (temporal: the prior above on

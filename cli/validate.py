@@ -2,35 +2,47 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from contactlab.archive import open_archive, summarize, validate_archive
-from contactlab.cli.common import PROG, archive_argument, echo_json, json_option
+from contactlab.cli.common import PROG, echo_json, json_option
 from contactlab.errors import DataError
 
 
 @click.command()
-@archive_argument
+@click.argument("archives", nargs=-1, required=True, metavar="ARCHIVE...",
+                type=click.Path(dir_okay=False, path_type=Path))
 @json_option
-def validate(archive, as_json):
-    """Check that ARCHIVE follows the archive format (datasets_spec/ARCHIVE.md).
+def validate(archives, as_json):
+    """Check that each ARCHIVE follows the archive format (datasets_spec/ARCHIVE.md).
 
-    Exit status 0 and a one-line summary when it conforms; otherwise one
-    line per problem on stdout, "HDF5-PATH: what is wrong", and exit status 1.
-    --json prints {"file", "ok", "problems": [{"path", "message"}], "trials"}
-    ("trials" is null when the file cannot be read as an archive).
+    Exit status 0 and a one-line summary per archive when all conform;
+    otherwise one line per problem on stdout, "HDF5-PATH: what is wrong", and
+    exit status 1.  --json prints {"file", "ok", "problems": [{"path",
+    "message"}], "trials"} for one archive ("trials" is null when the file
+    cannot be read as an archive), {"ok", "archives": [...]} for several.
 
     \b
     Examples:
       contactlab validate runs.h5
       contactlab validate runs.h5 --json
+      contactlab validate runs.h5 recording.h5
     """
+    results = [_check(a, quiet=as_json) for a in archives]
+    if as_json:
+        echo_json(results[0] if len(results) == 1 else
+                  {"ok": all(r["ok"] for r in results), "archives": results})
+    if not all(r["ok"] for r in results):
+        click.get_current_context().exit(1)
+
+
+def _check(archive: Path, *, quiet: bool) -> dict:
     problems = validate_archive(archive)
     summary = summarize(archive) if not problems else None
-    if as_json:
-        echo_json({"file": str(archive), "ok": not problems,
-                   "problems": [{"path": p.path, "message": p.message} for p in problems],
-                   "trials": summary["n_trials"] if summary else _count_trials(archive)})
+    if quiet:
+        pass
     elif summary:
         click.echo(f"{archive}: ok, {summary['n_trials']} trials, {summary['n_samples']} "
                    f"samples ({summary['duration_s']:.3g} s), format "
@@ -40,8 +52,9 @@ def validate(archive, as_json):
             click.echo(str(problem))
         click.echo(f"{PROG}: {archive}: does not conform ({len(problems)} "
                    f"problem{'s' if len(problems) != 1 else ''})", err=True)
-    if problems:
-        click.get_current_context().exit(1)
+    return {"file": str(archive), "ok": not problems,
+            "problems": [{"path": p.path, "message": p.message} for p in problems],
+            "trials": summary["n_trials"] if summary else _count_trials(archive)}
 
 
 def _count_trials(path) -> int | None:

@@ -118,7 +118,7 @@ def test_import_then_validate_and_info(tmp_path):
         f"contactlab: error: {out}: exists; pass --force to overwrite"]
     forced = run("import", tmp_path / "a.csv", "--out", out, "--columns", MAP, "-q", "--force")
     assert forced.exit_code == 0
-    assert forced.stdout.strip() == f"{out}: imported 1 trials, 200 samples (0.4 s)"
+    assert forced.stdout.strip() == f"{out}: imported 1 trial, 200 samples (0.4 s)"
 
 
 def test_import_reads_a_json_column_map(tmp_path):

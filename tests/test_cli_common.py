@@ -85,3 +85,44 @@ def test_click_usage_errors_are_one_line_with_exit_2(args):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "error" in lines[0], proc.stderr
+
+
+def test_recognise_is_accepted_as_recognize_and_validate_takes_several(tmp_path):
+    from conftest import write_archive
+
+    res = CliRunner().invoke(main, ["recognise", "--help"])
+    assert res.exit_code == 0 and "--graph" in res.output
+    assert "recognise" not in CliRunner().invoke(main, ["--help"]).output.split("Commands:")[1]
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    write_archive(a, trials=("t1",))
+    write_archive(b, trials=("t1", "t2"))
+    res = CliRunner().invoke(main, ["validate", str(a), str(b)])
+    assert res.exit_code == 0
+    assert [ln.split(":")[0] for ln in res.stdout.splitlines()] == [str(a), str(b)]
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"not hdf5")
+    res = CliRunner().invoke(main, ["validate", str(a), str(bad), "--json"])
+    out = json.loads(res.stdout)
+    assert res.exit_code == 1 and out["ok"] is False
+    assert [r["ok"] for r in out["archives"]] == [True, False]
+
+
+def test_reproduce_list_shows_the_readme_table_what_and_headline():
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    table = {}
+    for line in readme.splitlines():
+        m = re.match(r"^\| `([a-z0-9-]+)` \| [^|]+ \| ([^|]+) \| ([^|]+) \|$", line)
+        if m and m.group(1) in EXPERIMENTS:
+            table[m.group(1)] = (m.group(2).strip(), m.group(3).strip())
+    assert set(table) == set(EXPERIMENTS)
+    result = CliRunner().invoke(main, ["reproduce", "--list", "--json"])
+    rows = {e["name"]: e for e in json.loads(result.stdout)["experiments"]}
+    for name, (what, headline) in table.items():
+        assert rows[name]["what"] == what
+        if EXPERIMENTS[name].implemented:
+            assert rows[name]["headline"] == headline
+    text = CliRunner().invoke(main, ["reproduce", "--list"]).stdout
+    assert table["ph-demo"][1] in text

@@ -167,7 +167,9 @@ def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None
         if len(t) >= 2:
             dt = float(np.median(step))
             if rate_hz is None:
-                table["rate_hz"] = 1.0 / dt
+                # 9 significant digits: CSV times carry fewer, and 1 / 0.001 computed in
+                # binary would otherwise read 999.9999999999991 Hz in every summary
+                table["rate_hz"] = float(f"{1.0 / dt:.9g}")
             elif abs(dt * rate_hz - 1.0) > spec.RATE_TOLERANCE:
                 raise DataError(f"median time step {dt:.6g} s disagrees with the given rate "
                                 f"{rate_hz:g} Hz", file=str(path), field=mapping["time"][0])

@@ -158,7 +158,7 @@ def fig_run(rec, graph, y, *, title: str, hmm_states=None):
             if m.any():
                 ax.fill_between(t, 0, 1, where=m, color=f"C{k}", alpha=0.15, step="post",
                                 transform=ax.get_xaxis_transform(), label=f"truth {STATES[k]}")
-    ax.set_ylabel("y_h (channel mean)")
+    ax.set_ylabel("y_h, channel mean (log V)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, ncol=4, loc="upper right")
     axg = fig.add_subplot(gs[0, 1])
@@ -167,9 +167,9 @@ def fig_run(rec, graph, y, *, title: str, hmm_states=None):
     axp = fig.add_subplot(gs[1, 0], sharex=ax)
     for k in range(len(STATES)):
         axp.plot(t, r.node_prob[:, k], color=f"C{k}", lw=0.9, label=STATES[k])
-    axp.set_ylabel("P(node)")
+    axp.set_ylabel("P(node | data so far)")
     axp.set_xlabel("time (s)")
-    axp.legend(fontsize=7, ncol=4)
+    axp.legend(fontsize=7, ncol=4, title="node", title_fontsize=7)
     axl = fig.add_subplot(gs[1, 1])
     rows = [("truth", rec.truth), ("MAP path", r.labels), ("on-line MAP", r.map_node)]
     if hmm_states is not None:
@@ -183,6 +183,11 @@ def fig_run(rec, graph, y, *, title: str, hmm_states=None):
             axl.fill_between(t, i + 0.1, i + 0.9, where=m, color=f"C{k}", step="post")
     axl.set_yticks(np.arange(len(rows)) + 0.5, [n for n, _ in rows], fontsize=7)
     axl.set_xlabel("time (s)")
+    axl.legend(handles=[plt.Rectangle((0, 0), 1, 1, color=f"C{k}", label=s)
+                        for k, s in enumerate(STATES)]
+               + [plt.Rectangle((0, 0), 1, 1, fc="white", ec="0.6", label="unlabelled")],
+               fontsize=6, ncol=5, loc="upper center", bbox_to_anchor=(0.5, -0.22),
+               frameon=False)
     hist = " -> ".join(f"{n}@{t[min(max(s, 0), len(t) - 1)]:.2f}"
                        for n, s in merge_path(r.map_path))
     axl.set_title("paths; MAP: " + (hist if len(hist) < 60 else hist[:57] + "..."), fontsize=7)
@@ -258,7 +263,12 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
                         caption=f"Fig 7.10 (ours), {TITLES[key]}, {rec.trial_id}: y_h with the "
                                 "truth shaded; the graph with its final node probabilities; "
                                 "node probabilities over time; truth, final MAP path, on-line "
-                                "MAP node and the HMM's Viterbi path.")
+                                "MAP node and the HMM's Viterbi path. The node probabilities "
+                                "are pointwise and on-line (each sample's probability summed "
+                                "over the kept paths, from the data so far); the final MAP "
+                                "path is the one most probable whole path, chosen with "
+                                "hindsight, so it can sit at a node that was not the most "
+                                "probable at the time: a later change re-explains the past.")
     page.heading("Where ours differ and why")
     for text in _differences(res, hmm_res, gm):
         page.paragraph(text)
@@ -271,6 +281,7 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
                "confusion": {k: res[k]["confusion"]["matrix"] for k in res},
                "confusion_hmm": {k: v[0].tolist() for k, v in hmm_res.items()},
                "delays": {k: res[k]["delays"] for k in res},
+               "headline": _headline(res, hmm_res),
                "thesis": THESIS, "seconds": secs,
                "hmm_decode_s": {k: v[1] for k, v in hmm_res.items()},
                "paths": {k: {tid: e["merged_path"] for tid, e in res[k]["trials"].items()}
@@ -278,6 +289,16 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
                "report": {k: str(v) for k, v in paths.items()}}
     write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
     return summary
+
+
+def _headline(res, hmm_res) -> str:
+    """One line: points marked correctly on the test runs, ours beside the thesis and the HMM."""
+    cf, ctx = res["test_cf"], res["test_ctx"]
+    return (f"test runs marked correctly: context free {100 * cf['accuracy']:.0f} % (thesis "
+            f"{100 * THESIS['test_cf']['accuracy']:.0f} %, HMM peer "
+            f"{100 * _acc(hmm_res['test'][0]):.0f} %), with context "
+            f"{100 * ctx['accuracy']:.0f} % (thesis {100 * THESIS['test_ctx']['accuracy']:.0f} "
+            "%); the simulated H0-H2 sit at the converter floor, see 'Where ours differ'")
 
 
 def _differences(res, hmm_res, gm) -> list[str]:

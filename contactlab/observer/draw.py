@@ -1,5 +1,6 @@
 """Drawing a feature graph (matplotlib): nodes on a circle, transient nodes as
-diamonds, initial probabilities under the labels, action-dependent edges
+diamonds, each node's description, models and initial probability outside the
+circle, self-transitions marked with a loop sign, action-dependent edges
 coloured by action; optional node probabilities shade the nodes (fig 7.10)."""
 
 from __future__ import annotations
@@ -38,22 +39,39 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
         name = graph.actions[a] if a < len(graph.actions) else str(a)
         handles.append(plt.Line2D([], [], color=color, label=f"while {name}"))
     p = np.zeros(K) if probabilities is None else np.asarray(probabilities, dtype=float)
+    loops = False
     for k, n in enumerate(graph.nodes):
         face = plt.get_cmap("Reds")(0.15 + 0.7 * p[k]) if probabilities is not None else "white"
         ax.scatter(*xy[k], s=900, marker="D" if n.transient else "o", facecolor=face,
                    edgecolor="black", zorder=3)
         ax.text(*xy[k], n.name, ha="center", va="center", zorder=4, fontsize=9)
-        if n.self_transition:
-            ax.annotate("", xy=xy[k] * 1.13 + [0.04, 0], xytext=xy[k] * 1.13 - [0.04, 0],
-                        arrowprops=dict(arrowstyle="-|>", color="0.5",
-                                        connectionstyle="arc3,rad=-1.8"))
+        # the description goes outside the circle, away from the edges between nodes,
+        # on a white box so that arrows passing behind it do not cross the words
+        # (the top and bottom nodes' descriptions go to their right, clear of the
+        # title above and the legend below)
+        u = xy[k] if K > 1 else np.array([0.0, -1.0])
+        if abs(u[0]) < 0.3:
+            u = np.array([1.0, 0.0])
+        ha = "left" if u[0] > 0.3 else "right" if u[0] < -0.3 else "center"
+        va = "bottom" if u[1] > 0.3 else "top" if u[1] < -0.3 else "center"
+        loop = "\u21bb " if n.self_transition else ""
+        loops |= bool(loop)
         models = "/".join(n.model_names)
-        ax.text(xy[k, 0], xy[k, 1] - 0.2, f"{n.label}\n[{models}] p0={n.initial:.2g}",
-                ha="center", va="top", fontsize=7)
-    if handles:
-        ax.legend(handles=handles, loc="lower right", fontsize=7, frameon=False)
-    ax.set_xlim(-1.5, 1.5)
-    ax.set_ylim(-1.6, 1.4)
+        ax.annotate(f"{loop}{n.label}\n[{models}] p0={n.initial:.2g}", xy=xy[k],
+                    xytext=tuple(20 * u), textcoords="offset points", ha=ha, va=va,
+                    fontsize=7, zorder=5,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
+    if loops:
+        handles.append(plt.Line2D([], [], ls="none", marker="$\u21bb$", color="0.3",
+                                  label="self-transition"))
+    if handles or probabilities is not None:
+        if probabilities is not None:
+            handles.append(plt.Line2D([], [], ls="none", marker="o", markersize=8,
+                                      markerfacecolor=plt.get_cmap("Reds")(0.85),
+                                      markeredgecolor="black", label="darker: more probable"))
+        ax.legend(handles=handles, loc="lower left", fontsize=7, frameon=False)
+    ax.set_xlim(-1.9, 1.9)
+    ax.set_ylim(-1.7, 1.6)
     ax.set_aspect("equal")
     ax.axis("off")
     ax.set_title(graph.title, fontsize=10)
