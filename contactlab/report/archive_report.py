@@ -85,7 +85,7 @@ def recognition_summary(archive, ids) -> dict | None:
     and two chance levels to read them against: always choosing the most
     frequent true node, and choosing uniformly among the graph's nodes.
     """
-    from contactlab.observer.recognize import confusion
+    from contactlab.metrics import confusion_matrix
 
     names, total, online, per_trial, graph = None, None, None, [], None
     for tid in ids:
@@ -102,10 +102,10 @@ def recognition_summary(archive, ids) -> dict | None:
         if nodes != names or "truth" not in res:
             per_trial.append({"trial": tid, "accuracy": None, "points": 0})
             continue
-        c = confusion(res["truth"], res["labels"], len(names))
+        c = confusion_matrix(res["truth"], res["labels"], len(names))[0]
         total += c
         if "map_node" in res:
-            online += confusion(res["truth"], res["map_node"], len(names))
+            online += confusion_matrix(res["truth"], res["map_node"], len(names))[0]
         n = int(c.sum())
         per_trial.append({"trial": tid, "points": n,
                           "accuracy": float(np.trace(c) / n) if n else None,
