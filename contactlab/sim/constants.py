@@ -211,20 +211,66 @@ SENSOR_TORQUE_RANGE = SENSOR_FORCE_RANGE * (FINGERTIP_RADIUS + SENSOR_ORIGIN_OFF
 """physics: full-scale torque, N m: full-scale force at the farthest contact
 point from the sensor origin (radius + offset)."""
 
-ADC_BITS = 12
-"""datasheet: 12-bit converters were standard on 1990s data-acquisition boards
-(the thesis ran on a 68040 VME system, 7.3.1)."""
+ADC_BITS = 16
+"""identified (thesis 7.3.3, a signal fact): "Moving is a sufficiently higher level of
+vibration that it is never confused with the stationary vibration level".  The thesis never
+names its converter.  With 12 bits (a 4.9 mV step, 14-47 mN of force per bridge) the drive's
+vibration while moving and most texture vibration stay below one step, y_h of the stationary,
+moving and pressed states all sit at the quantisation floor and moving *is* confused with
+stationary (the apparatus experiment measures it: normal-fit error 0.25).  16-bit converters
+(0.31 mV step) were period hardware on VME acquisition boards (Burr-Brown ADS7805 / Analog
+Devices AD7884 class), and with them the amplifier noise below (2.5 steps) dithers the
+converter, as a well-designed chain does.  ``[apparatus] adc_bits = 12`` in a spec simulates
+the 12-bit board."""
 
 ADC_RANGE_V = 10.0
 """datasheet: bipolar +/-10 V converter input."""
 
 ADC_HEADROOM = 0.8
-"""physics: amplifier gains set so that a worst-case full-scale wrench uses 80 %
-of the converter range."""
+"""physics: amplifier gains set so that a worst-case full-scale wrench uses 80 % of the
+converter range."""
 
-GAUGE_NOISE_LSB = 0.5
-"""datasheet: bridge-amplifier noise of order half an LSB at 12 bits (an
-amplifier much noisier than that would waste the converter)."""
+BRIDGE_EXCITATION_V = 5.0
+"""datasheet: bridge excitation, V.  5 V is the usual excitation of 350 ohm foil gauges on a
+small aluminium or steel flexure (10 V is the usual maximum; self-heating of gauges on a
+fingertip-sized cross argues for the lower value)."""
+
+GAUGE_FACTOR = 2.0
+"""datasheet: gauge factor of constantan foil strain gauges (2.0-2.1)."""
+
+FULL_SCALE_STRAIN = 1.0e-3
+"""physics: strain at the gauges under the full-scale wrench.  Metal-foil force sensors are
+designed for 500-1500 microstrain at full scale (higher shortens fatigue life, lower wastes
+signal); 1000 microstrain."""
+
+BRIDGE_RESISTANCE = 350.0
+"""datasheet: foil strain-gauge resistance, ohm (the standard 350 ohm)."""
+
+AMPLIFIER_NOISE_DENSITY = 10.0e-9
+"""datasheet: input voltage noise density of the bridge amplifier, V/sqrt(Hz).  Low-noise
+instrumentation amplifiers of the period (Analog Devices AD524, PMI AMP01) give 5-10
+nV/sqrt(Hz) at gains of 100-1000; 10 nV/sqrt(Hz) with the op-amp stages after them.  The
+Johnson noise of the half-bridge (BRIDGE_RESISTANCE, 2.4 nV/sqrt(Hz) at 300 K) adds to it in
+quadrature (StrainGaugeSensor.noise_v)."""
+
+AMPLIFIER_BANDWIDTH_HZ = 1350.0
+"""thesis 7.1 (fig 7.1): the amplifiers pass at least the 1350 Hz Nyquist band of the
+2700 Hz impact record (its contour plot reaches 1350 Hz); a single-pole rolloff there has a
+noise bandwidth of pi/2 times it.  Sampled at 1000 Hz the noise above 500 Hz aliases into
+the band, so the sampled noise is white with the whole band's power."""
+
+CALIBRATION_ERROR = 0.01
+"""datasheet: error of the sensor's calibration matrix, per entry, as a fraction of the
+largest entry of its column (so each wrench component reads with ~1 % gain error and
+cross-talk).  Six-axis sensors are calibrated to 1-2 % of full scale
+(ATI and JR3 sheets); the thesis computed its wrench from a calibration it did not check
+(8.1.1.2 blames its angular errors partly on the chain from block to fingertip).  The true
+strain pattern differs from the nominal matrix by these errors; the recorded wrench uses the
+nominal inverse.  Drawn once from CALIBRATION_SEED: one physical sensor."""
+
+CALIBRATION_SEED = 1995
+"""numerics: seed of the one draw of the sensor's calibration error and of the PHANToM's
+kinematic error (the same physical apparatus in every trial)."""
 
 # --------------------------------------------------------------------------
 # Simulation and ground-truth labelling
