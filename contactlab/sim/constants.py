@@ -55,6 +55,31 @@ capstan cable of all three motors; modelled as one isotropic Coulomb force on th
 robot mass with a true stick state (dynamics module docstring).  Static and kinetic
 values are taken equal: the sheets give one number."""
 
+ROBOT_BACKDRIVE_STATIC_FRICTION = 0.06
+"""physics: the breakaway (static) value of ROBOT_BACKDRIVE_FRICTION, N.  Graphite brushes on a
+copper commutator, the preloaded ball bearings and the bending of the capstan cables all stick
+harder than they slide; dry graphite-copper contacts have static/kinetic ratios of 1.3-1.6
+(handbook), we take 1.5.  At the start of a motion command the motors' torque ramps until it
+breaks the drive free, and the drop to kinetic friction throws the robot forward: the
+"impact-like burst caused by the start of the motion command" of 7.2 (and 9.1.1: "The initial
+acceleration to start the motion generated an impact"), which an ideal drive would not show."""
+
+BRUSH_FRICTION_VARIATION = 0.25
+"""datasheet-level: relative rms fluctuation of the kinetic backdrive friction with the motor
+shaft angle while the drive turns: brushes bouncing over the 11 commutator bars and riding
+the commutator's roughness, strands of the capstan cable rolling on and off the drum.  Small
+brushed motors' friction torque ripples by 20-30 % of its mean (their no-load current ripple);
+0.25.  The pattern repeats every shaft revolution (a circular commutator), with wavelengths
+on the commutator surface (radius BRUSH_TRACK_RADIUS) from BRUSH_WAVELENGTH_MIN to one bar
+pitch: at 50 mm/s of tip travel, 14 mm/s of brush sliding, i.e. 7 Hz (bars) to 1.4 kHz."""
+
+BRUSH_TRACK_RADIUS = 3.5e-3
+"""datasheet-level: commutator radius of a 25 mm brushed motor (RE 25 class), m."""
+
+BRUSH_WAVELENGTH_MIN = 10e-6
+"""physics: shortest roughness wavelength of a turned and worn commutator the brush face
+(graphite, ~1 mm wide but riding on a few asperities) still feels, m."""
+
 ROBOT_VISCOUS_DAMPING = 0.1
 """physics: viscous damping on the robot mass, N s/m, from the motors' back-EMF
 through the amplifiers.  A motor shorted through its winding resistance damps with
@@ -125,6 +150,23 @@ ENCODER_RESOLUTION = 0.03e-3
 """datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,
 applied per Cartesian axis to the robot-side position (encoders are on the
 motors, thesis 1.2/7.2)."""
+
+KINEMATIC_ANGLE_ERROR_DEG = 1.0
+"""thesis 8.1.1.2: "It is very possible that the kinematic chain from the block, to the table,
+to the PHANToM, and finally to the fingertip has 1-2 deg of angular error."  The linear part
+of the PHANToM's position error: the reported position is (I + A) p with A's entries drawn
+once (CALIBRATION_SEED) with this standard deviation (degrees as radians), so a direction
+reads off by about sqrt(2) x 1 = 1.4 deg rms (rotation and skew of the position frame against
+the force frame); KINEMATIC_CURVATURE adds about 1 deg more per cm from the workspace centre."""
+
+KINEMATIC_CURVATURE = 1.9
+"""identified (thesis 8.1.1.2, a signal fact): "There is enough kinematic error in the robot to
+produce a 1 mm deviation from a straight-line fit to the x and y position data over a maximum
+of 80 mm."  The nonlinear part of the position error, 0.5 Q(p, p) with Q's entries drawn once
+with this standard deviation (1/m): a straight path of length L reads as a parabola whose
+largest deviation from its straight-line fit is |Q(d, d)| L^2 / 12, 1 mm at 80 mm for
+|Q| = 1.9 /m.  It stands for link-length and joint-offset errors of the real linkage, whose
+position error varies smoothly (as sines of the joint angles) over the workspace."""
 
 VELOCITY_LOWPASS_HZ = 20.0
 """physics: the thesis differences encoder positions and lowpasses them (1.2)

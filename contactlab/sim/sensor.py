@@ -168,6 +168,28 @@ class Encoders:
     resolution: float = C.ENCODER_RESOLUTION
     velocity_lowpass_hz: float = C.VELOCITY_LOWPASS_HZ
     servo_velocity_lowpass_hz: float = C.SERVO_VELOCITY_LOWPASS_HZ
+    kinematic_angle_error_deg: float = C.KINEMATIC_ANGLE_ERROR_DEG
+    kinematic_curvature: float = C.KINEMATIC_CURVATURE
+    kinematic_seed: int = C.CALIBRATION_SEED
+
+    def kinematic_error(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, Q)``: the reported position of a true position p is p + A p + 0.5 Q(p, p)
+        (``Q[i, j, k]`` symmetric in j, k), one fixed draw (``kinematic_seed``): the PHANToM's
+        kinematic calibration error (constants.KINEMATIC_ANGLE_ERROR_DEG, KINEMATIC_CURVATURE)."""
+        rng = np.random.default_rng([self.kinematic_seed, 1])
+        a = rng.standard_normal((3, 3)) * np.radians(self.kinematic_angle_error_deg)
+        q = rng.standard_normal((3, 3, 3)) * self.kinematic_curvature
+        q = 0.5 * (q + q.transpose(0, 2, 1))
+        q *= np.sqrt(2.0)   # keep the off-diagonal std after symmetrising
+        for i in range(3):
+            q[i][np.diag_indices(3)] /= np.sqrt(2.0)
+        return a, q
+
+    def reported_position(self, p: np.ndarray) -> np.ndarray:
+        """What the PHANToM's kinematics report for true positions ``p`` (n, 3), unquantised."""
+        a, q = self.kinematic_error()
+        p = np.asarray(p, float)
+        return p + p @ a.T + 0.5 * np.einsum("ijk,nj,nk->ni", q, p, p)
 
     def velocity_filter(self, rate_hz: float, cutoff_hz: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(b, a) of the 2nd-order Butterworth lowpass applied to the differenced position at
@@ -177,8 +199,9 @@ class Encoders:
         return signal.butter(2, self.velocity_lowpass_hz if cutoff_hz is None else cutoff_hz, fs=rate_hz)
 
     def measure(self, robot_position: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
-        """Quantised position (n, 3) and lowpassed first-difference velocity (n, 3)."""
-        pos = np.round(robot_position / self.resolution) * self.resolution
+        """Quantised reported position (n, 3) (:meth:`reported_position`) and lowpassed
+        first-difference velocity (n, 3)."""
+        pos = np.round(self.reported_position(robot_position) / self.resolution) * self.resolution
         diff = np.diff(pos, axis=0, prepend=pos[:1]) * rate_hz
         b, a = self.velocity_filter(rate_hz)
         zi = signal.lfilter_zi(b, a)[:, None] * diff[:1]
