@@ -96,7 +96,7 @@ def _controller(group: Group, rng, scale: float, move_duration: float | None, du
     if kind == "stroke":
         kw = {"normal_force": c.get("normal_force_n"), "stroke_length": c.get("stroke_length_m"),
               "command_start_s": c.get("command_start_s"), "command_s": c.get("command_s"),
-              "stiffness": stiff}
+              "stiffness": stiff, "shape": c.get("shape")}
         kw = {key: v for key, v in kw.items() if v is not None}
         if "command_s" in kw:
             kw["command_s"] = kw["command_s"] / scale

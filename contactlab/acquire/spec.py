@@ -57,7 +57,7 @@ from contactlab.errors import DataError, UsageError
 #: Controller kinds and the keys each accepts (besides ``kind``).
 CONTROLLER_KEYS = {
     "stroke": {"normal_force_n", "stroke_length_m", "command_start_s", "command_s",
-               "stiffness_n_per_m"},
+               "stiffness_n_per_m", "shape"},
     "position": {"moves", "stiffness_n_per_m", "exploration_m", "exploration_hz"},
     "integral_force": {"forces", "integral_gain", "stiffness_n_per_m", "exploration_m"},
     "hand": {"amplitude_m", "press_m", "segment_s", "stiffness_n_per_m"},
@@ -335,6 +335,11 @@ class _Checker:
                     "stiffness_n_per_m", "integral_gain", "exploration_m", "segment_s"):
             if key in ctrl:
                 self.get(ctrl, key, float, where, positive=key != "command_start_s")
+        if "shape" in ctrl:
+            from contactlab.sim.controllers import PROFILES
+            if ctrl["shape"] not in PROFILES:
+                raise self.error(f"{where}.shape", f"must be one of {', '.join(PROFILES)}, "
+                                                   f"not {ctrl['shape']!r}")
         for key in ("amplitude_m", "press_m", "exploration_hz"):
             if key in ctrl:
                 self.vector(ctrl[key], f"{where}.{key}")

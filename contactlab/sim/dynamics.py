@@ -112,11 +112,11 @@ class Apparatus:
     robot_static_friction: float = C.ROBOT_BACKDRIVE_STATIC_FRICTION
     brush_friction_variation: float = C.BRUSH_FRICTION_VARIATION
     robot_damping: float = C.ROBOT_VISCOUS_DAMPING
-    # commutation torque ripple is opt-in (C.COMMUTATION_EVENTS_PER_REV to enable): on by
-    # default it tips the encoder-feedback integral force loop against the maze walls into a
-    # ~113 Hz limit cycle that lifts the finger off (a servo-margin problem it exposes, not
-    # resolved yet), while its own vibration is ~0.1 mN at 7-28 Hz, invisible in y_h
-    commutation_events: int = 0
+    # commutation torque ripple of the brushed motors (0 events: an ideal motor).  On by
+    # default: with the drive's static friction and brush ripple the encoder-feedback integral
+    # force loop against the maze walls keeps its margin (no limit cycle; the apparatus
+    # experiment's force-loop fact and the maze trials measure it)
+    commutation_events: int = C.COMMUTATION_EVENTS_PER_REV
     motor_rad_per_m: float = C.MOTOR_RAD_PER_TIP_M
 
     @property
