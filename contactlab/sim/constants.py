@@ -55,14 +55,13 @@ capstan cable of all three motors; modelled as one isotropic Coulomb force on th
 robot mass with a true stick state (dynamics module docstring).  Static and kinetic
 values are taken equal: the sheets give one number."""
 
-ROBOT_BACKDRIVE_STATIC_FRICTION = 0.06
-"""physics: the breakaway (static) value of ROBOT_BACKDRIVE_FRICTION, N.  Graphite brushes on a
-copper commutator, the preloaded ball bearings and the bending of the capstan cables all stick
-harder than they slide; dry graphite-copper contacts have static/kinetic ratios of 1.3-1.6
-(handbook), we take 1.5.  At the start of a motion command the motors' torque ramps until it
-breaks the drive free, and the drop to kinetic friction throws the robot forward: the
-"impact-like burst caused by the start of the motion command" of 7.2 (and 9.1.1: "The initial
-acceleration to start the motion generated an impact"), which an ideal drive would not show."""
+ROBOT_BACKDRIVE_STATIC_FRICTION = ROBOT_BACKDRIVE_FRICTION
+"""datasheet: the breakaway (static) value of ROBOT_BACKDRIVE_FRICTION, N.  Brushes, preloaded
+bearings and capstan cables stick somewhat harder than they slide, but the sheets give one
+number, so static = kinetic by default; ``[apparatus] robot_static_friction_n`` sets a gap.
+Measured: at 0.06 N (1.5x) the encoder-feedback integral force controller hunts between
+breakaways (contact-force std 13 mN on a 0.2 N command, 5 mN without the gap), and the
+start-of-motion burst of 7.2 does not need it (the command's velocity step makes it)."""
 
 BRUSH_FRICTION_VARIATION = 0.25
 """datasheet-level: relative rms fluctuation of the kinetic backdrive friction with the motor
