@@ -65,11 +65,12 @@ def _free_move(adc_bits: int):
 
 def test_a_12_bit_board_hides_the_moving_drive_that_16_bits_show():
     # 7.3.3: moving is louder than stationary; the converter decides whether y_h can see it
-    gaps = {}
+    rise = {}
     for bits in (12, 16):
         rest, moving = _free_move(bits)
-        gaps[bits] = (moving.mean() - rest.mean()) / rest.std()
-    assert gaps[16] > 3.0 and gaps[16] > 2.0 * gaps[12]
+        rise[bits] = moving.mean() - rest.mean()
+    # at 12 bits both sit near the quantisation floor; dithered 16 bits show the drive
+    assert rise[16] > 0.1 and rise[16] > 2.0 * rise[12]
     assert sim.StrainGaugeSensor(adc_bits=12).noise_lsb < 0.5 < 1.0 < sim.StrainGaugeSensor().noise_lsb
 
 
