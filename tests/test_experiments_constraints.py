@@ -90,9 +90,10 @@ def test_degree_tests_on_rich_blocks_and_the_noise_warning():
     r = res["kinds"]["random"]
     y = r["true"]
     assert np.mean(r["likelihood"]["thesis_rule"] == y) > 0.9     # truth from the simulator
-    # the alignment test on the line (degree 2) fails once the PHANToM's kinematic error
-    # skews the position frame against the force frame (8.1.1.2; reported on the
-    # constraint-degree page); free, plane and corner stay right
+    # on these short runs the alignment test misses the line (degree 2) since the PHANToM's
+    # kinematic error skews the position frame against the force frame (8.1.1.2); on the
+    # full-length runs of reproduce constraint-degree its random-block diagonal is 1, 1, 1, 1
+    # (seed 1); free, plane and corner stay right here
     a = np.asarray(r["alignment"])
     for c in (0, 1, 3):
         assert np.mean(a[y == c] == c) > 0.9

@@ -416,23 +416,34 @@ def _differences(facts: list[dict], measured: dict) -> list[str]:
 
 
 _WHY = {
-    "sample-a-separates": "Sliding vibration is dominated by the drive (the random control wrench "
-                          "of 4.12 at 4 mN per servo tick is no longer held by friction once the "
-                          "finger slides), so the textures' own vibration adds little; the 80-grit "
-                          "ridges' micro-impacts make sanded louder but bursty.",
+    "moving-vs-stationary": "The moving drive raises y_h only ~0.15-0.2 nats above the "
+                            "stationary floor (brush/cable friction ripple, commutation ripple, "
+                            "control noise on encoder feedback) and H1 has few units (the moves "
+                            "are short), so on some seeds the normal fits overlap by a few "
+                            "percent; the PHANToM's link and cable modes are not modelled.",
+    "sample-a-separates": "Sliding vibration is dominated by the drive and the servo (the random "
+                          "control wrench of 4.12 at 4 mN per servo tick is no longer held by "
+                          "friction once the finger slides), common to both textures; the "
+                          "80-grit ridges' micro-impacts make sanded louder but bursty.",
     "sample-b-wood-louder": "Rough wood stick-slips under the 100 N/m stroke and its stuck spells "
-                            "are quiet; its relief is bridged and acts only through friction.",
+                            "are quiet; its relief is bridged and acts only through friction, "
+                            "at wavelengths whose vibration the drive's floor hides.",
     "pressed-louder": "A pressed, still finger is held by the contact and the robot by its "
                       "backdrive friction: the control noise moves nothing, as at rest in free "
                       "space. No mechanism of the model adds vibration to contact alone.",
-    "impact-duration": "Impacts at the end of a decelerating move are slow; their bounce trains "
-                       "settle within ~0.1 s and the shell's 2 % damping ends the ringing soon "
-                       "after.",
-    "loss-impact": "The released spring energy rings the shell, but the lift's own start burst "
-                   "and the pressed level leave a smaller rise than the criterion asks.",
-    "no-stick-slip-force": "The integral force controller stalls where the rough wood's asperity "
-                           "flanks raise the apparent friction (Bowden-Tabor ratchet) above its "
-                           "141 mN tangential command.",
+    "impact-duration": "The impacts at the end of decelerating moves are slow; their bounce "
+                       "trains settle within ~0.1 s and the shell's 2 % damping ends the "
+                       "ringing soon after, so the labelled intervals are ~0.1 s, not the "
+                       "0.3-0.4 s the thesis's hand-labelled counts suggest.",
+    "loss-impact": "The released spring energy rings the shell, but a 0.5 N contact lost by a "
+                   "lift stores little energy in the stiff sensor spring; the rise is close to "
+                   "the criterion and below it on some seeds.",
+    "no-stick-slip-force": "The integral force controller stalls for good where the rough "
+                           "wood's asperity flanks raise the apparent static friction "
+                           "(Bowden-Tabor ratchet) above its 141 mN tangential command: it "
+                           "cannot push harder than it is told. Static friction that grows with "
+                           "contact time (fresh sticks break at the kinetic value) removes the "
+                           "stall but was not adopted.",
 }
 
 
