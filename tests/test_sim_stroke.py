@@ -54,7 +54,9 @@ def test_stroke_shows_the_physical_phases_of_fig_7_5(make):
     on_rough = (te > 1.5) & (te < 2.8)
     on_smooth = (te > 3.3) & (te < 4.6)
     assert (r.texture[::4][1:][on_rough] == rough).all() and (r.texture[::4][1:][on_smooth] == smooth).all()
-    assert e[on_rough].mean() > 2.0 * e[on_smooth].mean()
+    # (x1.5: with a dithered 16-bit converter the smooth side's floor is the drive's own
+    # vibration; the 12-bit converter of earlier versions left it below one step, ~18x)
+    assert e[on_rough].mean() > 1.5 * e[on_smooth].mean()
     # 6-7 the command freezes the robot: the strain drops, and the finger rests again
     end = t > stop + 0.5
     assert r.contact[end, 0].all() and not r.moving[end].any()

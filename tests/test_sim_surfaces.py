@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from contactlab.sim import (IntegralForceController, PositionController, StrainGaugeSensor, StrokeController,
+from contactlab.sim import (Encoders, IntegralForceController, PositionController, StrainGaugeSensor, StrokeController,
                             corner, plane, sample_a, simulate)
 from contactlab.sim import constants as C
 from contactlab.sim.materials import MATERIALS
@@ -68,14 +68,17 @@ def test_stroke_on_sample_a_labels_textures_and_rests_on_the_plate():
 
 def test_corner_reaches_three_simultaneous_contacts():
     ctrl = IntegralForceController(forces=((0.0, (0.15, 0.15, -0.3)),))
-    r = simulate(environment=corner(), controller=ctrl, duration_s=1.5, seed=2, start=(0.005, 0.005, R + 0.002))
+    # exact kinematics: with the PHANToM's ~1 deg kinematic error (8.1.1.2) the finger ends on
+    # two of the three faces within the 1.5 s
+    r = simulate(environment=corner(), controller=ctrl, duration_s=1.5, seed=2, start=(0.005, 0.005, R + 0.002),
+                 encoders=Encoders(kinematic_angle_error_deg=0.0, kinematic_curvature=0.0))
     assert r.contact[-1].all() and r.contact_mask[-1] == 0b111
     np.testing.assert_allclose(r.contact_normals[-1], [[0, 0, 1], [0, -1, 0], [-1, 0, 0]], atol=1e-12)
     assert not r.moving[-100:].any()
 
 
 def test_calibration_matrix_is_well_conditioned_and_inverts():
-    s = StrainGaugeSensor()
+    s = StrainGaugeSensor(calibration_error=0.0)
     assert s.calibration.shape == (8, 6)
     assert s.condition_number < 10
     w = np.array([[0.1, -0.2, 0.3, 0.001, -0.002, 0.0005]])
@@ -83,6 +86,20 @@ def test_calibration_matrix_is_well_conditioned_and_inverts():
     strain, w_hat = s.measure(np.repeat(w, 2000, axis=0), np.random.default_rng(0))
     assert np.all(np.abs(strain) <= s.adc_range_v)
     np.testing.assert_allclose(w_hat.mean(axis=0), w[0], atol=3 * s.wrench_noise_std.max() / np.sqrt(2000) + 1e-4)
+
+
+def test_calibration_error_is_a_fixed_percent_level_gain_and_crosstalk_error():
+    # constants.CALIBRATION_ERROR: the true strain pattern differs from the nominal matrix by
+    # ~1 % of each column; the recorded wrench (nominal inverse) is off by about that much, the
+    # same way in every trial (one physical sensor)
+    s = StrainGaugeSensor()
+    assert np.array_equal(s.true_calibration, StrainGaugeSensor().true_calibration)
+    rel = np.abs(s.true_calibration - s.calibration) / np.abs(s.calibration).max(axis=0)
+    assert 0.5 * s.calibration_error < rel.std() < 2.0 * s.calibration_error
+    w = np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]])
+    _, w_hat = s.measure(np.repeat(w, 4000, axis=0), np.random.default_rng(0))
+    err = w_hat.mean(axis=0)[:3] - w[0, :3]
+    assert 1e-4 < np.linalg.norm(err) < 5 * s.calibration_error
 
 
 def test_encoder_position_is_quantised_to_the_phantom_resolution():

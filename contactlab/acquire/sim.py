@@ -96,7 +96,7 @@ def _controller(group: Group, rng, scale: float, move_duration: float | None, du
     if kind == "stroke":
         kw = {"normal_force": c.get("normal_force_n"), "stroke_length": c.get("stroke_length_m"),
               "command_start_s": c.get("command_start_s"), "command_s": c.get("command_s"),
-              "stiffness": stiff}
+              "stiffness": stiff, "shape": c.get("shape")}
         kw = {key: v for key, v in kw.items() if v is not None}
         if "command_s" in kw:
             kw["command_s"] = kw["command_s"] / scale
@@ -188,8 +188,17 @@ def simulate_trial(spec: DatasetSpec, k: int, seed: int, *, duration_s: float | 
     plan = plan_trial(spec, k, seed)
     result = sim.simulate(environment=plan.environment, controller=plan.controller,
                           duration_s=duration_s or plan.duration_s, seed=plan.seed,
-                          rate_hz=spec.rate_hz, start=plan.start)
+                          rate_hz=spec.rate_hz, start=plan.start, **hardware(spec))
     return plan, result
+
+
+def hardware(spec: DatasetSpec) -> dict:
+    """``apparatus``, ``sensor``, ``encoders`` keyword arguments of :func:`contactlab.sim.simulate`
+    for the spec's ``[apparatus]`` table."""
+    from contactlab.sim.hardware import build_hardware
+
+    app, sen, enc = build_hardware(spec.apparatus)
+    return {"apparatus": app, "sensor": sen, "encoders": enc}
 
 
 # ---------------------------------------------------------------------------
@@ -335,7 +344,7 @@ class SimTrial:
             controller=getattr(self.plan.controller, "name", group.controller["kind"]),
             environment=self.plan.environment.name, seed=self.plan.seed, source="simulator",
             description=self.plan.description, strain_units="V",
-            calibration=np.linalg.pinv(sim.StrainGaugeSensor().calibration),
+            calibration=hardware(spec)["sensor"].inverse_calibration,
             command_columns=["fx", "fy", "fz"] if force else ["x", "y", "z"],
             command_units="N" if force else "m",
             action_names=list(spec.action_names) if spec.action_names else None,
@@ -347,7 +356,7 @@ class SimTrial:
 
         r = sim.simulate(environment=self.plan.environment, controller=self.plan.controller,
                          duration_s=self.plan.duration_s, seed=self.plan.seed,
-                         rate_hz=self.spec.rate_hz, start=self.plan.start)
+                         rate_hz=self.spec.rate_hz, start=self.plan.start, **hardware(self.spec))
         self._result = r
         action = None
         if self.plan.actions is not None:

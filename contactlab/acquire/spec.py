@@ -29,6 +29,9 @@ thesis section in the files themselves)::
     force_angle_deg = 3.0            # integral_force: every force's horizontal part turned
                                      # about z by one angle drawn in +-3 deg per trial
 
+    [apparatus]                      # optional: other hardware (contactlab.sim.hardware)
+    adc_bits = 12                    # e.g. a 12-bit board instead of the default 16 bits
+
     [[group]]                        # consecutive blocks of trials
     name = "..."
     trials = 8
@@ -54,7 +57,7 @@ from contactlab.errors import DataError, UsageError
 #: Controller kinds and the keys each accepts (besides ``kind``).
 CONTROLLER_KEYS = {
     "stroke": {"normal_force_n", "stroke_length_m", "command_start_s", "command_s",
-               "stiffness_n_per_m"},
+               "stiffness_n_per_m", "shape"},
     "position": {"moves", "stiffness_n_per_m", "exploration_m", "exploration_hz"},
     "integral_force": {"forces", "integral_gain", "stiffness_n_per_m", "exploration_m"},
     "hand": {"amplitude_m", "press_m", "segment_s", "stiffness_n_per_m"},
@@ -65,7 +68,7 @@ VARY_KEYS = {"start_jitter_m", "duration_scale", "texture_seed", "environment_un
              "force_angle_deg"}
 TOP_KEYS = {"name", "title", "thesis", "experiments", "status", "thesis_trials", "rate_hz",
             "duration_s", "labels", "action_names", "variation", "environment", "controller",
-            "vary", "group", "notes"}
+            "vary", "group", "notes", "apparatus"}
 GROUP_KEYS = {"name", "trials", "duration_s", "start_m", "move_duration_s", "environment",
               "controller", "vary", "description", "goal_region_m"}
 LABELS = ("texture", "hf", "constraint", "contacts", "maze")
@@ -107,6 +110,9 @@ class DatasetSpec:
     action_names: tuple[str, ...] | None = None
     variation: str = ""
     notes: str = ""
+    #: the ``[apparatus]`` table: simulated hardware other than the default
+    #: (:mod:`contactlab.sim.hardware`)
+    apparatus: dict = field(default_factory=dict)
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -261,7 +267,16 @@ class _Checker:
             thesis_trials=thesis_trials, experiments=tuple(str(e) for e in experiments),
             action_names=None if action_names is None else tuple(action_names),
             variation=self.get(raw, "variation", str, "", required=False, default=""),
-            notes=self.get(raw, "notes", str, "", required=False, default=""), raw=raw)
+            notes=self.get(raw, "notes", str, "", required=False, default=""),
+            apparatus=self.apparatus(raw), raw=raw)
+
+    def apparatus(self, raw: dict) -> dict:
+        from contactlab.sim.hardware import check_apparatus
+        table = self.get(raw, "apparatus", dict, "", required=False, default={})
+        bad = check_apparatus(table)
+        if bad is not None:
+            raise self.error(f"apparatus.{bad[0]}", bad[1])
+        return dict(table)
 
     def group(self, g: dict, where: str, env: dict, ctrl: dict, vary: dict, duration,
               status: str, action_names) -> Group:
@@ -320,6 +335,11 @@ class _Checker:
                     "stiffness_n_per_m", "integral_gain", "exploration_m", "segment_s"):
             if key in ctrl:
                 self.get(ctrl, key, float, where, positive=key != "command_start_s")
+        if "shape" in ctrl:
+            from contactlab.sim.controllers import PROFILES
+            if ctrl["shape"] not in PROFILES:
+                raise self.error(f"{where}.shape", f"must be one of {', '.join(PROFILES)}, "
+                                                   f"not {ctrl['shape']!r}")
         for key in ("amplitude_m", "press_m", "exploration_hz"):
             if key in ctrl:
                 self.vector(ctrl[key], f"{where}.{key}")

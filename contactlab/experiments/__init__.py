@@ -84,6 +84,8 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in [
                "contactlab.experiments.constraint_degree"),
     Experiment("constraint-direction", "Direction of constraint", "8.3, fig 8.6", _C,
                "contactlab.experiments.constraint_direction"),
+    Experiment("apparatus", "The thesis's signal facts on the simulator",
+               "3.3, 4.3, 7.2-7.3, 8.1.1.2, 9.1-9.2", _S, "contactlab.experiments.apparatus"),
     Experiment("guarded-move", "Guarded move onto a surface", "9.1.1, fig 9.1", _K),
     Experiment("guarded-move-multi", "Guarded move into a corner", "9.1.2, figs 9.2-9.3", _K),
     Experiment("guarded-move-actions", "Action-dependent guarded moves", "9.1.3, figs 9.4-9.5", _K),

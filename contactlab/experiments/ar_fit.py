@@ -365,7 +365,7 @@ def write_report(data: dict, res: dict, summary: dict, out_dir: Path) -> dict:
         "the texture excitation, changes along the run. The segment is only roughly stationary; "
         "the thesis calls its segment stationary without a test.")
     page.note(
-        "Quantisation. The strain is 12-bit quantised (the simulator's ADC); the segment's "
+        "Quantisation. The strain is quantised by the simulator's 16-bit converter; the segment's "
         f"standard deviation is {math.sqrt(summary['signal_variance']) * 1e3:.1f} mV against a "
         f"{_lsb_v() * 1e3:.2f} mV step, so the quantisation noise (step^2/12) is a small white "
         "floor under the driving noise.")

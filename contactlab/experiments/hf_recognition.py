@@ -306,11 +306,12 @@ def _differences(res, hmm_res, gm) -> list[str]:
     out = [
         "The stationary classes: the trained means of the LPC mean coefficient are "
         + ", ".join(f"{k} {v:.3f}" for k, v in means.items())
-        + ". Where these are close (hf-models found the simulated H0, H1 and H2 nearly "
-        "indistinguishable in y_h) no recogniser on y_h alone can separate them, and the "
-        "confusions between H0, H1 and H2 above say more about the simulator than about the "
-        "observer; the numbers will change when motion-induced vibration lands in the "
-        "simulator. The pipeline (train --graph, recognize, this page) is not tuned to them.",
+        + ". The simulated moving drive raises y_h above the stationary floor (hf-models), "
+        "but a finger pressed still adds no vibration in the simulator, so H0 and H2 are "
+        "close in y_h and no recogniser on y_h alone can separate them: their confusions "
+        "say more about the simulator than about the observer (reproduce apparatus lists "
+        "which signal facts hold). The pipeline (train --graph, recognize, this page) is "
+        "not tuned to them.",
         "H3 (impact): the linear-decay model with a trained prior on (mu, a) can also follow a "
         "flat y_h (slope near 0 lies inside its prior), and a transient node has no forced "
         "exit in 6.4, so a path that enters H3 can stay there; points after an impact then "

@@ -55,6 +55,30 @@ capstan cable of all three motors; modelled as one isotropic Coulomb force on th
 robot mass with a true stick state (dynamics module docstring).  Static and kinetic
 values are taken equal: the sheets give one number."""
 
+ROBOT_BACKDRIVE_STATIC_FRICTION = ROBOT_BACKDRIVE_FRICTION
+"""datasheet: the breakaway (static) value of ROBOT_BACKDRIVE_FRICTION, N.  Brushes, preloaded
+bearings and capstan cables stick somewhat harder than they slide, but the sheets give one
+number, so static = kinetic by default; ``[apparatus] robot_static_friction_n`` sets a gap.
+Measured: at 0.06 N (1.5x) the encoder-feedback integral force controller hunts between
+breakaways (contact-force std 13 mN on a 0.2 N command, 5 mN without the gap), and the
+start-of-motion burst of 7.2 does not need it (the command's velocity step makes it)."""
+
+BRUSH_FRICTION_VARIATION = 0.25
+"""datasheet-level: relative rms fluctuation of the kinetic backdrive friction with the motor
+shaft angle while the drive turns: brushes bouncing over the 11 commutator bars and riding
+the commutator's roughness, strands of the capstan cable rolling on and off the drum.  Small
+brushed motors' friction torque ripples by 20-30 % of its mean (their no-load current ripple);
+0.25.  The pattern repeats every shaft revolution (a circular commutator), with wavelengths
+on the commutator surface (radius BRUSH_TRACK_RADIUS) from BRUSH_WAVELENGTH_MIN to one bar
+pitch: at 50 mm/s of tip travel, 14 mm/s of brush sliding, i.e. 7 Hz (bars) to 1.4 kHz."""
+
+BRUSH_TRACK_RADIUS = 3.5e-3
+"""datasheet-level: commutator radius of a 25 mm brushed motor (RE 25 class), m."""
+
+BRUSH_WAVELENGTH_MIN = 10e-6
+"""physics: shortest roughness wavelength of a turned and worn commutator the brush face
+(graphite, ~1 mm wide but riding on a few asperities) still feels, m."""
+
 ROBOT_VISCOUS_DAMPING = 0.1
 """physics: viscous damping on the robot mass, N s/m, from the motors' back-EMF
 through the amplifiers.  A motor shorted through its winding resistance damps with
@@ -125,6 +149,23 @@ ENCODER_RESOLUTION = 0.03e-3
 """datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,
 applied per Cartesian axis to the robot-side position (encoders are on the
 motors, thesis 1.2/7.2)."""
+
+KINEMATIC_ANGLE_ERROR_DEG = 1.0
+"""thesis 8.1.1.2: "It is very possible that the kinematic chain from the block, to the table,
+to the PHANToM, and finally to the fingertip has 1-2 deg of angular error."  The linear part
+of the PHANToM's position error: the reported position is (I + A) p with A's entries drawn
+once (CALIBRATION_SEED) with this standard deviation (degrees as radians), so a direction
+reads off by about sqrt(2) x 1 = 1.4 deg rms (rotation and skew of the position frame against
+the force frame); KINEMATIC_CURVATURE adds about 1 deg more per cm from the workspace centre."""
+
+KINEMATIC_CURVATURE = 1.9
+"""identified (thesis 8.1.1.2, a signal fact): "There is enough kinematic error in the robot to
+produce a 1 mm deviation from a straight-line fit to the x and y position data over a maximum
+of 80 mm."  The nonlinear part of the position error, 0.5 Q(p, p) with Q's entries drawn once
+with this standard deviation (1/m): a straight path of length L reads as a parabola whose
+largest deviation from its straight-line fit is |Q(d, d)| L^2 / 12, 1 mm at 80 mm for
+|Q| = 1.9 /m.  It stands for link-length and joint-offset errors of the real linkage, whose
+position error varies smoothly (as sines of the joint angles) over the workspace."""
 
 VELOCITY_LOWPASS_HZ = 20.0
 """physics: the thesis differences encoder positions and lowpasses them (1.2)
@@ -211,20 +252,66 @@ SENSOR_TORQUE_RANGE = SENSOR_FORCE_RANGE * (FINGERTIP_RADIUS + SENSOR_ORIGIN_OFF
 """physics: full-scale torque, N m: full-scale force at the farthest contact
 point from the sensor origin (radius + offset)."""
 
-ADC_BITS = 12
-"""datasheet: 12-bit converters were standard on 1990s data-acquisition boards
-(the thesis ran on a 68040 VME system, 7.3.1)."""
+ADC_BITS = 16
+"""identified (thesis 7.3.3, a signal fact): "Moving is a sufficiently higher level of
+vibration that it is never confused with the stationary vibration level".  The thesis never
+names its converter.  With 12 bits (a 4.9 mV step, 14-47 mN of force per bridge) the drive's
+vibration while moving and most texture vibration stay below one step, y_h of the stationary,
+moving and pressed states all sit at the quantisation floor and moving *is* confused with
+stationary (the apparatus experiment measures it: normal-fit error 0.25).  16-bit converters
+(0.31 mV step) were period hardware on VME acquisition boards (Burr-Brown ADS7805 / Analog
+Devices AD7884 class), and with them the amplifier noise below (2.5 steps) dithers the
+converter, as a well-designed chain does.  ``[apparatus] adc_bits = 12`` in a spec simulates
+the 12-bit board."""
 
 ADC_RANGE_V = 10.0
 """datasheet: bipolar +/-10 V converter input."""
 
 ADC_HEADROOM = 0.8
-"""physics: amplifier gains set so that a worst-case full-scale wrench uses 80 %
-of the converter range."""
+"""physics: amplifier gains set so that a worst-case full-scale wrench uses 80 % of the
+converter range."""
 
-GAUGE_NOISE_LSB = 0.5
-"""datasheet: bridge-amplifier noise of order half an LSB at 12 bits (an
-amplifier much noisier than that would waste the converter)."""
+BRIDGE_EXCITATION_V = 5.0
+"""datasheet: bridge excitation, V.  5 V is the usual excitation of 350 ohm foil gauges on a
+small aluminium or steel flexure (10 V is the usual maximum; self-heating of gauges on a
+fingertip-sized cross argues for the lower value)."""
+
+GAUGE_FACTOR = 2.0
+"""datasheet: gauge factor of constantan foil strain gauges (2.0-2.1)."""
+
+FULL_SCALE_STRAIN = 1.0e-3
+"""physics: strain at the gauges under the full-scale wrench.  Metal-foil force sensors are
+designed for 500-1500 microstrain at full scale (higher shortens fatigue life, lower wastes
+signal); 1000 microstrain."""
+
+BRIDGE_RESISTANCE = 350.0
+"""datasheet: foil strain-gauge resistance, ohm (the standard 350 ohm)."""
+
+AMPLIFIER_NOISE_DENSITY = 10.0e-9
+"""datasheet: input voltage noise density of the bridge amplifier, V/sqrt(Hz).  Low-noise
+instrumentation amplifiers of the period (Analog Devices AD524, PMI AMP01) give 5-10
+nV/sqrt(Hz) at gains of 100-1000; 10 nV/sqrt(Hz) with the op-amp stages after them.  The
+Johnson noise of the half-bridge (BRIDGE_RESISTANCE, 2.4 nV/sqrt(Hz) at 300 K) adds to it in
+quadrature (StrainGaugeSensor.noise_v)."""
+
+AMPLIFIER_BANDWIDTH_HZ = 1350.0
+"""thesis 7.1 (fig 7.1): the amplifiers pass at least the 1350 Hz Nyquist band of the
+2700 Hz impact record (its contour plot reaches 1350 Hz); a single-pole rolloff there has a
+noise bandwidth of pi/2 times it.  Sampled at 1000 Hz the noise above 500 Hz aliases into
+the band, so the sampled noise is white with the whole band's power."""
+
+CALIBRATION_ERROR = 0.01
+"""datasheet: error of the sensor's calibration matrix, per entry, as a fraction of the
+largest entry of its column (so each wrench component reads with ~1 % gain error and
+cross-talk).  Six-axis sensors are calibrated to 1-2 % of full scale
+(ATI and JR3 sheets); the thesis computed its wrench from a calibration it did not check
+(8.1.1.2 blames its angular errors partly on the chain from block to fingertip).  The true
+strain pattern differs from the nominal matrix by these errors; the recorded wrench uses the
+nominal inverse.  Drawn once from CALIBRATION_SEED: one physical sensor."""
+
+CALIBRATION_SEED = 1995
+"""numerics: seed of the one draw of the sensor's calibration error and of the PHANToM's
+kinematic error (the same physical apparatus in every trial)."""
 
 # --------------------------------------------------------------------------
 # Simulation and ground-truth labelling

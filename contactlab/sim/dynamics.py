@@ -57,6 +57,12 @@ off along its velocity; and (b) a small viscous term from the back-EMF left over
 by the current amplifiers (``constants.ROBOT_VISCOUS_DAMPING``).  Friction
 decays a ringing amplitude linearly, by 4 F_c of spring force per cycle, and holds
 a robot whose net drive is below F_c: that is what makes a resting contact quiet.
+A stuck robot breaks free only above the static value
+(``constants.ROBOT_BACKDRIVE_STATIC_FRICTION``), so a motion starts with a jerk (the
+start-of-motion burst of 7.2); while it slides the kinetic value ripples with the
+motor shaft angle (``constants.BRUSH_FRICTION_VARIATION``: brushes over the
+commutator, capstan cable strands), a tabulated pattern over one revolution of the
+path travelled (:func:`brush_ripple_table`): the vibration of a moving drive.
 
 Motors.  The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
 deliver the commanded force times a commutation ripple that depends on the shaft angle
@@ -67,7 +73,8 @@ error at rest and a vibration at n_events x shaft rev/s while moving (28 Hz at 0
 
 Servo.  The controller runs at the 1 kHz servo rate on what the controller
 declares it feeds back (``controllers.FEEDBACK``): by default the encoder-
-quantised robot position and a differenced, lowpassed velocity, as on the real
+quantised robot position as the PHANToM's (slightly wrong) kinematics report it
+(``sensor.Encoders.kinematic_error``) and a differenced, lowpassed velocity, as on the real
 PHANToM; or the true state, the idealised controller of (4.12).
 
 Integrator: fixed step, semi-implicit (symplectic) Euler at >= 20 kHz, with the
@@ -102,12 +109,14 @@ class Apparatus:
     control_error_std: float = C.CONTROL_ERROR_STD
     servo_rate_hz: float = C.SERVO_RATE_HZ
     robot_friction: float = C.ROBOT_BACKDRIVE_FRICTION
+    robot_static_friction: float = C.ROBOT_BACKDRIVE_STATIC_FRICTION
+    brush_friction_variation: float = C.BRUSH_FRICTION_VARIATION
     robot_damping: float = C.ROBOT_VISCOUS_DAMPING
-    # commutation torque ripple is opt-in (C.COMMUTATION_EVENTS_PER_REV to enable): on by
-    # default it tips the encoder-feedback integral force loop against the maze walls into a
-    # ~113 Hz limit cycle that lifts the finger off (a servo-margin problem it exposes, not
-    # resolved yet), while its own vibration is ~0.1 mN at 7-28 Hz, invisible in y_h
-    commutation_events: int = 0
+    # commutation torque ripple of the brushed motors (0 events: an ideal motor).  On by
+    # default: with the drive's static friction and brush ripple the encoder-feedback integral
+    # force loop against the maze walls keeps its margin (no limit cycle; the apparatus
+    # experiment's force-loop fact and the maze trials measure it)
+    commutation_events: int = C.COMMUTATION_EVENTS_PER_REV
     motor_rad_per_m: float = C.MOTOR_RAD_PER_TIP_M
 
     @property
@@ -162,6 +171,40 @@ def _quantise(x, res):
     return math.floor(x / res + 0.5) * res
 
 
+def brush_ripple_table(variation: float, *, seed: int = C.CALIBRATION_SEED, n: int = 8192,
+                       radius: float = C.BRUSH_TRACK_RADIUS,
+                       wavelength_min: float = C.BRUSH_WAVELENGTH_MIN,
+                       bars: int = C.COMMUTATOR_SEGMENTS) -> np.ndarray:
+    """Kinetic-friction multiplier over one shaft revolution (``n`` points, mean 1, rms
+    ``variation``, >= 0): a random pattern of flat spectrum between the commutator bar pitch
+    and ``wavelength_min`` on a track of ``radius`` (constants.BRUSH_FRICTION_VARIATION), one
+    fixed draw (the same motor in every trial)."""
+    if variation <= 0.0:
+        return np.ones(n)
+    rng = np.random.default_rng([seed, 2])
+    k = np.arange(n // 2 + 1)                      # cycles per revolution
+    lo = bars
+    hi = min(n // 2 - 1, int(2.0 * math.pi * radius / wavelength_min))
+    spec = np.zeros(n // 2 + 1, complex)
+    band = (k >= lo) & (k <= hi)
+    spec[band] = rng.standard_normal(band.sum()) + 1j * rng.standard_normal(band.sum())
+    x = np.fft.irfft(spec, n)
+    x *= variation / x.std()
+    return np.clip(1.0 + x, 0.0, None)
+
+
+@numba.njit(cache=True)
+def _reported(p, i, kin_a, kin_q):
+    # axis i of the position the PHANToM's kinematics report for the true position p:
+    # p + A p + 0.5 Q(p, p) (sensor.Encoders.kinematic_error)
+    r = p[i]
+    for j in range(3):
+        r += kin_a[i, j] * p[j]
+        for k in range(3):
+            r += 0.5 * kin_q[i, j, k] * p[j] * p[k]
+    return r
+
+
 @numba.njit(cache=True)
 def _smoothstep(t):
     # C1 blend 3t^2 - 2t^3 on [0, 1] and its derivative
@@ -198,7 +241,7 @@ def _ratchet(mu, slope):
 @numba.njit(cache=True)
 def integrate(n_out, n_sub, dt,
               # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br,
+              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab,
               # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
               n_comm, motor_gain, comm_phase,
               # environment
@@ -206,7 +249,7 @@ def integrate(n_out, n_sub, dt,
               # controller (per servo tick)
               kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
               # servo measurement: encoder resolution, velocity filter (b0, b1, b2, a1, a2)
-              feedback, enc_res, vfilt,
+              feedback, enc_res, vfilt, kin_a, kin_q,
               # initial state
               xr0, vr0, x0, v0,
               # labelling
@@ -246,12 +289,14 @@ def integrate(n_out, n_sub, dt,
     vz1 = np.zeros(3)
     vz2 = np.zeros(3)
     for a in range(3):
-        xm_prev[a] = _quantise(xr0[a] - vr0[a] / servo_rate, enc_res)
+        xm_prev[a] = _quantise(_reported(xr0 - vr0 / servo_rate, a, kin_a, kin_q), enc_res)
         # filter state at rest on the initial velocity (steady state of the biquad)
         vm[a] = vr0[a]
         vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
         vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + vz2[a]
     xd_now = xr0.copy()
+    rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
+    r_path = 0.0
     active = np.zeros(npl, np.bool_)
     stick = np.ones(npl, np.bool_)
     tdisp = np.zeros((npl, 3))
@@ -277,7 +322,7 @@ def integrate(n_out, n_sub, dt,
         if k != last_k:
             last_k = k
             for a in range(3):
-                xm[a] = _quantise(xr[a], enc_res)
+                xm[a] = _quantise(_reported(xr, a, kin_a, kin_q), enc_res)
                 dv = (xm[a] - xm_prev[a]) * servo_rate
                 xm_prev[a] = xm[a]
                 vm[a] = vfilt[0] * dv + vz1[a]
@@ -469,14 +514,27 @@ def integrate(n_out, n_sub, dt,
         if br > 0.0:
             for a in range(3):
                 vr[a] /= 1.0 + dt * br / mr
+        # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
+        # shaft angle while sliding: module docstring, "Motors")
         if fr > 0.0:
             sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-            cap = dt * fr / mr
-            if sp <= cap:
+            if rstuck and sp <= dt * frs / mr:
                 vr[:] = 0.0
             else:
-                for a in range(3):
-                    vr[a] *= 1.0 - cap / sp
+                nb = brush_tab.shape[0]
+                ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
+                ib = int(ub)
+                fb = ub - ib
+                ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
+                cap = dt * fr * ripple / mr
+                if sp <= cap:
+                    vr[:] = 0.0
+                    rstuck = True
+                else:
+                    rstuck = False
+                    for a in range(3):
+                        vr[a] *= 1.0 - cap / sp
+            r_path += dt * math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
         # linearly implicit correction of the stiff contact springs
         for p in range(n_planes):
             if not active[p]:

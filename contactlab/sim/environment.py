@@ -202,9 +202,21 @@ def free_space(*, texture_seed: int = 0) -> Environment:
 
 
 def plane(*, material: str | Material = "polished_aluminium", height: float = 0.0,
-          texture_seed: int = 0) -> Environment:
-    """A horizontal plane z = ``height`` (constraint Z); the finger starts 10 mm above it."""
-    return Environment(name="plane", planes=(_floor(material, height),), texture_seed=texture_seed,
+          texture_seed: int = 0, tilt_deg: float = 0.0, tilt_azimuth_deg: float = 0.0) -> Environment:
+    """A plane through (0, 0, ``height``) (constraint Z); the finger starts 10 mm above it.
+
+    ``tilt_deg`` tilts it about the horizontal axis at ``tilt_azimuth_deg`` + 90 deg from x, so
+    it rises toward the azimuth: a block set down out of level (8.1.1.2: "the wood surface was
+    not flat. For some data sets an 11 deg slope can be observed")."""
+    floor = _floor(material, height)
+    if tilt_deg:
+        t, a = math.radians(tilt_deg), math.radians(tilt_azimuth_deg)
+        n = np.array([-math.sin(t) * math.cos(a), -math.sin(t) * math.sin(a), math.cos(t)])
+        u = np.array([math.cos(t), 0.0, math.sin(t) * math.cos(a)])
+        u -= (u @ n) * n
+        floor = Plane(name="floor", normal=tuple(float(x) for x in n), offset=float(n[2] * height),
+                      u_axis=tuple(float(x) for x in u / np.linalg.norm(u)), material=material)
+    return Environment(name="plane", planes=(floor,), texture_seed=texture_seed,
                        start=(0.0, 0.0, height + C.FINGERTIP_RADIUS + 0.010))
 
 

@@ -24,7 +24,9 @@ The fingertip touches the surface over a Hertz contact patch of radius a
 (about 30-80 um at the 0.2 N of the stroking experiment), which averages the
 surface over the patch: components are attenuated by exp(-(k a)^2 / 8), the
 Gaussian-patch average, with a evaluated at a nominal 0.2 N load
-(:func:`texture_modes`).
+(:func:`texture_modes`).  The friction variation is averaged the same way: the
+friction force sums the patch's micro-junctions (Bowden and Tabor), so variations
+of the coefficient shorter than the patch cancel inside it.
 
 What the sphere rides on (the envelope).  A rigid sphere of radius R pressed
 on a rough surface does not follow the height field: it rests on the asperity
@@ -377,8 +379,12 @@ def _texture_modes(material, *, seed, n_height, n_friction, radius):
         k = 2.0 * math.pi / lam
         amp = lam ** material.hurst
         amp = amp * rms / math.sqrt(0.5 * np.sum(amp**2)) if rms > 0 else np.zeros(n)
+        # the patch averages friction as it averages height: the friction force is the sum
+        # over the patch's micro-contacts, so coefficient variations shorter than the patch
+        # (wavelengths under ~0.1 mm) cancel within it (Bowden-Tabor: friction is
+        # proportional to the real contact area summed over the junctions)
+        amp = amp * np.exp(-(k * contact_radius(material, radius)) ** 2 / 8.0)
         if prefix == "h":
-            amp = amp * np.exp(-(k * contact_radius(material, radius)) ** 2 / 8.0)
             followed = followed_fraction(amp, k, radius)
             bamp = amp * (1.0 - followed)
             full = amp

@@ -1,0 +1,491 @@
+"""apparatus: the thesis's statements about its apparatus's signals, measured on the simulator.
+
+Every experiment runs on simulated data, so the simulator has to show what the thesis
+measured on its real PHANToM and fingertip sensor: signal levels, frequencies, timings,
+which states its signals can tell apart.  :mod:`contactlab.experiments.apparatus_facts`
+lists those statements with their criteria; this module simulates the situations they
+are about (the dataset specs' trials where one exists, a few small setups otherwise),
+measures one number per statement and says whether its criterion holds.
+
+Signals are conditioned as in 7.1 by :mod:`contactlab.conditioning` (y_h: block-averaged
+log|strain difference|, log floor at half a converter step, averaged over the 8 strains);
+states come from the simulator's ground truth through the acquire label functions.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy import stats  # noqa: E402
+
+from contactlab import sim  # noqa: E402
+from contactlab.acquire.sim import labels_hf, labels_texture, simulate_trial  # noqa: E402
+from contactlab.acquire.spec import load_spec  # noqa: E402
+from contactlab.conditioning import condition_strains, quantisation_floor  # noqa: E402
+from contactlab.experiments.apparatus_facts import FACTS  # noqa: E402
+from contactlab.fileio import write_text_atomic  # noqa: E402
+from contactlab.progress import bar  # noqa: E402
+from contactlab.report.page import ReportPage  # noqa: E402
+
+UNIT = 100            # 7.3: "segmented into units of 100 measurements"
+WINDOW = 9            # input samples one y_h value depends on (difference + block of 8)
+MOVING = sim.constants.MOVING_SPEED_THRESHOLD
+
+
+# -- signals ---------------------------------------------------------------------------------
+def channel_mean_yh(r) -> tuple[np.ndarray, np.ndarray]:
+    """``(y_h, index)``: the 7.1 log-energy averaged over the strains, and each value's newest
+    input sample."""
+    fs = float(r.rate_hz)
+    cond = condition_strains(r.strain, fs=fs, cutoff_hz=fs / 8.0,
+                             log_floor=quantisation_floor(r.strain))
+    return cond.hf.mean(axis=1), cond.hf_index
+
+
+def pure_codes(codes: np.ndarray, index: np.ndarray, window: int = WINDOW) -> np.ndarray:
+    """The label of each conditioned sample when all ``window`` input samples it depends on
+    carry it, else -1."""
+    codes = np.asarray(codes)
+    lo = np.clip(index - window + 1, 0, None)
+    out = codes[index].astype(np.int64)
+    change = np.r_[0, np.cumsum(codes[1:] != codes[:-1])]
+    out[change[index] != change[lo]] = -1
+    return out
+
+
+def unit_means(y: np.ndarray, codes: np.ndarray, *, unit: int = UNIT) -> dict[int, list[float]]:
+    """Means of consecutive ``unit``-sample runs of each code (never across a change)."""
+    out: dict[int, list[float]] = {}
+    edges = np.flatnonzero(np.diff(np.r_[-2, codes, -2]) != 0)
+    for a, b in zip(edges[:-1], edges[1:]):
+        c = int(codes[a])
+        if c < 0:
+            continue
+        for s in range(a, b - unit + 1, unit):
+            out.setdefault(c, []).append(float(y[s:s + unit].mean()))
+    return out
+
+
+def normal_fit_error(a, b) -> float:
+    """Equal-prior Bayes error of two normals fitted to samples ``a`` and ``b`` (1-D)."""
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    if len(a) < 2 or len(b) < 2:
+        return math.nan
+    ma, sa = a.mean(), max(a.std(ddof=1), 1e-9)
+    mb, sb = b.mean(), max(b.std(ddof=1), 1e-9)
+    lo = min(ma - 12 * sa, mb - 12 * sb)
+    hi = max(ma + 12 * sa, mb + 12 * sb)
+    x = np.linspace(lo, hi, 20001)
+    p = np.minimum(stats.norm.pdf(x, ma, sa), stats.norm.pdf(x, mb, sb))
+    return float(0.5 * np.trapezoid(p, x))
+
+
+def _runs(mask) -> list[tuple[int, int]]:
+    m = np.diff(np.r_[0, np.asarray(mask, np.int8), 0])
+    return list(zip(np.flatnonzero(m == 1).tolist(), np.flatnonzero(m == -1).tolist()))
+
+
+# -- dataset-spec trials -----------------------------------------------------------------------
+def hf_measures(seed: int, *, trials=None) -> dict:
+    """Facts of the 7.3 runs (hf-train): state levels, impact timing, length and bounces."""
+    spec = load_spec("hf-train")
+    trials = range(spec.n_trials) if trials is None else trials
+    units: dict[int, list[float]] = {}
+    frac, lengths, bounces = [], [], []
+    for k in trials:
+        plan, r = simulate_trial(spec, k, seed)
+        y, idx = channel_mean_yh(r)
+        codes, _ = labels_hf(r)
+        for c, v in unit_means(y, pure_codes(codes, idx)).items():
+            units.setdefault(c, []).extend(v)
+        touching = r.contact.any(axis=1) if r.contact.size else np.zeros(len(r.time), bool)
+        move = plan.controller.moves[0]
+        if touching.any() and len(r.impact_intervals):
+            t_first = r.time[np.argmax(touching)]
+            frac.append((t_first - move.start_s) / move.duration_s)
+            a, b = r.impact_intervals[0]
+            gains = np.flatnonzero(np.diff(touching[a:b].astype(np.int8)) == 1)
+            bounces.append(1 + len(gains))
+        lengths.extend(((r.impact_intervals[:, 1] - r.impact_intervals[:, 0]) / r.rate_hz).tolist())
+    h = [np.asarray(units.get(c, []), float) for c in range(3)]
+    e01, e02, e12 = normal_fit_error(h[0], h[1]), normal_fit_error(h[0], h[2]), normal_fit_error(h[1], h[2])
+    return {"moving-vs-stationary": e01,
+            "pressed-louder": float(h[2].mean() - h[0].mean()) if len(h[2]) and len(h[0]) else math.nan,
+            "pressed-main-confusion": e02 - max(e01, e12),
+            "impact-at-end": float(np.median(frac)) if frac else math.nan,
+            "impact-duration": float(np.median(lengths)) if lengths else math.nan,
+            "bounce-train": float(np.median(bounces)) if bounces else math.nan,
+            "_units": {f"H{c}": h[c].tolist() for c in range(3)},
+            "_errors": {"H0/H1": e01, "H0/H2": e02, "H1/H2": e12}}
+
+
+def _texture_yh(r) -> dict[str, np.ndarray]:
+    y, idx = channel_mean_yh(r)
+    codes, names = labels_texture(r)
+    pc = pure_codes(codes, idx)
+    return {names[c]: y[pc == c] for c in range(3, len(names))}
+
+
+def stroke_measures(seed: int, *, trials=None) -> dict:
+    """Facts of the 7.2 strokes of sample A: burst, friction hold, stop, resting wrench,
+    texture separation."""
+    spec = load_spec("stroke-a")
+    trials = range(spec.n_trials) if trials is None else trials
+    burst, hold, drop, rest, tex = [], [], [], [], {}
+    trace = None
+    for k in trials:
+        plan, r = simulate_trial(spec, k, seed)
+        c = plan.controller
+        fs = r.rate_hz
+        y, idx = channel_mean_yh(r)
+        ty = r.time[idx]
+        t0, t1 = c.command_start_s, c.command_start_s + c.command_s
+        base = np.median(y[(ty > 0.1) & (ty < t0)])
+        burst.append(float(y[(ty >= t0) & (ty < t0 + 0.25)].max() - base))
+        if trace is None:
+            trace = {"t": ty.tolist(), "y": y.tolist(), "t0": t0, "t1": t1}
+        i0 = int(round(t0 * fs))
+        mv = r.moving[i0:]
+        good = np.flatnonzero(np.convolve(mv, np.ones(500), "valid") >= 500)
+        hold.append(good[0] / fs if len(good) else math.nan)
+        ft = np.hypot(r.wrench[:, 0], r.wrench[:, 1])
+        ft = np.convolve(ft, np.ones(20) / 20, "same")
+        i1 = int(round(t1 * fs))
+        level = np.median(ft[i1 - 500:i1])
+        below = np.flatnonzero(ft[i1:] < 0.5 * level)
+        drop.append(below[0] / fs if len(below) else math.nan)
+        sl = slice(int(0.1 * fs), i0)
+        expect = r.contact_force[sl, :, 2].sum(axis=1).mean() - sim.constants.SHELL_MASS * sim.constants.GRAVITY
+        rest.append(abs(r.wrench[sl, 2].mean() - expect) / abs(expect))
+        for name, v in _texture_yh(r).items():
+            tex.setdefault(name, []).append(v)
+    tex = {n: np.concatenate(v) for n, v in tex.items()}
+    err_a = normal_fit_error(tex.get("sanded_aluminium_80", []), tex.get("polished_aluminium", []))
+    return {"start-burst": float(np.median(burst)), "halted-by-friction": float(np.nanmedian(hold)),
+            "stop-drop": float(np.nanmedian(drop)), "resting-wrench": float(np.median(rest)),
+            "sample-a-separates": err_a, "_trace": trace,
+            "_textures_a": {n: v.tolist() for n, v in tex.items()}}
+
+
+def sample_b_measures(seed: int, err_a: float, *, trials=None) -> dict:
+    """Facts of the 7.2 strokes of sample B: wood louder than polished aluminium, harder than A."""
+    spec = load_spec("stroke-b")
+    trials = range(spec.n_trials) if trials is None else trials
+    tex: dict[str, list] = {}
+    for k in trials:
+        _, r = simulate_trial(spec, k, seed)
+        for name, v in _texture_yh(r).items():
+            tex.setdefault(name, []).append(v)
+    t = {n: np.concatenate(v) for n, v in tex.items()}
+    wood, al = t.get("rough_wood", np.zeros(0)), t.get("polished_aluminium", np.zeros(0))
+    err_b = normal_fit_error(wood, al)
+    return {"sample-b-wood-louder": float(wood.mean() - al.mean()) if len(wood) and len(al) else math.nan,
+            "sample-b-harder": err_b - err_a,
+            "_textures_b": {n: v.tolist() for n, v in t.items()}, "_err_b": err_b}
+
+
+def shell_mode(seed: int) -> dict:
+    """Dominant frequency of the strain difference in the 0.1 s after the first impact (2700 Hz)."""
+    spec = load_spec("impact-spectrogram")
+    _, r = simulate_trial(spec, 0, seed)
+    if not len(r.impact_intervals):
+        return {"shell-mode": math.nan}
+    a = int(r.impact_intervals[0, 0])
+    n = int(0.1 * r.rate_hz)
+    d = np.diff(r.strain[a:a + n + 1], axis=0)
+    ch = int(np.argmax(d.var(axis=0)))
+    spec_ = np.abs(np.fft.rfft(d[:, ch] * np.hanning(len(d)), 8192))
+    f = np.fft.rfftfreq(8192, 1.0 / r.rate_hz)
+    band = (f > 200.0) & (f < 1350.0)
+    return {"shell-mode": float(f[band][np.argmax(spec_[band])])}
+
+
+def velocity_range(seed: int, *, trials=(0, 3, 6)) -> dict:
+    """Fraction of the moving guarded-move samples with |v| <= 0.01 m/s on every axis (9.1.1)."""
+    spec = load_spec("guarded-move")
+    inside, total = 0, 0
+    for k in trials:
+        _, r = simulate_trial(spec, k, seed)
+        m = r.moving
+        inside += int(np.all(np.abs(r.velocity[m]) <= 0.01, axis=1).sum())
+        total += int(m.sum())
+    return {"velocity-range": inside / total if total else math.nan}
+
+
+def wood_slope(seed: int) -> dict:
+    """Largest slope (deg) of planes fitted to the recorded positions of the cartesian plane runs."""
+    spec = load_spec("cartesian")
+    first = sum(g.trials for g in spec.groups[:1])
+    slopes = []
+    for k in range(first, first + spec.groups[1].trials):
+        _, r = simulate_trial(spec, k, seed)
+        m = r.contact.any(axis=1)
+        p = r.position[m]
+        if len(p) < 10:
+            continue
+        A = np.column_stack([p[:, 0], p[:, 1], np.ones(len(p))])
+        coef, *_ = np.linalg.lstsq(A, p[:, 2], rcond=None)
+        slopes.append(math.degrees(math.atan(math.hypot(coef[0], coef[1]))))
+    return {"wood-slope": max(slopes) if slopes else math.nan, "_slopes": slopes}
+
+
+# -- small setups ------------------------------------------------------------------------------
+def _sim(env, ctrl, duration, seed, start, **kw):
+    return sim.simulate(environment=env, controller=ctrl, duration_s=duration, seed=seed,
+                        start=np.asarray(start, float), **kw)
+
+
+def loss_impact(seed: int) -> dict:
+    """A 0.5 N contact on aluminium (100 N/m position control, 5 mm into the plate) lost by a
+    fast lift: peak y_h near the loss minus the median pressed y_h (4.52)."""
+    env = sim.plane(material="polished_aluminium")
+    ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.0, -0.007), 0.4, 0.1),
+                                         sim.Move((0.0, 0.0, 0.012), 0.05, 1.2)))
+    r = _sim(env, ctrl, 1.6, seed, (0.0, 0.0, 0.012))
+    y, idx = channel_mean_yh(r)
+    ty = r.time[idx]
+    touching = r.contact.any(axis=1)
+    lost = np.flatnonzero(np.diff(touching.astype(np.int8)) == -1)
+    if not len(lost):
+        return {"loss-impact": math.nan}
+    tl = r.time[lost[-1]]
+    base = np.median(y[(ty > 0.8) & (ty < 1.2)])
+    return {"loss-impact": float(y[np.abs(ty - tl) < 0.1].max() - base)}
+
+
+def texture_speed(seed: int) -> dict:
+    """Strain-difference variance ratio stroking sanded aluminium at 20 vs 10 mm/s (4.40)."""
+    env = sim.plane(material="sanded_aluminium_80")
+    var = []
+    for cs in (4.0, 2.0):
+        ctrl = sim.StrokeController(stroke_length=0.04, command_start_s=0.3, command_s=cs)
+        r = _sim(env, ctrl, 0.3 + cs + 0.2, seed, (0.0, 0.0, 0.0099))
+        fs = r.rate_hz
+        sl = slice(int((0.3 + 0.3 * cs) * fs), int((0.3 + 0.7 * cs) * fs))
+        d = np.diff(r.strain[sl], axis=0)
+        var.append(float(d.var(axis=0).sum()))
+    return {"texture-speed": var[1] / var[0] if var[0] > 0 else math.inf}
+
+
+def stick_slip_position(seed: int) -> dict:
+    """Stick-to-slip transitions of the 100 N/m position controller dragging the finger 30 mm
+    over wood (9.1.2); and the integral force controller's stuck fraction (9.1.3)."""
+    env = sim.plane(material="rough_wood")
+    ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.0, -0.003), 0.3, 0.1),
+                                         sim.Move((0.030, 0.0, 0.0), 3.0, 0.6)))
+    r = _sim(env, ctrl, 3.8, seed, (0.0, 0.0, 0.0099))
+    fs = r.rate_hz
+    sl = slice(int(0.8 * fs), int(3.6 * fs))
+    stuck = ~r.moving[sl]
+    episodes = [(a, b) for a, b in _runs(stuck) if b - a >= 5]
+    # the thesis's command of 9.1.2, (100, -100, 200) mN: 141 mN along the surface
+    f = sim.IntegralForceController(forces=((0.0, (0.0, 0.0, -0.2)), (0.3, (0.1, -0.1, -0.2))))
+    r2 = _sim(env, f, 2.5, seed, (0.0, 0.0, 0.0099))
+    fs = r2.rate_hz
+    mv = r2.moving[int(0.3 * fs):]
+    first = np.argmax(mv) if mv.any() else len(mv)
+    after = mv[first:]
+    return {"stick-slip-position": float(len(episodes)),
+            "no-stick-slip-force": float(1.0 - after.mean()) if len(after) else 1.0}
+
+
+def force_loop(seed: int) -> dict:
+    """Contact kept while the integral force controller presses 0.2 N into a Lexan wall and
+    0.2 N into the floor (the maze's walls, 9.2)."""
+    env = sim.wall(material="lexan", wall_material="lexan", wall_y=0.020)
+    f = sim.IntegralForceController(forces=((0.0, (0.0, 0.2, -0.2)),))
+    r = _sim(env, f, 2.0, seed, (0.0, 0.0105, 0.0099))
+    sl = slice(int(0.7 * r.rate_hz), None)
+    return {"force-loop-holds-contact": float(r.contact[sl].all(axis=1).mean())}
+
+
+def kinematic_error(seed: int) -> dict:
+    """Largest deviation (mm) of the recorded x-y positions from their straight-line fit along
+    an 80 mm slide against a wall (8.1.1.2)."""
+    env = sim.wall(material="rough_wood", wall_material="polished_aluminium", wall_y=0.020)
+    ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.003, -0.003), 0.3, 0.1),
+                                         sim.Move((0.080, 0.0, 0.0), 4.0, 0.5)),
+                                  stiffness=(300.0, 300.0, 300.0))
+    r = _sim(env, ctrl, 4.7, seed, (-0.040, 0.0105, 0.0099))
+    fs = r.rate_hz
+    p = r.position[int(0.6 * fs):int(4.4 * fs), :2]
+    c = p - p.mean(axis=0)
+    _, _, vt = np.linalg.svd(c, full_matrices=False)
+    dev = np.abs(c @ vt[1])
+    return {"kinematic-error": float(dev.max() * 1e3)}
+
+
+# -- all of them -------------------------------------------------------------------------------
+def measure(seed: int, *, quiet: bool = True) -> dict:
+    """Every fact's measured value on ``seed`` (keys of :data:`FACTS`, plus ``_`` details)."""
+    steps = [lambda: hf_measures(seed), lambda: stroke_measures(seed), None,
+             lambda: shell_mode(seed), lambda: velocity_range(seed), lambda: wood_slope(seed),
+             lambda: loss_impact(seed), lambda: texture_speed(seed),
+             lambda: stick_slip_position(seed), lambda: force_loop(seed),
+             lambda: kinematic_error(seed)]
+    out: dict = {}
+    with bar(total=len(steps), desc="apparatus", quiet=quiet) as pb:
+        for step in steps:
+            out.update(step() if step is not None else
+                       sample_b_measures(seed, out["sample-a-separates"]))
+            pb.update(1)
+    return out
+
+
+def facts_table(measured: dict) -> list[dict]:
+    """``[{"name", "section", "thesis", "measured", "criterion", "holds"}, ...]``."""
+    rows = []
+    for f in FACTS:
+        v = float(measured.get(f.name, math.nan))
+        rows.append({"name": f.name, "section": f.section, "thesis": f.thesis,
+                     "measured": v if math.isfinite(v) else None, "criterion": f.criterion,
+                     "holds": f.holds(v)})
+    return rows
+
+
+# -- the page --------------------------------------------------------------------------------
+def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
+    """Measure every fact on ``seed``, write the page and results.json; summary with ``facts``."""
+    out_dir = Path(out_dir)
+    measured = measure(seed, quiet=quiet)
+    facts = facts_table(measured)
+    held = sum(f["holds"] for f in facts)
+    page = ReportPage(title="apparatus: the thesis's signal facts on the simulator", out_dir=out_dir)
+    page.paragraph(
+        "Every experiment runs on simulated data, so the simulator must show what the thesis "
+        "measured on its PHANToM and fingertip sensor. Each row quotes a statement the thesis makes "
+        "about its signals, the criterion written for it before the simulator was calibrated, and "
+        f"the value measured on seed {seed}. {held} of {len(facts)} hold.")
+    page.table([[f["name"], f["section"], f["thesis"], _fmt(f["measured"]), f["criterion"],
+                 "yes" if f["holds"] else "NO"] for f in facts],
+               columns=["fact", "section", "thesis", "measured", "criterion", "holds"],
+               caption="Apparatus facts: thesis statement, criterion, measured value.")
+    page.figure(fig_states(measured), name="hf_states",
+                caption="y_h unit means (100 samples at 250 Hz) of the 7.3 states in the hf-train runs.")
+    page.figure(fig_stroke(measured), name="stroke",
+                caption="y_h of one stroke of sample A: resting, the burst at the command start, "
+                        "the textures, the stop.")
+    page.figure(fig_textures(measured), name="textures",
+                caption="y_h while stroking each texture of samples A and B, with normal fits.")
+    page.heading("How the simulator was calibrated")
+    page.paragraph(
+        "System identification from these signal facts, never from the thesis's accuracies: the "
+        "16-bit converter from 7.3.3 (at 12 bits the moving drive's vibration is below one step and "
+        "moving is confused with stationary); the PHANToM's kinematic curvature from 8.1.1.2's 1 mm "
+        "over 80 mm; the stroke command (a velocity step at 100 N/m) from 7.2's burst-then-hold "
+        "phases; impacts at the end of the 7.3 moves from 7.3's words; guarded moves slower than "
+        "10 mm/s from 9.1.1's velocity model. The noise chain (bridge excitation, gauge factor, "
+        "full-scale strain, amplifier noise density and bandwidth), the calibration error, the "
+        "drive's static friction, brush ripple and commutation ripple are physical or "
+        "datasheet-level values, each with its source in contactlab/sim/constants.py. A spec's "
+        "[apparatus] table simulates other hardware (e.g. adc_bits = 12).")
+    page.heading("Where ours differ and why")
+    for text in _differences(facts, measured):
+        page.note(text)
+    page.write()
+    summary = {"experiment": "apparatus", "seed": seed, "facts": facts, "held": held,
+               "total": len(facts),
+               "hf_errors": measured.get("_errors"), "sample_b_error": measured.get("_err_b")}
+    write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "n/a"
+    return f"{v:.3g}"
+
+
+def _differences(facts: list[dict], measured: dict) -> list[str]:
+    out = []
+    failed = [f for f in facts if not f["holds"]]
+    if not failed:
+        out.append("Every fact holds on this seed.")
+    for f in failed:
+        out.append(f"{f['name']} ({f['section']}) does not hold: measured {_fmt(f['measured'])}, "
+                   f"criterion {f['criterion']}. " + _WHY.get(f["name"], ""))
+    return out
+
+
+_WHY = {
+    "moving-vs-stationary": "The moving drive raises y_h only ~0.15-0.2 nats above the "
+                            "stationary floor (brush/cable friction ripple, commutation ripple, "
+                            "control noise on encoder feedback) and H1 has few units (the moves "
+                            "are short), so on some seeds the normal fits overlap by a few "
+                            "percent; the PHANToM's link and cable modes are not modelled.",
+    "sample-a-separates": "Sliding vibration is dominated by the drive and the servo (the random "
+                          "control wrench of 4.12 at 4 mN per servo tick is no longer held by "
+                          "friction once the finger slides), common to both textures; the "
+                          "80-grit ridges' micro-impacts make sanded louder but bursty.",
+    "sample-b-wood-louder": "Rough wood stick-slips under the 100 N/m stroke and its stuck spells "
+                            "are quiet; its relief is bridged and acts only through friction, "
+                            "at wavelengths whose vibration the drive's floor hides.",
+    "pressed-louder": "A pressed, still finger is held by the contact and the robot by its "
+                      "backdrive friction: the control noise moves nothing, as at rest in free "
+                      "space. No mechanism of the model adds vibration to contact alone.",
+    "impact-duration": "The impacts at the end of decelerating moves are slow; their bounce "
+                       "trains settle within ~0.1 s and the shell's 2 % damping ends the "
+                       "ringing soon after, so the labelled intervals are ~0.1 s, not the "
+                       "0.3-0.4 s the thesis's hand-labelled counts suggest.",
+    "loss-impact": "The released spring energy rings the shell, but a 0.5 N contact lost by a "
+                   "lift stores little energy in the stiff sensor spring; the rise is close to "
+                   "the criterion and below it on some seeds.",
+    "no-stick-slip-force": "The integral force controller stalls for good where the rough "
+                           "wood's asperity flanks raise the apparent static friction "
+                           "(Bowden-Tabor ratchet) above its 141 mN tangential command: it "
+                           "cannot push harder than it is told. Static friction that grows with "
+                           "contact time (fresh sticks break at the kinetic value) removes the "
+                           "stall but was not adopted.",
+}
+
+
+def fig_states(measured: dict):
+    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    names = {"H0": "H0 stationary", "H1": "H1 moving", "H2": "H2 pressed"}
+    for key, label in names.items():
+        v = measured.get("_units", {}).get(key, [])
+        if v:
+            ax.hist(v, bins=20, alpha=0.6, label=f"{label} ({len(v)} units)")
+    ax.set_xlabel("unit mean of y_h (log V)")
+    ax.set_ylabel("units")
+    ax.set_title("7.3 states in y_h (hf-train)")
+    ax.legend()
+    return fig
+
+
+def fig_stroke(measured: dict):
+    tr = measured["_trace"]
+    fig, ax = plt.subplots(figsize=(7.5, 3.4))
+    ax.plot(tr["t"], tr["y"], lw=0.6, label="y_h (mean of 8 strains)")
+    ax.axvline(tr["t0"], color="k", ls="--", lw=0.8, label="command start / end")
+    ax.axvline(tr["t1"], color="k", ls="--", lw=0.8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("y_h (log V)")
+    ax.set_title("A stroke of sample A (7.2)")
+    ax.legend(loc="upper right")
+    return fig
+
+
+def fig_textures(measured: dict):
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4), sharey=False)
+    for ax, key, title in ((axes[0], "_textures_a", "sample A"), (axes[1], "_textures_b", "sample B")):
+        for name, v in measured.get(key, {}).items():
+            v = np.asarray(v)
+            if len(v) < 2:
+                continue
+            ax.hist(v, bins=40, density=True, alpha=0.5, label=name)
+            x = np.linspace(v.min(), v.max(), 200)
+            ax.plot(x, stats.norm.pdf(x, v.mean(), v.std()), lw=1.0)
+        ax.set_xlabel("y_h (log V)")
+        ax.set_ylabel("density")
+        ax.set_title(f"{title}: y_h while stroking")
+        ax.legend(fontsize=7)
+    return fig

@@ -1,0 +1,104 @@
+"""reproduce apparatus: the thesis's signal facts, a few of them measured on small simulations,
+and the [apparatus] spec table."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from contactlab import sim
+from contactlab.acquire.spec import load_spec
+from contactlab.errors import DataError
+from contactlab.experiments import EXPERIMENTS
+from contactlab.experiments import apparatus as A
+from contactlab.experiments.apparatus_facts import FACTS, get
+from contactlab.sim.hardware import build_hardware
+
+
+def test_at_least_fifteen_facts_each_quoting_the_thesis_with_a_criterion():
+    assert len(FACTS) >= 15 and len({f.name for f in FACTS}) == len(FACTS)
+    for f in FACTS:
+        assert f.section and len(f.thesis) > 20 and f.measure
+        assert f.low < f.high and (math.isfinite(f.low) or math.isfinite(f.high))
+        assert not f.holds(math.nan)
+    assert EXPERIMENTS["apparatus"].implemented
+
+
+def test_facts_table_has_the_json_fields_and_judges_each_value():
+    measured = {f.name: (f.low if math.isfinite(f.low) else f.high) for f in FACTS}
+    measured["shell-mode"] = 1000.0
+    rows = A.facts_table(measured)
+    assert [set(r) for r in rows] == [{"name", "section", "thesis", "measured", "criterion", "holds"}] * len(FACTS)
+    holds = {r["name"]: r["holds"] for r in rows}
+    assert not holds.pop("shell-mode") and all(holds.values())
+
+
+def test_shell_rings_near_690_hz_after_an_impact():
+    value = A.shell_mode(5)["shell-mode"]
+    assert get("shell-mode").holds(value)
+
+
+def test_kinematic_error_bends_a_straight_slide_by_about_a_millimetre():
+    value = A.kinematic_error(4)["kinematic-error"]
+    assert get("kinematic-error").holds(value)
+    exact = sim.Encoders(kinematic_angle_error_deg=0.0, kinematic_curvature=0.0)
+    p = np.column_stack([np.linspace(-0.04, 0.04, 50), np.full(50, 0.01), np.full(50, 0.01)])
+    np.testing.assert_allclose(exact.reported_position(p), p)
+
+
+def test_hf_impacts_come_at_the_end_of_the_move_in_bounce_trains():
+    m = A.hf_measures(7, trials=[0, 10])
+    assert get("impact-at-end").holds(m["impact-at-end"])
+    assert get("bounce-train").holds(m["bounce-train"])
+
+
+def _free_move(adc_bits: int):
+    _, sen, _ = build_hardware({"adc_bits": adc_bits})
+    ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.018, 0.018), 0.5, 0.4),))
+    r = sim.simulate(environment=sim.free_space(), controller=ctrl, duration_s=1.1, seed=3, sensor=sen)
+    y, idx = A.channel_mean_yh(r)
+    t = r.time[idx]
+    return y[(t > 0.1) & (t < 0.35)], y[(t > 0.5) & (t < 0.8)]
+
+
+def test_a_12_bit_board_hides_the_moving_drive_that_16_bits_show():
+    # 7.3.3: moving is louder than stationary; the converter decides whether y_h can see it
+    rise = {}
+    for bits in (12, 16):
+        rest, moving = _free_move(bits)
+        rise[bits] = moving.mean() - rest.mean()
+    # at 12 bits both sit near the quantisation floor; dithered 16 bits show the drive
+    assert rise[16] > 0.1 and rise[16] > 2.0 * rise[12]
+    assert sim.StrainGaugeSensor(adc_bits=12).noise_lsb < 0.5 < 1.0 < sim.StrainGaugeSensor().noise_lsb
+
+
+@pytest.mark.parametrize("line, field", [
+    ("adc_bits = 40", "apparatus.adc_bits"),
+    ("adc_bits = 12.5", "apparatus.adc_bits"),
+    ("amplifier_noise_nv_per_rthz = -1", "apparatus.amplifier_noise_nv_per_rthz"),
+    ("commutation_ripple = 1", "apparatus.commutation_ripple"),
+    ("bits = 12", "apparatus.bits"),
+    ("robot_friction_n = 0.1", "apparatus.robot_static_friction_n"),
+])
+def test_bad_apparatus_values_are_one_line_errors_naming_file_and_field(tmp_path, line, field):
+    text = load_spec("stroke-a").path.read_text()
+    path = tmp_path / "x.toml"
+    path.write_text(text.replace("[environment]", f"[apparatus]\n{line}\n\n[environment]", 1))
+    with pytest.raises(DataError) as err:
+        load_spec(path)
+    msg = str(err.value)
+    assert msg.startswith(f"{path}: {field}: ") and "\n" not in msg
+
+
+def test_apparatus_table_reaches_the_simulated_hardware(tmp_path):
+    text = load_spec("stroke-a").path.read_text()
+    path = tmp_path / "x.toml"
+    path.write_text(text.replace("[environment]", "[apparatus]\nadc_bits = 12\ncommutation_ripple = false\n"
+                                                  "\n[environment]", 1))
+    spec = load_spec(path)
+    from contactlab.acquire.sim import hardware
+    hw = hardware(spec)
+    assert hw["sensor"].adc_bits == 12 and hw["apparatus"].commutation_events == 0
+    assert hardware(load_spec("stroke-a"))["sensor"].adc_bits == 16
