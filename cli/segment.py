@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+                                   json_summaries, parallel_options, quiet_option)
 
 
 def _thresholds(ctx, param, value):
@@ -20,7 +21,7 @@ def _thresholds(ctx, param, value):
 
 
 @click.command()
-@archive_argument
+@archives_argument
 @click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default="strain",
               show_default=True,
               help="Signal to segment after 7.1 conditioning: 250 Hz strains, 250 Hz "
@@ -42,11 +43,12 @@ def _thresholds(ctx, param, value):
 @click.option("--tolerance", type=float, default=0.1, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@parallel_options
 @json_option
 @quiet_option
-def segment(archive, signal, order, threshold, sweep_values, change_size, combine, tolerance,
-            trials, as_json, quiet):
-    """Segment every trial of ARCHIVE with the AR + Page-Hinkley detector of 7.2.1.
+def segment(archives, signal, order, threshold, sweep_values, change_size, combine, tolerance,
+            trials, workers, scheduler, as_json, quiet):
+    """Segment every trial of each ARCHIVE with the AR + Page-Hinkley detector of 7.2.1.
 
     Per channel a square-root AR estimator; the sum of squared normalised
     innovations (chi-square) into a two-sided Page-Hinkley test for a change
@@ -66,8 +68,10 @@ def segment(archive, signal, order, threshold, sweep_values, change_size, combin
       contactlab segment runs.h5 --signal wrench --threshold 100 --json
       contactlab segment runs.h5 --trial stroke-a-000 --sweep 50,100,200,400
       contactlab segment runs.h5 --combine channel --threshold 50 --json
+      contactlab segment runs.h5 --workers 2
     """
-    from contactlab.segmentation import run_archive
+    from contactlab.segmentation import SegmentStage
+    from contactlab.stages import run_stage
 
     source = click.get_current_context().get_parameter_source("threshold")
     if sweep_values is not None and source is not click.core.ParameterSource.DEFAULT:
@@ -80,13 +84,18 @@ def segment(archive, signal, order, threshold, sweep_values, change_size, combin
         raise click.BadParameter(f"must be > 0; got {tolerance}", param_hint="'--tolerance'")
     if not threshold > 0:
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
-    summary = run_archive(archive, signal=signal, order=order, threshold=threshold,
-                          thresholds=sweep_values, change_size=change_size,
-                          combine=combine, tolerance_s=tolerance, trials=list(trials) or None,
-                          quiet=quiet)
+    stage = SegmentStage(signal=signal, order=order, threshold=threshold,
+                         thresholds=sweep_values, change_size=change_size, combine=combine,
+                         tolerance_s=tolerance)
+    summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
+                          scheduler=scheduler, quiet=quiet)
     if as_json:
-        echo_json(summary)
+        json_summaries(summaries)
         return
+    echo_summaries(summaries, lambda archive, summary: _echo(archive, summary, sweep_values))
+
+
+def _echo(archive, summary, sweep_values):
     for tid, entry in summary["trials"].items():
         if sweep_values is None:
             bs = ", ".join(f"{b:.3f}" for b in entry["boundaries_s"])

@@ -231,14 +231,14 @@ def label_archive(archive, *, models, block: int | None = None, loo=False, trial
 
 
 def _write(path: Path, blocks: LabelledBlocks, table, pred, classes, summary, *, quiet) -> None:
-    from contactlab.archive import write_results
-    from contactlab.progress import progress
+    """All trials' ``results/label`` in one atomic step."""
+    from contactlab.archive import TrialResults, write_stage
 
     code = {c: i for i, c in enumerate(classes)}
-    for tid in progress(list(blocks.signals), desc="write", quiet=quiet, unit="trial"):
+    results = {}
+    for tid in blocks.signals:
         idx = np.flatnonzero(blocks.trial == tid)
-        write_results(
-            path, tid, "label",
+        results[tid] = TrialResults(
             datasets={"start_s": blocks.start_s[idx], "end_s": blocks.end_s[idx],
                       "predicted": np.array([code[p] for p in pred[idx]], dtype=np.int16),
                       "true": np.array([code.get(t, -1) for t in blocks.label[idx]],
@@ -251,3 +251,4 @@ def _write(path: Path, blocks: LabelledBlocks, table, pred, classes, summary, *,
                         "labels_source": summary["labels_source"],
                         "order": summary["order"], "mean": summary["mean"],
                         "channels": blocks.channels})
+    write_stage(path, "label", results)

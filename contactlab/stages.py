@@ -1,0 +1,212 @@
+"""One shape for the analysis stages (segment, label, estimate, recognize).
+
+After scikit-learn's estimators and ruptures' ``BaseEstimator``: a stage's
+constructor only stores and checks its parameters; :meth:`Stage.run_trial`
+is a pure function of one trial (it reads the trial, returns a
+:class:`TrialOutcome`, writes nothing), so it runs unchanged in another
+process or on another machine; :meth:`Stage.summarize` pools the outcomes of
+one archive. :func:`run_stage` drives it::
+
+    select trials -> run_trial for each (serial, local processes, or a Dask
+    cluster) -> write every trial's results in one atomic step per archive
+    (contactlab.archive.write_stage) -> summarize
+
+A run interrupted before the write leaves every old result as it was; a
+trial that fails is reported (archive and trial named) after the other
+trials' results are written, and the run ends with a DataError.
+
+Parallel work: ``workers=1`` (the default) runs in this process -- a stage
+over a few trials is faster without starting processes that each load the
+numba kernels again; ``workers=N`` runs trials in a local pool of N
+processes; ``scheduler="tcp://host:8786"`` sends them to an existing Dask
+distributed cluster, whose workers must see the archives at the same paths
+(a shared filesystem). Results are the same whichever runs them.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from contactlab.archive.results import TrialResults
+from contactlab.errors import DataError, UsageError
+
+__all__ = ["Stage", "TrialOutcome", "TrialFailure", "run_stage", "check_workers"]
+
+
+@dataclass
+class TrialOutcome:
+    """What :meth:`Stage.run_trial` returns for one trial.
+
+    ``entry``: the trial's JSON-able summary; ``results``: what to store in
+    ``results/<stage>`` (None: nothing); ``extra``: anything
+    :meth:`Stage.summarize` pools (confusion counts, metrics, ...).
+    """
+
+    entry: dict
+    results: TrialResults | None = None
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass
+class TrialFailure:
+    """A trial whose ``run_trial`` raised: the message names archive and trial."""
+
+    archive: str
+    trial: str
+    message: str
+    field: str = ""
+
+
+class Stage:
+    """Base class of stages. Subclasses set ``name`` and define :meth:`run_trial`.
+
+    Every attribute set by the constructor must pickle (it travels to worker
+    processes with the stage).
+    """
+
+    #: The results group the stage writes (``results/<name>``).
+    name: str = ""
+    #: False for runs that only report (a threshold sweep, ``--no-write``).
+    write: bool = True
+
+    def select(self, archive, trials: Sequence[str] | None) -> list[str]:
+        """The trial ids to run (default: ``archive.select(trials)``)."""
+        return archive.select(trials)
+
+    def run_trial(self, trial) -> TrialOutcome:  # pragma: no cover - abstract
+        """Analyse one trial; pure: reads ``trial``, returns its outcome."""
+        raise NotImplementedError
+
+    def summarize(self, path: Path, outcomes: dict[str, TrialOutcome]) -> dict:
+        """The archive's summary (default ``{"trials": {id: entry}}``)."""
+        return {"trials": {tid: o.entry for tid, o in outcomes.items()}}
+
+
+def check_workers(workers: int, scheduler: str | None) -> None:
+    """Refuse worker counts below 1 and asking for both a pool and a cluster."""
+    if not isinstance(workers, int) or workers < 1:
+        raise UsageError(f"workers must be an integer >= 1; got {workers!r}")
+    if scheduler is not None and workers != 1:
+        raise UsageError("give --workers or --scheduler, not both")
+
+
+def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
+              trials: Sequence[str] | None = None, workers: int = 1,
+              scheduler: str | None = None, quiet: bool = True) -> dict[Path, dict]:
+    """Run ``stage`` over the archives ``paths``; return ``{path: summary}``.
+
+    ``trials``: ids to run in every archive (default all). Results of each
+    archive are written in one atomic step once all its trials have run; a
+    failed trial is left out of the write and reported in the DataError
+    raised at the end.
+    """
+    from contactlab.archive import open_archive
+    from contactlab.archive.results import check_owner_writable, write_stage
+
+    check_workers(workers, scheduler)
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise UsageError("no archive given")
+    tasks: list[tuple[Path, str]] = []
+    for path in paths:
+        if stage.write and stage.name:
+            if not path.exists():
+                raise DataError("no such file", file=str(path))
+            check_owner_writable(path)
+        with open_archive(path) as archive:
+            tasks += [(path, tid) for tid in stage.select(archive, trials)]
+    done = _map(stage, tasks, workers=workers, scheduler=scheduler, quiet=quiet)
+    failures: list[TrialFailure] = []
+    summaries: dict[Path, dict] = {}
+    for path in paths:
+        outcomes: dict[str, TrialOutcome] = {}
+        for p, tid in tasks:
+            if p != path:
+                continue
+            got = done[(p, tid)]
+            if isinstance(got, TrialFailure):
+                failures.append(got)
+            else:
+                outcomes[tid] = got
+        if stage.write and stage.name:
+            write_stage(path, stage.name, {tid: o.results for tid, o in outcomes.items()
+                                           if o.results is not None})
+        summaries[path] = stage.summarize(path, outcomes)
+    if failures:
+        first = failures[0]
+        more = f" ({len(failures) - 1} more trials failed)" if len(failures) > 1 else ""
+        kept = "; the other trials' results were written" if stage.write and stage.name else ""
+        raise DataError(f"{first.message}{more}{kept}", file=first.archive,
+                        field=first.field or f"/trials/{first.trial}")
+    return summaries
+
+
+def _run_one(stage: Stage, path: Path, tid: str) -> TrialOutcome | TrialFailure:
+    """Run one trial in whatever process gets it; errors come back as values."""
+    from contactlab.archive import open_archive
+
+    try:
+        with open_archive(path) as archive:
+            return stage.run_trial(archive.trial(tid))
+    except DataError as err:
+        where = f"/trials/{tid}"
+        if err.field and err.field.startswith(where):
+            where = err.field
+        elif err.field:
+            where = f"{where}: {err.field}"
+        return TrialFailure(str(path), tid, err.message, where)
+    except (ArithmeticError, ValueError, IndexError, KeyError, TypeError, RuntimeError,
+            OSError) as err:
+        return TrialFailure(str(path), tid, f"failed: {type(err).__name__}: {err}")
+
+
+def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
+         scheduler: str | None, quiet: bool) -> dict:
+    from contactlab.progress import bar
+
+    desc = stage.name or "stage"
+    done: dict = {}
+    progress = bar(total=len(tasks), desc=desc, quiet=quiet, unit="trial")
+    try:
+        if scheduler is not None:
+            from distributed import Client, as_completed
+
+            with Client(scheduler, set_as_default=False) as client:
+                futures = {client.submit(_run_one, stage, p, t, pure=False): (p, t)
+                           for p, t in tasks}
+                for fut in as_completed(futures):
+                    done[futures[fut]] = _result(fut, *futures[fut])
+                    progress.update(1)
+        elif workers > 1 and len(tasks) > 1:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            ctx = multiprocessing.get_context("fork")  # workers inherit loaded kernels
+            with ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
+                                     mp_context=ctx) as pool:
+                futures = {pool.submit(_run_one, stage, p, t): (p, t) for p, t in tasks}
+                try:
+                    for fut in as_completed(futures):
+                        done[futures[fut]] = _result(fut, *futures[fut])
+                        progress.update(1)
+                except BaseException:
+                    pool.shutdown(wait=False, cancel_futures=True)
+                    raise
+        else:
+            for p, t in tasks:
+                done[(p, t)] = _run_one(stage, p, t)
+                progress.update(1)
+    finally:
+        progress.close()
+    return done
+
+
+def _result(future, path: Path, tid: str):
+    """A future's outcome; a worker that died or a task that could not run is a failure."""
+    try:
+        return future.result()
+    except Exception as err:  # noqa: BLE001 - worker lost, unpicklable result, ...
+        return TrialFailure(str(path), tid, f"failed in a worker: {type(err).__name__}: {err}")
