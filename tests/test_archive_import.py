@@ -171,3 +171,20 @@ def test_parse_column_map_text_and_json_file(tmp_path):
 def test_parse_column_map_rejects_bad_maps(text, fragment):
     with pytest.raises(UsageError, match=fragment):
         parse_column_map(text)
+
+
+def test_labels_give_ground_truth_segments_runs_of_equal_labels(tmp_path):
+    from contactlab.archive import import_csv, open_archive, validate_archive
+
+    labels = ["free"] * 3 + ["contact"] * 4 + [""] * 2 + ["contact"] * 2 + ["free"]
+    rows = ["t,fx,state"] + [f"{0.01 * i:.2f},{i},{lab}" for i, lab in enumerate(labels)]
+    (tmp_path / "run.csv").write_text("\n".join(rows) + "\n")
+    out = import_csv([tmp_path / "run.csv"], out=tmp_path / "a.h5",
+                     columns={"time": "t", "labels": "state", "strain": "fx"}, quiet=True)
+    with open_archive(out) as archive:
+        seg = archive.trial("run").segments
+    # hand-written runs: [0, 3) free, [3, 7) contact, 7-8 unlabelled, [9, 11) contact, [11] free
+    assert seg["label"].tolist() == ["free", "contact", "contact", "free"]
+    assert seg["start_s"].round(9).tolist() == [0.0, 0.03, 0.09, 0.11]
+    assert seg["end_s"].round(9).tolist() == [0.03, 0.07, 0.11, 0.12]
+    assert validate_archive(out) == []
