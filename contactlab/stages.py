@@ -144,13 +144,16 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     return summaries
 
 
-def _run_one(stage: Stage, path: Path, tid: str) -> TrialOutcome | TrialFailure:
-    """Run one trial in whatever process gets it; errors come back as values."""
+def _run_one(stage: Stage, path: Path, tid: str, archive=None) -> TrialOutcome | TrialFailure:
+    """Run one trial in whatever process gets it (opening the archive unless it is
+    given open); errors come back as values."""
     from contactlab.archive import open_archive
 
     try:
-        with open_archive(path) as archive:
+        if archive is not None:
             return stage.run_trial(archive.trial(tid))
+        with open_archive(path) as opened:
+            return stage.run_trial(opened.trial(tid))
     except DataError as err:
         where = f"/trials/{tid}"
         if err.field and err.field.startswith(where):
@@ -177,7 +180,7 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
             with Client(scheduler, set_as_default=False) as client:
                 futures = {client.submit(_run_one, stage, p, t, pure=False): (p, t)
                            for p, t in tasks}
-                for fut in as_completed(futures):
+                for fut in as_completed(list(futures), loop=client.loop):
                     done[futures[fut]] = _result(fut, *futures[fut])
                     progress.update(1)
         elif workers > 1 and len(tasks) > 1:
@@ -196,9 +199,14 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
         else:
-            for p, t in tasks:
-                done[(p, t)] = _run_one(stage, p, t)
-                progress.update(1)
+            from contactlab.archive import open_archive
+
+            for path in dict.fromkeys(p for p, _ in tasks):
+                with open_archive(path) as archive:
+                    for p, t in tasks:
+                        if p == path:
+                            done[(p, t)] = _run_one(stage, p, t, archive)
+                            progress.update(1)
     finally:
         progress.close()
     return done
