@@ -71,6 +71,9 @@ class Stage:
     name: str = ""
     #: False for runs that only report (a threshold sweep, ``--no-write``).
     write: bool = True
+    #: True for stages whose unit of work is the archive (a leave-one-trial-out
+    #: refits on the other trials): :meth:`run_archive` instead of ``run_trial``.
+    per_archive: bool = False
 
     def select(self, archive, trials: Sequence[str] | None) -> list[str]:
         """The trial ids to run (default: ``archive.select(trials)``)."""
@@ -78,6 +81,12 @@ class Stage:
 
     def run_trial(self, trial) -> TrialOutcome:  # pragma: no cover - abstract
         """Analyse one trial; pure: reads ``trial``, returns its outcome."""
+        raise NotImplementedError
+
+    def run_archive(self, archive, trial_ids: list[str]) -> TrialOutcome:  # pragma: no cover
+        """For ``per_archive`` stages: analyse the trials ``trial_ids`` of the open
+        ``archive`` together; ``entry`` is the archive's summary and
+        ``extra["results"]`` maps trial ids to :class:`TrialResults`."""
         raise NotImplementedError
 
     def summarize(self, path: Path, outcomes: dict[str, TrialOutcome]) -> dict:
@@ -117,10 +126,12 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
                 raise DataError("no such file", file=str(path))
             check_owner_writable(path)
         with open_archive(path) as archive:
-            tasks += [(path, tid) for tid in stage.select(archive, trials)]
+            ids = stage.select(archive, trials)
+        tasks += [(path, tuple(ids))] if stage.per_archive else [(path, tid) for tid in ids]
     done = _map(stage, tasks, workers=workers, scheduler=scheduler, quiet=quiet)
     failures: list[TrialFailure] = []
     summaries: dict[Path, dict] = {}
+    written = 0
     for path in paths:
         outcomes: dict[str, TrialOutcome] = {}
         for p, tid in tasks:
@@ -131,30 +142,40 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
                 failures.append(got)
             else:
                 outcomes[tid] = got
-        if stage.write and stage.name:
-            write_stage(path, stage.name, {tid: o.results for tid, o in outcomes.items()
-                                           if o.results is not None})
-        summaries[path] = stage.summarize(path, outcomes)
+        if stage.per_archive:
+            if not outcomes:
+                continue
+            whole = next(iter(outcomes.values()))
+            results, summaries[path] = whole.extra["results"], whole.entry
+        else:
+            results = {tid: o.results for tid, o in outcomes.items() if o.results is not None}
+            summaries[path] = stage.summarize(path, outcomes)
+        if stage.write and stage.name and results:
+            write_stage(path, stage.name, results)
+            written += 1
     if failures:
         first = failures[0]
-        more = f" ({len(failures) - 1} more trials failed)" if len(failures) > 1 else ""
-        kept = "; the other trials' results were written" if stage.write and stage.name else ""
-        raise DataError(f"{first.message}{more}{kept}", file=first.archive,
-                        field=first.field or f"/trials/{first.trial}")
+        more = f" ({len(failures) - 1} more failed)" if len(failures) > 1 else ""
+        kept = "; the other results were written" if written else ""
+        field = first.field or (f"/trials/{first.trial}" if first.trial != "*" else None)
+        raise DataError(f"{first.message}{more}{kept}", file=first.archive, field=field)
     return summaries
 
 
-def _run_one(stage: Stage, path: Path, tid: str, archive=None) -> TrialOutcome | TrialFailure:
-    """Run one trial in whatever process gets it (opening the archive unless it is
-    given open); errors come back as values."""
+def _run_one(stage: Stage, path: Path, tid, archive=None) -> TrialOutcome | TrialFailure:
+    """Run one trial (``tid`` a tuple of ids: a per-archive stage's trials) in whatever
+    process gets it, opening the archive unless it is given open; errors come back
+    as values."""
     from contactlab.archive import open_archive
 
     try:
-        if archive is not None:
-            return stage.run_trial(archive.trial(tid))
-        with open_archive(path) as opened:
-            return stage.run_trial(opened.trial(tid))
+        if archive is None:
+            with open_archive(path) as opened:
+                return _run_one_open(stage, opened, tid)
+        return _run_one_open(stage, archive, tid)
     except DataError as err:
+        if isinstance(tid, tuple):
+            return TrialFailure(str(path), "*", err.message, err.field or "")
         where = f"/trials/{tid}"
         if err.field and err.field.startswith(where):
             where = err.field
@@ -163,7 +184,14 @@ def _run_one(stage: Stage, path: Path, tid: str, archive=None) -> TrialOutcome |
         return TrialFailure(str(path), tid, err.message, where)
     except (ArithmeticError, ValueError, IndexError, KeyError, TypeError, RuntimeError,
             OSError) as err:
-        return TrialFailure(str(path), tid, f"failed: {type(err).__name__}: {err}")
+        return TrialFailure(str(path), "*" if isinstance(tid, tuple) else tid,
+                            f"failed: {type(err).__name__}: {err}")
+
+
+def _run_one_open(stage: Stage, archive, tid) -> TrialOutcome:
+    if isinstance(tid, tuple):
+        return stage.run_archive(archive, list(tid))
+    return stage.run_trial(archive.trial(tid))
 
 
 def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
