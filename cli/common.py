@@ -96,15 +96,21 @@ def archives_argument(f):
                           type=click.Path(dir_okay=False, path_type=Path))(f)
 
 
-def parallel_options(f):
-    """``--workers N`` (local processes) and ``--scheduler ADDRESS`` (a Dask cluster)."""
-    f = click.option("--scheduler", default=None, metavar="ADDRESS",
-                     help="Run trials on an existing Dask distributed cluster (e.g. "
-                          "tcp://host:8786); its workers must see the archives at the same "
-                          "paths.")(f)
-    return click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-                        help="Run trials in this many local processes (1: in this process, "
-                             "quickest for a few trials).")(f)
+def parallel_options(unit: str):
+    """``--workers N`` (local processes) and ``--scheduler ADDRESS`` (a Dask cluster),
+    each running ``unit`` (trials, archives, experiments) in parallel."""
+
+    def decorate(f):
+        f = click.option("--scheduler", default=None, metavar="ADDRESS",
+                         help=f"Run the {unit} on an existing Dask distributed cluster (e.g. "
+                              "tcp://host:8786) whose workers see the same files at the "
+                              "same paths.")(f)
+        return click.option("--workers", type=click.IntRange(min=1), default=1,
+                            show_default=True,
+                            help=f"Run the {unit} in this many local processes (1: in this "
+                                 "process, quickest for a few).")(f)
+
+    return decorate
 
 
 def echo_summaries(summaries: dict, echo_one) -> None:

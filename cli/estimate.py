@@ -27,7 +27,7 @@ from contactlab.constraints.archive import MODELS
 @click.option("--no-friction", is_flag=True,
               help="Skip the friction compensation filter (8.29).")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
-@parallel_options
+@parallel_options("trials")
 @json_option
 @quiet_option
 def estimate(archives, model, segments, block, motion, no_friction, trials, workers, scheduler,

@@ -27,7 +27,7 @@ from contactlab.cli.common import (archives_argument, echo_summaries, json_optio
 @click.option("--labels", "labels", default=None, metavar="truth|STAGE",
               help="Where blocks and true classes come from [default: as in training].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
-@parallel_options
+@parallel_options("archives")
 @json_option
 @quiet_option
 def label(archives, models, block, loo, loo_unit, labels, trials, workers, scheduler, as_json,

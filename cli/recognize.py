@@ -33,7 +33,7 @@ from contactlab.cli.common import (archives_argument, echo_summaries, json_optio
               show_default=True, help="Detect covariance increases only (the thesis) or both.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
-@parallel_options
+@parallel_options("trials")
 @json_option
 @quiet_option
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,

@@ -43,7 +43,7 @@ def _thresholds(ctx, param, value):
 @click.option("--tolerance", type=float, default=0.1, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
-@parallel_options
+@parallel_options("trials")
 @json_option
 @quiet_option
 def segment(archives, signal, order, threshold, sweep_values, change_size, combine, tolerance,

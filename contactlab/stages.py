@@ -33,7 +33,7 @@ from pathlib import Path
 from contactlab.archive.results import TrialResults
 from contactlab.errors import DataError, UsageError
 
-__all__ = ["Stage", "TrialOutcome", "TrialFailure", "run_stage", "check_workers"]
+__all__ = ["Stage", "TrialOutcome", "TrialFailure", "check_workers", "parallel_map", "run_stage"]
 
 
 @dataclass
@@ -196,53 +196,84 @@ def _run_one_open(stage: Stage, archive, tid) -> TrialOutcome:
 
 def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
          scheduler: str | None, quiet: bool) -> dict:
+    if scheduler is None and (workers == 1 or len(tasks) < 2):
+        from contactlab.archive import open_archive
+        from contactlab.progress import bar
+
+        done: dict = {}
+        progress = bar(total=len(tasks), desc=stage.name or "stage", quiet=quiet,
+                       unit="trial")
+        try:
+            for path in dict.fromkeys(p for p, _ in tasks):
+                with open_archive(path) as archive:   # opened once for all its trials
+                    for p, t in tasks:
+                        if p == path:
+                            done[(p, t)] = _run_one(stage, p, t, archive)
+                            progress.update(1)
+        finally:
+            progress.close()
+        return done
+    got = parallel_map(_run_one, [(stage, p, t) for p, t in tasks], workers=workers,
+                       scheduler=scheduler, quiet=quiet, desc=stage.name or "stage")
+    return {(p, t): (TrialFailure(str(p), "*" if isinstance(t, tuple) else t,
+                                  f"failed in a worker: {type(r).__name__}: {r}")
+                     if isinstance(r, Exception) else r)
+            for (p, t), r in zip(tasks, got)}
+
+
+def parallel_map(fn, calls: list[tuple], *, workers: int = 1, scheduler: str | None = None,
+                 quiet: bool = True, desc: str = "") -> list:
+    """``[fn(*args) for args in calls]`` in a pool of ``workers`` local processes or on
+    the Dask cluster at ``scheduler``, in order. ``fn`` and its arguments must pickle.
+
+    An exception raised by one call (or a worker lost under it) is returned in
+    that call's place, so the others still finish; an interrupt stops them all.
+    """
     from contactlab.progress import bar
 
-    desc = stage.name or "stage"
-    done: dict = {}
-    progress = bar(total=len(tasks), desc=desc, quiet=quiet, unit="trial")
+    check_workers(workers, scheduler)
+    out: list = [None] * len(calls)
+    progress = bar(total=len(calls), desc=desc, quiet=quiet, unit="task")
     try:
         if scheduler is not None:
             from distributed import Client, as_completed
 
             with Client(scheduler, set_as_default=False) as client:
-                futures = {client.submit(_run_one, stage, p, t, pure=False): (p, t)
-                           for p, t in tasks}
+                futures = {client.submit(fn, *args, pure=False): i
+                           for i, args in enumerate(calls)}
                 for fut in as_completed(list(futures), loop=client.loop):
-                    done[futures[fut]] = _result(fut, *futures[fut])
+                    out[futures[fut]] = _result(fut)
                     progress.update(1)
-        elif workers > 1 and len(tasks) > 1:
+        elif workers > 1 and len(calls) > 1:
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor, as_completed
 
             ctx = multiprocessing.get_context("fork")  # workers inherit loaded kernels
-            with ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
+            with ProcessPoolExecutor(max_workers=min(workers, len(calls)),
                                      mp_context=ctx) as pool:
-                futures = {pool.submit(_run_one, stage, p, t): (p, t) for p, t in tasks}
+                futures = {pool.submit(fn, *args): i for i, args in enumerate(calls)}
                 try:
                     for fut in as_completed(futures):
-                        done[futures[fut]] = _result(fut, *futures[fut])
+                        out[futures[fut]] = _result(fut)
                         progress.update(1)
                 except BaseException:
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
         else:
-            from contactlab.archive import open_archive
-
-            for path in dict.fromkeys(p for p, _ in tasks):
-                with open_archive(path) as archive:
-                    for p, t in tasks:
-                        if p == path:
-                            done[(p, t)] = _run_one(stage, p, t, archive)
-                            progress.update(1)
+            for i, args in enumerate(calls):
+                try:
+                    out[i] = fn(*args)
+                except Exception as err:  # noqa: BLE001 - returned like a worker's
+                    out[i] = err
+                progress.update(1)
     finally:
         progress.close()
-    return done
+    return out
 
 
-def _result(future, path: Path, tid: str):
-    """A future's outcome; a worker that died or a task that could not run is a failure."""
+def _result(future):
+    """A future's value, or the exception its call raised (a lost worker, ...)."""
     try:
         return future.result()
-    except Exception as err:  # noqa: BLE001 - worker lost, unpicklable result, ...
-        return TrialFailure(str(path), tid, f"failed in a worker: {type(err).__name__}: {err}")
+    except Exception as err:  # noqa: BLE001 - reported by the caller, per call
+        return err

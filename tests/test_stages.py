@@ -3,6 +3,7 @@ an interrupted stage writes nothing; read-only archives are refused; one atomic 
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 
@@ -178,3 +179,37 @@ def test_stale_temporary_files_are_removed_and_noted(runs, tmp_path, capsys):
     with open_archive(path) as archive:
         np.testing.assert_array_equal(archive.trial("t0").results("segment")["x"],
                                       np.arange(3.0))
+
+
+def run(*, out_dir, seed, quiet):
+    """A stand-in experiment (imported by name in worker processes): seeded draws."""
+    values = np.random.default_rng(seed + len(out_dir.name)).normal(size=3).tolist()
+    (out_dir / "results.json").write_text(json.dumps({"values": values, "seed": seed}))
+    if out_dir.name == "broken":
+        raise DataError("no data", file=str(out_dir))
+    return {"values": values, "wall_time_s": 0.0}
+
+
+def test_reproduce_on_workers_and_dask_matches_a_serial_run(tmp_path, monkeypatch):
+    from distributed import LocalCluster
+
+    from dataclasses import replace
+
+    from contactlab.experiments import EXPERIMENTS
+    from contactlab.experiments.runner import reproduce
+
+    fake = lambda name: replace(EXPERIMENTS["ph-demo"], name=name, module=__name__)  # noqa: E731
+    fakes = [fake("one"), fake("three")]
+    for exp in fakes:
+        monkeypatch.setitem(EXPERIMENTS, exp.name, exp)
+    serial = reproduce(fakes, out=tmp_path / "serial", seed=4)
+    assert reproduce(fakes, out=tmp_path / "pool", seed=4, workers=2) == serial
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        assert reproduce(fakes, out=tmp_path / "dask", seed=4,
+                         scheduler=cluster.scheduler_address) == serial
+    assert serial["one"]["values"] != serial["three"]["values"]
+    broken = fake("broken")
+    monkeypatch.setitem(EXPERIMENTS, "broken", broken)
+    with pytest.raises(DataError, match="no data"):
+        reproduce([broken, fakes[0]], out=tmp_path / "b", seed=4, workers=2)
+    assert (tmp_path / "b" / "one" / "results.json").exists()      # the other one finished
