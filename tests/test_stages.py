@@ -44,7 +44,8 @@ def _stored(path, stage):
     return out
 
 
-def _measurements(path):
+def measurement_bytes(path):
+    """The bytes of every trial's measurements (bit-identity checks)."""
     with h5py.File(path, "r") as f:
         return {tid: {k: f["trials"][tid]["measurements"][k][()].tobytes()
                       for k in f["trials"][tid]["measurements"]} for tid in f["trials"]}
@@ -158,14 +159,14 @@ def test_one_atomic_write_per_stage_run_keeps_mode_and_measurements(runs, tmp_pa
     path = tmp_path / "a.h5"
     path.write_bytes(runs.read_bytes())
     os.chmod(path, 0o640)
-    before = _measurements(path)
+    before = measurement_bytes(path)
     replaced = []
     real = os.replace
     monkeypatch.setattr(os, "replace", lambda a, b: (replaced.append(b), real(a, b)))
     run_archive(path)
     assert replaced == [path]                          # one rebuild for all three trials
     assert stat.S_IMODE(os.stat(path).st_mode) == 0o640
-    assert _measurements(path) == before and validate_archive(path) == []
+    assert measurement_bytes(path) == before and validate_archive(path) == []
 
 
 def test_stale_temporary_files_are_removed_and_noted(runs, tmp_path, capsys):

@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 import pytest
 from conftest import run_cli
+from test_stages import measurement_bytes as _measurements
 from test_temporal_train import SEPARATED, write_ar_archive
 
 from contactlab.archive import validate_archive
@@ -55,12 +56,6 @@ def models(runs, tmp_path_factory):
     r = run_cli("train", runs, "--labels", "truth", "--out", out, "--quiet")
     assert r.exit_code == 0, r.output
     return out
-
-
-def _measurements(path):
-    with h5py.File(path, "r") as f:
-        return {tid: {k: f["trials"][tid]["measurements"][k][()].tobytes()
-                      for k in f["trials"][tid]["measurements"]} for tid in f["trials"]}
 
 
 def _parameters(path, stage):
