@@ -12,8 +12,8 @@ one archive. :func:`run_stage` drives it::
     (contactlab.archive.write_stage) -> summarize
 
 A run interrupted before the write leaves every old result as it was; a
-trial that fails is reported (archive and trial named) after the other
-trials' results are written, and the run ends with a DataError.
+trial that fails is reported in one line naming archive and trial after the
+other trials' results are written, and the run ends with a DataError.
 
 Parallel work: ``workers=1`` (the default) runs in this process -- a stage
 over a few trials is faster without starting processes that each load the
@@ -26,6 +26,7 @@ distributed cluster, whose workers must see the archives at the same paths
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -116,7 +117,7 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     from contactlab.archive.results import check_owner_writable, write_stage
 
     check_workers(workers, scheduler)
-    paths = [Path(p) for p in paths]
+    paths = list(dict.fromkeys(Path(p) for p in paths))
     if not paths:
         raise UsageError("no archive given")
     tasks: list[tuple[Path, str]] = []
@@ -154,11 +155,17 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
             write_stage(path, stage.name, results)
             written += 1
     if failures:
-        first = failures[0]
-        more = f" ({len(failures) - 1} more failed)" if len(failures) > 1 else ""
-        kept = "; the other results were written" if written else ""
-        field = first.field or (f"/trials/{first.trial}" if first.trial != "*" else None)
-        raise DataError(f"{first.message}{more}{kept}", file=first.archive, field=field)
+        errors = [DataError(f.message, file=f.archive,
+                            field=f.field or (f"/trials/{f.trial}" if f.trial != "*" else None))
+                  for f in failures]
+        for err in errors[:-1]:              # one line each; the last is the raised error
+            print(f"contactlab: error: {err}", file=sys.stderr, flush=True)
+        last = errors[-1]
+        count = f"{len(errors)} failed" if len(errors) > 1 else ""
+        kept = "the other results were written" if written else ""
+        tail = "; ".join(x for x in (count, kept) if x)
+        raise DataError(last.message + (f" ({tail})" if tail else ""), file=last.file,
+                        field=last.field)
     return summaries
 
 

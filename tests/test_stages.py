@@ -77,11 +77,11 @@ class _FailsOn(Stage):
 
     name = "probe"
 
-    def __init__(self, bad: str, error=DataError):
+    def __init__(self, *bad: str, error=DataError):
         self.bad, self.error = bad, error
 
     def run_trial(self, trial):
-        if trial.id == self.bad:
+        if trial.id in self.bad:
             if self.error is DataError:
                 raise DataError("cannot probe", field=f"/trials/{trial.id}/measurements/strain")
             raise self.error("stop")
@@ -98,8 +98,21 @@ def test_a_failed_trial_is_reported_and_the_others_land(runs, tmp_path, workers)
         run_stage(_FailsOn("t1"), [path], workers=workers)
     msg = str(info.value)
     assert msg.startswith(f"{path}: /trials/t1/measurements/strain: cannot probe")
-    assert "the other results were written" in msg and "\n" not in msg
+    assert msg.endswith("(the other results were written)") and "\n" not in msg
     assert set(_stored(path, "probe")) == {"t0", "t2"}
+
+
+def test_every_failed_trial_gets_its_line(runs, tmp_path, capsys):
+    path = tmp_path / "a.h5"
+    path.write_bytes(runs.read_bytes())
+    with pytest.raises(DataError) as info:
+        run_stage(_FailsOn("t0", "t2"), [path])
+    printed = capsys.readouterr().err.strip().splitlines()
+    assert printed == [f"contactlab: error: {path}: /trials/t0/measurements/strain: "
+                       "cannot probe"]
+    assert str(info.value) == (f"{path}: /trials/t2/measurements/strain: cannot probe "
+                               "(2 failed; the other results were written)")
+    assert set(_stored(path, "probe")) == {"t1"}
 
 
 def test_an_interrupted_stage_keeps_every_old_result(runs, tmp_path):
