@@ -11,9 +11,10 @@ one archive. :func:`run_stage` drives it::
     cluster) -> write every trial's results in one atomic step per archive
     (contactlab.archive.write_stage) -> summarize
 
-A run interrupted before the write leaves every old result as it was; a
-trial that fails is reported in one line naming archive and trial after the
-other trials' results are written, and the run ends with a DataError.
+A run interrupted before the write leaves every old result as it was; when
+trials fail, the other trials' results are written and the run ends with one
+DataError line naming the archive and the first failed trial, its reason, and
+how many others failed.
 
 Parallel work: ``workers=1`` (the default) runs in this process -- a stage
 over a few trials is faster without starting processes that each load the
@@ -26,7 +27,6 @@ distributed cluster, whose workers must see the archives at the same paths
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -155,17 +155,18 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
             write_stage(path, stage.name, results)
             written += 1
     if failures:
-        errors = [DataError(f.message, file=f.archive,
-                            field=f.field or (f"/trials/{f.trial}" if f.trial != "*" else None))
-                  for f in failures]
-        for err in errors[:-1]:              # one line each; the last is the raised error
-            print(f"contactlab: error: {err}", file=sys.stderr, flush=True)
-        last = errors[-1]
-        count = f"{len(errors)} failed" if len(errors) > 1 else ""
-        kept = "the other results were written" if written else ""
-        tail = "; ".join(x for x in (count, kept) if x)
-        raise DataError(last.message + (f" ({tail})" if tail else ""), file=last.file,
-                        field=last.field)
+        first = failures[0]
+        notes = []
+        if len(failures) > 1:
+            names = [f"{f.archive}:{f.trial}" if f.archive != first.archive else f.trial
+                     for f in failures[1:]]
+            more = ", ".join(names[:5]) + (", ..." if len(names) > 5 else "")
+            notes.append(f"{len(failures)} failed; also {more}")
+        if written:
+            notes.append("the other results were written")
+        field = first.field or (f"/trials/{first.trial}" if first.trial != "*" else None)
+        raise DataError(first.message + (f" ({'; '.join(notes)})" if notes else ""),
+                        file=first.archive, field=field)
     return summaries
 
 
