@@ -204,29 +204,50 @@ def _run_one_open(stage: Stage, archive, tid) -> TrialOutcome:
 
 def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
          scheduler: str | None, quiet: bool) -> dict:
-    if scheduler is None and (workers == 1 or len(tasks) < 2):
-        from contactlab.archive import open_archive
-        from contactlab.progress import bar
+    """Run every task; ``{(path, tid): outcome or TrialFailure}``.
 
-        done: dict = {}
-        progress = bar(total=len(tasks), desc=stage.name or "stage", quiet=quiet,
-                       unit="trial")
-        try:
-            for path in dict.fromkeys(p for p, _ in tasks):
-                with open_archive(path) as archive:   # opened once for all its trials
-                    for p, t in tasks:
-                        if p == path:
-                            done[(p, t)] = _run_one(stage, p, t, archive)
-                            progress.update(1)
-        finally:
-            progress.close()
-        return done
-    got = parallel_map(_run_one, [(stage, p, t) for p, t in tasks], workers=workers,
+    In parallel, tasks go out in chunks of consecutive trials of one archive
+    (about four per worker), each chunk opening its archive once.
+    """
+    if scheduler is None and (workers == 1 or len(tasks) < 2):
+        chunks = [tasks]
+    else:
+        n = max(1, -(-len(tasks) // (4 * (workers if scheduler is None else 8))))
+        chunks = []
+        for path in dict.fromkeys(p for p, _ in tasks):
+            mine = [task for task in tasks if task[0] == path]
+            chunks += [mine[i:i + n] for i in range(0, len(mine), n)]
+    if len(chunks) == 1:
+        return dict(zip(tasks, _run_chunk(stage, tasks, quiet=quiet)))
+    got = parallel_map(_run_chunk, [(stage, chunk) for chunk in chunks], workers=workers,
                        scheduler=scheduler, quiet=quiet, desc=stage.name or "stage")
-    return {(p, t): (TrialFailure(str(p), "*" if isinstance(t, tuple) else t,
-                                  f"failed in a worker: {type(r).__name__}: {r}")
-                     if isinstance(r, Exception) else r)
-            for (p, t), r in zip(tasks, got)}
+    done: dict = {}
+    for chunk, outcomes in zip(chunks, got):
+        for (p, t), r in zip(chunk, outcomes if isinstance(outcomes, list) else
+                             [outcomes] * len(chunk)):
+            done[(p, t)] = r if not isinstance(r, Exception) else TrialFailure(
+                str(p), "*" if isinstance(t, tuple) else t,
+                f"failed in a worker: {type(r).__name__}: {r}")
+    return done
+
+
+def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], *, quiet: bool = True) -> list:
+    """Run ``tasks`` in order, each archive opened once; outcomes or TrialFailures."""
+    from contactlab.archive import open_archive
+    from contactlab.progress import bar
+
+    done: dict = {}
+    progress = bar(total=len(tasks), desc=stage.name or "stage", quiet=quiet, unit="trial")
+    try:
+        for path in dict.fromkeys(p for p, _ in tasks):
+            with open_archive(path) as archive:
+                for p, t in tasks:
+                    if p == path:
+                        done[(p, t)] = _run_one(stage, p, t, archive)
+                        progress.update(1)
+    finally:
+        progress.close()
+    return [done[task] for task in tasks]
 
 
 def parallel_map(fn, calls: list[tuple], *, workers: int = 1, scheduler: str | None = None,
