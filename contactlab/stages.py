@@ -267,7 +267,14 @@ def parallel_map(fn, calls: list[tuple], *, workers: int = 1, scheduler: str | N
         if scheduler is not None:
             from distributed import Client, as_completed
 
-            with Client(scheduler, set_as_default=False) as client:
+            _check_scheduler(scheduler)
+            try:
+                client = Client(scheduler, set_as_default=False, timeout="20s")
+            except (OSError, TimeoutError, ValueError) as err:
+                reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+                raise DataError(f"cannot reach the Dask scheduler at {scheduler!r} ({reason})",
+                                field="--scheduler") from None
+            with client:
                 futures = {client.submit(fn, *args, pure=False): i
                            for i, args in enumerate(calls)}
                 for fut in as_completed(list(futures), loop=client.loop):
@@ -298,6 +305,22 @@ def parallel_map(fn, calls: list[tuple], *, workers: int = 1, scheduler: str | N
     finally:
         progress.close()
     return out
+
+
+def _check_scheduler(address: str) -> None:
+    """A one-line error for an address no Dask transport can reach (before a Client
+    is made: a half-made one hangs on its way out)."""
+    from distributed.comm import parse_address
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, rest = parse_address(address)
+    except ValueError as err:
+        raise DataError(f"not a Dask scheduler address {address!r} ({err})",
+                        field="--scheduler") from None
+    if scheme not in backends or not rest:
+        raise DataError(f"not a Dask scheduler address {address!r} (transports: "
+                        f"{', '.join(sorted(backends))})", field="--scheduler")
 
 
 def _result(future):

@@ -224,3 +224,18 @@ def test_reproduce_on_workers_and_dask_matches_a_serial_run(tmp_path, monkeypatc
     with pytest.raises(DataError, match="no data"):
         reproduce([broken, fakes[0]], out=tmp_path / "b", seed=4, workers=2)
     assert (tmp_path / "b" / "one" / "results.json").exists()      # the other one finished
+
+
+def test_a_bad_scheduler_address_is_one_line_and_writes_nothing(runs, tmp_path):
+    path = tmp_path / "a.h5"
+    path.write_bytes(runs.read_bytes())
+    before = path.read_bytes()
+    r = run_cli("segment", path, "--scheduler", "bogus://x", "--quiet")
+    assert r.exit_code == 1
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        "contactlab: error: --scheduler: not a Dask scheduler address 'bogus://x' "
+        "(transports: ") and "tcp" in lines[0]
+    r = run_cli("segment", path, "--scheduler", "tcp://127.0.0.1:1", "--workers", "2")
+    assert r.exit_code == 2 and "not both" in r.output
+    assert path.read_bytes() == before
