@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SEED   ?= 1
 
-.PHONY: all env demo test bench reproduce clean
+.PHONY: all env demo test stress bench reproduce clean
 
 all: test
 
@@ -53,6 +53,11 @@ demo: $(STAMP)
 ## Run the test suite.
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+## Results under kills and concurrent stages at full count: 100 SIGKILLs during results
+## writes, 20 concurrent segment + label pairs, 10 interrupted stages (make test runs a few).
+stress: $(STAMP)
+	CONTACTLAB_STRESS=1 $(BIN)/python -m pytest tests/test_stages_crash.py -p no:cacheprovider
 
 ## Benchmarks against the standard peers (ratios printed, same run).
 bench: $(STAMP)

@@ -103,6 +103,46 @@ def archive_argument(f):
     return click.argument("archive", type=click.Path(dir_okay=False, path_type=Path))(f)
 
 
+def archives_argument(f):
+    """One or more archive file arguments (``contactlab segment runs/*.h5``)."""
+    return click.argument("archives", nargs=-1, required=True,
+                          type=click.Path(dir_okay=False, path_type=Path))(f)
+
+
+def parallel_options(unit: str):
+    """``--workers N`` (local processes) and ``--scheduler ADDRESS`` (a Dask cluster),
+    each running ``unit`` (trials, archives, experiments) in parallel."""
+
+    def decorate(f):
+        f = click.option("--scheduler", default=None, metavar="ADDRESS",
+                         help=f"Run the {unit} on an existing Dask distributed cluster (e.g. "
+                              "tcp://host:8786) whose workers see the same files at the "
+                              "same paths.")(f)
+        return click.option("--workers", type=click.IntRange(min=1), default=1,
+                            show_default=True,
+                            help=f"Run the {unit} in this many local processes (1: in this "
+                                 "process, quickest for a few).")(f)
+
+    return decorate
+
+
+def echo_summaries(summaries: dict, echo_one) -> None:
+    """Print each archive's summary with ``echo_one(path, summary)``; a heading per
+    archive when there are several."""
+    for path, summary in summaries.items():
+        if len(summaries) > 1:
+            click.echo(f"== {path}")
+        echo_one(path, summary)
+
+
+def json_summaries(summaries: dict) -> None:
+    """One archive: its summary; several: ``{"archives": {path: summary}}``."""
+    if len(summaries) == 1:
+        echo_json(next(iter(summaries.values())))
+    else:
+        echo_json({"archives": {str(p): s for p, s in summaries.items()}})
+
+
 def to_jsonable(obj):
     """Convert numpy scalars/arrays and paths to plain JSON types; NaN -> null."""
     if isinstance(obj, dict):

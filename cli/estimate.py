@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import click
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+                                   json_summaries, parallel_options, quiet_option)
 from contactlab.constraints.archive import MODELS
 
 
 @click.command()
-@archive_argument
+@archives_argument
 @click.option("--model", type=click.Choice(MODELS), default="cartesian", show_default=True,
               help="Constraint model: Cartesian linear constraints in R^3 (8.1.1), or a "
                    "planar polygon contact (8.1.2-8.1.3; needs position columns x, y, "
@@ -32,11 +33,12 @@ from contactlab.constraints.archive import MODELS
 @click.option("--no-friction", is_flag=True,
               help="Skip the friction compensation filter (8.29).")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@parallel_options("trials")
 @json_option
 @quiet_option
-def estimate(archive, model, segments, block, motion, position_noise, force_noise, no_friction,
-             trials, as_json, quiet):
-    """Estimate the constraint frame and degree of every segment of ARCHIVE.
+def estimate(archives, model, segments, block, motion, position_noise, force_noise,
+             no_friction, trials, workers, scheduler, as_json, quiet):
+    """Estimate the constraint frame and degree of every segment of each ARCHIVE.
 
     Force (wrench[:, :3]), position and velocity are lowpassed and decimated
     to 250 Hz (7.1); each segment gets the constraint-form estimator
@@ -61,18 +63,21 @@ def estimate(archive, model, segments, block, motion, position_noise, force_nois
     columns x, y, theta and wrench columns fx, fy, tz ('contactlab import'
     with --columns "time=t;position=x,y,theta;wrench=fx,fy,fz,tx,ty,tz").
     """
-    from contactlab.constraints.archive import estimate_archive
+    from contactlab.constraints.archive import EstimateStage
+    from contactlab.stages import run_stage
 
-    summary = estimate_archive(archive, model=model, segments=segments, block=block,
-                               trials=list(trials) or None, friction=not no_friction,
-                               motion=motion, quiet=quiet, position_sd=position_noise,
-                               force_sd=force_noise)
+    stage = EstimateStage(model=model, segments=segments, block=block,
+                          friction=not no_friction, motion=motion,
+                          position_sd=position_noise, force_sd=force_noise)
+    summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
+                          scheduler=scheduler, quiet=quiet)
     if as_json:
-        echo_json(summary)
+        json_summaries(summaries)
         return
-    if model != "cartesian":
-        _echo_polygon(summary, archive)
-        return
+    echo_summaries(summaries, _echo_polygon if model != "cartesian" else _echo_cartesian)
+
+
+def _echo_cartesian(archive, summary):
     for tid, entry in summary["trials"].items():
         for r in entry["segments"]:
             head = f"{tid} [{_s(r['start_s'])}, {_s(r['end_s'])}] s n={r['n']}"
@@ -89,7 +94,7 @@ def estimate(archive, model, segments, block, motion, position_noise, force_nois
                f"(results/estimate)")
 
 
-def _echo_polygon(summary, archive):
+def _echo_polygon(archive, summary):
     for tid, entry in summary["trials"].items():
         for r in entry["segments"]:
             head = f"{tid} [{_s(r['start_s'])}, {_s(r['end_s'])}] s n={r['n']}"

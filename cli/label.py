@@ -6,11 +6,12 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+                                   json_summaries, parallel_options, quiet_option)
 
 
 @click.command()
-@archive_argument
+@archives_argument
 @click.option("--models", "models", required=True,
               type=click.Path(dir_okay=False, path_type=Path),
               help="Models file written by 'contactlab train'.")
@@ -26,17 +27,20 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--labels", "labels", default=None, metavar="truth|STAGE",
               help="Where blocks and true classes come from [default: as in training].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@parallel_options("archives")
 @json_option
 @quiet_option
-def label(archive, models, block, loo, loo_unit, labels, trials, as_json, quiet):
-    """Label the blocks of ARCHIVE with the class models in --models.
+def label(archives, models, block, loo, loo_unit, labels, trials, workers, scheduler, as_json,
+          quiet):
+    """Label the blocks of each ARCHIVE with the class models in --models.
 
     Each block is given the class of largest likelihood, with E[Y] = Q S^1/2
     E[k] and V[Y] = Q S^1/2 V[k] (Q S^1/2)^T + V_nu per channel (7.3-7.5),
     channels independent.  Accuracy and the confusion matrix (rows: true
     class) are reported where the archive has ground truth, beside the error
     a normal fit to the blocks' mean log-energy y_h predicts (fig 7.8).
-    Results go to each trial's results/label.
+    Results go to each trial's results/label.  Each archive is one unit of
+    work (--workers runs several archives at once).
 
     \b
     Examples:
@@ -44,16 +48,22 @@ def label(archive, models, block, loo, loo_unit, labels, trials, as_json, quiet)
       contactlab label runs.h5 --models models.h5 --loo --json
       contactlab label runs.h5 --models models.h5 --loo --loo-unit block
     """
-    from contactlab.temporal import label_archive
+    from contactlab.stages import run_stage
+    from contactlab.temporal.label import LabelStage
 
     if block is not None and block < 1:
         raise click.BadParameter(f"must be >= 1; got {block}", param_hint="'--block'")
-    summary = label_archive(archive, models=models, block=block, loo=loo_unit if loo else False,
-                            trials=list(trials) or None, labels=labels, write=True,
-                            quiet=quiet)
+    stage = LabelStage(models=models, block=block, loo=loo_unit if loo else False,
+                       labels=labels, quiet=quiet)
+    summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
+                          scheduler=scheduler, quiet=quiet)
     if as_json:
-        echo_json(summary)
+        json_summaries(summaries)
         return
+    echo_summaries(summaries, _echo)
+
+
+def _echo(archive, summary):
     for tid, entry in summary["trials"].items():
         acc = entry["accuracy"]
         click.echo(f"{tid}: {len(entry['predicted'])} blocks"

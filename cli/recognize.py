@@ -8,11 +8,12 @@ import click
 
 from contactlab import defaults as D
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+                                   json_summaries, parallel_options, quiet_option)
 
 
 @click.command()
-@archive_argument
+@archives_argument
 @click.option("--graph", "graph_file", required=True, metavar="GRAPH",
               type=click.Path(dir_okay=False, path_type=Path),
               help="Feature-graph TOML file (datasets_spec/GRAPHS.md).")
@@ -34,11 +35,12 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
               show_default=True, help="Detect covariance increases only (the thesis) or both.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
+@parallel_options("trials")
 @json_option
 @quiet_option
-def recognize(archive, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, trials, no_write, as_json, quiet):
-    """Recognise the contact state of every trial of ARCHIVE along a feature graph.
+def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
+              sides, trials, no_write, workers, scheduler, as_json, quiet):
+    """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
     per-sample node probabilities, the on-line MAP node, the final MAP path
@@ -61,7 +63,8 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
     graph's action-dependent edges read the archive's action channel, or
     --action.  'contactlab recognise' is the same command.
     """
-    from contactlab.observer.recognize import DELAY_BINS, recognize_archive
+    from contactlab.observer.recognize import RecognizeStage
+    from contactlab.stages import run_stage
 
     if not (threshold > 0):
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
@@ -74,9 +77,10 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
     act = action
     if action is not None and action.lstrip("-").isdigit():
         act = int(action)
-    if not archive.is_file():
-        from contactlab.errors import DataError
-        raise DataError("no such file", file=str(archive))
+    for archive in archives:
+        if not archive.is_file():
+            from contactlab.errors import DataError
+            raise DataError("no such file", file=str(archive))
     from contactlab.observer.graph import load_graph
 
     g = load_graph(graph_file)
@@ -85,13 +89,20 @@ def recognize(archive, graph_file, models_file, action, threshold, change_size, 
             g.action_index(act)
         except KeyError as exc:
             raise click.BadParameter(str(exc.args[0]), param_hint="'--action'") from None
-    summary = recognize_archive(archive, graph=g, models=models_file, action=act,
-                                threshold=threshold, change_size=change_size, p_prune=p_prune,
-                                gap=gap, sides=sides, trials=list(trials) or None,
-                                write=not no_write, quiet=quiet)
+    stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
+                           change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
+                           write=not no_write)
+    summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
+                          scheduler=scheduler, quiet=quiet)
     if as_json:
-        echo_json(summary)
+        json_summaries(summaries)
         return
+    echo_summaries(summaries, _echo)
+
+
+def _echo(archive, summary):
+    from contactlab.observer.recognize import DELAY_BINS
+
     for tid, e in summary["trials"].items():
         path = " -> ".join(f"{n}@{s:.3f}s" for n, s in e["merged_path"])
         acc = "" if e["accuracy"] is None else f" ({100 * e['accuracy']:.1f} % correct)"

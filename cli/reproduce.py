@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import echo_json, json_option, quiet_option, seed_option
+from contactlab.cli.common import (echo_json, json_option, parallel_options, quiet_option,
+                                   seed_option)
 from contactlab.experiments import EXPERIMENTS
 from contactlab.experiments.runner import reproduce as run_experiments
 from contactlab.experiments.runner import resolve
@@ -19,9 +20,10 @@ from contactlab.experiments.runner import resolve
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("reports"),
               show_default=True, help="Directory the reports are written under (out/NAME/).")
 @seed_option
+@parallel_options("experiments")
 @json_option
 @quiet_option
-def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
+def reproduce(names, run_all, list_only, out, seed, workers, scheduler, as_json, quiet):
     """Run thesis experiments end to end; write figures and tables beside the thesis's.
 
     Each experiment writes OUT/NAME/index.html, report.pdf, results.json and
@@ -53,7 +55,8 @@ def reproduce(names, run_all, list_only, out, seed, as_json, quiet):
                 click.echo(f"    {r['what']}" + (f": {r['headline']}" if r["headline"] else ""))
         return
     experiments = resolve(list(names), run_all=run_all)
-    summaries = run_experiments(experiments, out=out, seed=seed, quiet=quiet)
+    summaries = run_experiments(experiments, out=out, seed=seed, quiet=quiet, workers=workers,
+                                scheduler=scheduler)
     if as_json:
         if len(summaries) == 1:
             (name, summary), = summaries.items()

@@ -6,7 +6,8 @@ import click
 
 from contactlab import defaults as D
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+                                   json_summaries, parallel_options, quiet_option)
 
 
 def _thresholds(ctx, param, value):
@@ -22,7 +23,7 @@ def _thresholds(ctx, param, value):
 
 
 @click.command()
-@archive_argument
+@archives_argument
 @click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
               help="Signal to segment after 7.1 conditioning: 250 Hz strains, 250 Hz "
                    "wrench, or the high-frequency log-energy.  [default: strain when the "
@@ -55,11 +56,12 @@ def _thresholds(ctx, param, value):
 @click.option("--tolerance", type=float, default=D.TOLERANCE_S, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@parallel_options("trials")
 @json_option
 @quiet_option
-def segment(archive, signal, order, method, threshold, window_s, sweep_values, change_size,
-            combine, tolerance, trials, as_json, quiet):
-    """Segment every trial of ARCHIVE into stretches of one AR model per channel.
+def segment(archives, signal, order, method, threshold, window_s, sweep_values, change_size,
+            combine, tolerance, trials, workers, scheduler, as_json, quiet):
+    """Segment every trial of each ARCHIVE into stretches of one AR model per channel.
 
     Default (--method glr): per channel an AR model with a mean; at every
     sample the likelihood of one model against two (before and after) over
@@ -92,8 +94,10 @@ def segment(archive, signal, order, method, threshold, window_s, sweep_values, c
       contactlab segment runs.h5 --trial stroke-a-000 --sweep 2,3,5,8
       contactlab segment runs.h5 --method page-hinkley --threshold 100
       contactlab segment runs.h5 --method page-hinkley --combine channel --threshold 50
+      contactlab segment runs.h5 --workers 2
     """
-    from contactlab.segmentation import run_archive
+    from contactlab.segmentation import SegmentStage
+    from contactlab.stages import run_stage
 
     source = click.get_current_context().get_parameter_source("threshold")
     if sweep_values is not None and source is not click.core.ParameterSource.DEFAULT:
@@ -116,14 +120,18 @@ def segment(archive, signal, order, method, threshold, window_s, sweep_values, c
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
     if window_s is not None and not window_s > 0:
         raise click.BadParameter(f"must be > 0; got {window_s}", param_hint="'--window'")
-    summary = run_archive(archive, signal=signal, order=order, threshold=threshold,
-                          thresholds=sweep_values, change_size=change_size, method=method,
-                          window_s=window_s,
-                          combine=combine, tolerance_s=tolerance, trials=list(trials) or None,
-                          quiet=quiet)
+    stage = SegmentStage(signal=signal, order=order, threshold=threshold,
+                         thresholds=sweep_values, change_size=change_size, combine=combine,
+                         tolerance_s=tolerance, method=method, window_s=window_s)
+    summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
+                          scheduler=scheduler, quiet=quiet)
     if as_json:
-        echo_json(summary)
+        json_summaries(summaries)
         return
+    echo_summaries(summaries, lambda archive, summary: _echo(archive, summary, sweep_values))
+
+
+def _echo(archive, summary, sweep_values):
     for tid, entry in summary["trials"].items():
         if sweep_values is None:
             bs = ", ".join(f"{b:.3f}" for b in entry["boundaries_s"])

@@ -88,16 +88,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from contactlab import defaults as D
+from contactlab.archive.results import TrialResults
 from contactlab.detection import PageHinkley, VarianceChangeDetector
 from contactlab.detection.ar_glr import GLR_DEFAULTS, glr_segment
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
 from contactlab.estimators import ARModel, SquareRootRLS
 from contactlab.signals import SIGNALS, conditioned_signal, resolve_signal, source_of
+from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
            "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
@@ -598,12 +601,107 @@ def pooled_metrics(per_trial: list[dict], tolerance_s: float) -> dict | None:
 _pooled = pooled_metrics          # the former private name
 
 
+class SegmentStage(Stage):
+    """``contactlab segment`` as a stage: the parameters of :func:`run_archive`."""
+
+    name = "segment"
+
+    def __init__(self, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
+                 threshold: float | None = None, thresholds=None,
+                 change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
+                 tolerance_s: float = D.TOLERANCE_S, write: bool = True, combine: str = "sum",
+                 method: str = DEFAULT_METHOD, window_s: float | None = None):
+        if signal is not None and signal not in SIGNALS:
+            raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
+        _check_method(method)
+        threshold = default_threshold(method) if threshold is None else threshold
+        _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
+        _check_combine(combine)
+        if method == "glr" and combine != "sum":
+            raise UsageError("combine belongs to method page-hinkley (the glr test pools "
+                             "its channels' likelihoods)")
+        self.method, self.window_s = method, window_s
+        self.levels = None if thresholds is None else [float(t) for t in thresholds]
+        for t in self.levels or []:
+            _check_params(order, t, change_size, warmup, DEFAULT_BLOCK)
+        self.signal, self.order, self.threshold = signal, order, float(threshold)
+        self.change_size, self.warmup, self.combine = change_size, warmup, combine
+        self.tolerance_s = tolerance_s
+        self.write = bool(write) and self.levels is None
+
+    def run_trial(self, trial) -> TrialOutcome:
+        """Segment one trial (each sweep level); its entry, metrics and results."""
+        kw = dict(signal=self.signal, order=self.order, change_size=self.change_size,
+                  warmup=self.warmup, combine=self.combine, method=self.method,
+                  window_s=self.window_s)
+        if self.levels is None:
+            by_level = {self.threshold: segment_trial(trial, threshold=self.threshold, **kw)}
+        else:
+            by_level = sweep(trial, self.levels, **kw)
+        truth = truth_boundaries_s(trial)
+        entry: dict = {}
+        metrics: dict = {}
+        for level, seg in by_level.items():
+            d = seg.as_dict()
+            if truth is not None:
+                metrics[level] = boundary_metrics(truth, seg.boundaries_s, times=seg.times,
+                                                  tolerance_s=self.tolerance_s)
+                if self.levels is not None:
+                    d["metrics"] = metrics[level]
+            if self.levels is None:
+                entry = d
+            else:
+                entry.setdefault("sweep", {})[f"{level:g}"] = d
+        results = None
+        if self.levels is None:
+            seg = by_level[self.threshold]
+            datasets = {"boundaries_s": seg.boundaries_s, "change_s": seg.change_s,
+                        "alarm_s": seg.alarms_s,
+                        "sides": seg.sides.astype(np.int8), "boundaries": seg.boundaries,
+                        "alarms": seg.alarms, "statistic": seg.statistic,
+                        "statistic_time_s": seg.times}
+            if self.combine == "channel":
+                datasets["alarm_channels"] = seg.alarm_channels
+            results = TrialResults(
+                datasets,
+                attrs={"side_names": list(SIDES), "signal": seg.parameters["signal"],
+                       "boundary": "boundaries_s: first sample of the new segment; "
+                                   "change_s: Page-Hinkley last zero (the sample before); "
+                                   "alarm_s: detection time"},
+                parameters={**seg.parameters, "channels": seg.channels.tolist()})
+        return TrialOutcome(entry, results, {"metrics": metrics})
+
+    def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
+        """Per-trial entries and, with ground truth, metrics pooled over trials."""
+        summary: dict = {"trials": {tid: o.entry for tid, o in outcomes.items()}}
+        by_level: dict[float, list] = {}
+        for o in outcomes.values():
+            for level, m in o.extra["metrics"].items():
+                by_level.setdefault(level, []).append(m)
+        if not by_level:
+            return summary
+        if self.levels is None:
+            pooled = pooled_metrics(by_level[self.threshold], self.tolerance_s)
+            if pooled is not None:
+                summary["metrics"] = {"overall": pooled, "trials": {
+                    tid: o.extra["metrics"][self.threshold] for tid, o in outcomes.items()
+                    if self.threshold in o.extra["metrics"]}}
+        else:
+            pooled = {f"{lv:g}": pooled_metrics(ms, self.tolerance_s)
+                      for lv, ms in by_level.items()}
+            pooled = {k: v for k, v in pooled.items() if v is not None}
+            if pooled:
+                summary["metrics"] = pooled
+        return summary
+
+
 def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER,
                 threshold: float | None = None, thresholds=None,
                 change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
                 tolerance_s: float = D.TOLERANCE_S, trials=None, quiet: bool = True,
                 write: bool = True, combine: str = "sum", method: str = DEFAULT_METHOD,
-                window_s: float | None = None) -> dict:
+                window_s: float | None = None, workers: int = 1,
+                scheduler: str | None = None) -> dict:
     """Segment the trials of the archive ``path`` (``contactlab segment``).
 
     Without ``thresholds``: every trial (or those named in ``trials``) is
@@ -614,7 +712,8 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
     signal), ``statistic`` and ``statistic_time_s`` (the chi-square trace;
     one column per channel used for ``combine="channel"``, which also stores
     ``alarm_channels``), with the parameters.  With ``thresholds`` (a sweep, fig 7.7) nothing is
-    written.
+    written.  All trials' results are written in one atomic step
+    (:func:`contactlab.stages.run_stage`; ``workers`` / ``scheduler`` as there).
 
     ``method`` picks the detector (:data:`METHODS`, default :data:`DEFAULT_METHOD`),
     ``threshold=None`` its default threshold; ``window_s`` is the GLR's window.
@@ -623,91 +722,9 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
     when some trial has ground-truth segments (pooled over trials, and per
     trial under ``metrics["trials"]``; per threshold for a sweep).
     """
-    from contactlab.archive import open_archive, write_results
-    from contactlab.progress import progress
-
-    if signal is not None and signal not in SIGNALS:
-        raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
-    threshold = default_threshold(method) if threshold is None else threshold
-    _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
-    _check_combine(combine)
-    if method == "glr" and combine != "sum":
-        raise UsageError("combine belongs to method page-hinkley (the glr test pools "
-                         "its channels' likelihoods)")
-    levels = None if thresholds is None else [float(t) for t in thresholds]
-    for t in levels or []:
-        _check_params(order, t, change_size, warmup, DEFAULT_BLOCK)
-    runs: dict[str, dict[float, Segmentation]] = {}
-    truths: dict[str, np.ndarray | None] = {}
-    with open_archive(path) as archive:
-        ids = archive.select(trials)
-        for tid in progress(ids, desc="segment", quiet=quiet, unit="trial"):
-            trial = archive.trial(tid)
-            try:
-                if levels is None:
-                    runs[tid] = {float(threshold): segment_trial(
-                        trial, signal=signal, order=order, threshold=threshold,
-                        change_size=change_size, warmup=warmup, combine=combine,
-                        method=method, window_s=window_s)}
-                else:
-                    runs[tid] = sweep(trial, levels, signal=signal, order=order,
-                                      change_size=change_size, warmup=warmup,
-                                      combine=combine, method=method, window_s=window_s)
-            except DataError as err:
-                raise DataError(err.message, file=str(path), field=err.field) from None
-            truths[tid] = truth_boundaries_s(trial)
-
-    out_trials: dict = {}
-    metrics_by_level: dict[float, list] = {}
-    per_trial_metrics: dict = {}
-    for tid, by_level in runs.items():
-        entry: dict = {}
-        for level, seg in by_level.items():
-            d = seg.as_dict()
-            if truths[tid] is not None:
-                m = boundary_metrics(truths[tid], seg.boundaries_s, times=seg.times,
-                                     tolerance_s=tolerance_s)
-                metrics_by_level.setdefault(level, []).append(m)
-                if levels is None:
-                    per_trial_metrics[tid] = m
-                else:
-                    d["metrics"] = m
-            if levels is None:
-                entry = d
-            else:
-                entry.setdefault("sweep", {})[f"{level:g}"] = d
-        out_trials[tid] = entry
-
-    if write and levels is None:
-        for tid, by_level in progress(list(runs.items()), desc="write", quiet=quiet,
-                                      unit="trial"):
-            seg = next(iter(by_level.values()))
-            datasets = {"boundaries_s": seg.boundaries_s, "change_s": seg.change_s,
-                        "alarm_s": seg.alarms_s,
-                        "sides": seg.sides.astype(np.int8), "boundaries": seg.boundaries,
-                        "alarms": seg.alarms, "statistic": seg.statistic,
-                        "statistic_time_s": seg.times}
-            if combine == "channel":
-                datasets["alarm_channels"] = seg.alarm_channels
-            write_results(
-                path, tid, "segment",
-                datasets=datasets,
-                attrs={"side_names": list(SIDES), "signal": seg.parameters["signal"],
-                       "boundary": "boundaries_s: first sample of the new segment; "
-                                   "change_s: Page-Hinkley last zero (the sample before); "
-                                   "alarm_s: detection time"},
-                parameters={**seg.parameters, "channels": seg.channels.tolist()})
-
-    summary: dict = {"trials": out_trials}
-    if metrics_by_level:
-        if levels is None:
-            pooled = pooled_metrics(next(iter(metrics_by_level.values())), tolerance_s)
-            if pooled is not None:
-                summary["metrics"] = {"overall": pooled, "trials": per_trial_metrics}
-        else:
-            pooled = {f"{lv:g}": pooled_metrics(ms, tolerance_s)
-                      for lv, ms in metrics_by_level.items()}
-            pooled = {k: v for k, v in pooled.items() if v is not None}
-            if pooled:
-                summary["metrics"] = pooled
-    return summary
+    stage = SegmentStage(signal=signal, order=order, threshold=threshold,
+                         thresholds=thresholds, change_size=change_size, warmup=warmup,
+                         tolerance_s=tolerance_s, write=write, combine=combine,
+                         method=method, window_s=window_s)
+    return run_stage(stage, [path], trials=trials, workers=workers, scheduler=scheduler,
+                     quiet=quiet)[Path(path)]

@@ -171,3 +171,52 @@ def test_parse_column_map_text_and_json_file(tmp_path):
 def test_parse_column_map_rejects_bad_maps(text, fragment):
     with pytest.raises(UsageError, match=fragment):
         parse_column_map(text)
+
+
+def test_labels_give_ground_truth_segments_runs_of_equal_labels(tmp_path):
+    from contactlab.archive import import_csv, open_archive, validate_archive
+
+    labels = ["free"] * 3 + ["contact"] * 4 + [""] * 2 + ["contact"] * 2 + ["free"]
+    rows = ["t,fx,state"] + [f"{0.01 * i:.2f},{i},{lab}" for i, lab in enumerate(labels)]
+    (tmp_path / "run.csv").write_text("\n".join(rows) + "\n")
+    out = import_csv([tmp_path / "run.csv"], out=tmp_path / "a.h5",
+                     columns={"time": "t", "labels": "state", "strain": "fx"}, quiet=True)
+    with open_archive(out) as archive:
+        seg = archive.trial("run").segments
+    # hand-written runs: [0, 3) free, [3, 7) contact, 7-8 unlabelled, [9, 11) contact, [11] free
+    assert seg["label"].tolist() == ["free", "contact", "contact", "free"]
+    assert seg["start_s"].round(9).tolist() == [0.0, 0.03, 0.09, 0.11]
+    assert seg["end_s"].round(9).tolist() == [0.03, 0.07, 0.11, 0.12]
+    assert validate_archive(out) == []
+
+
+def test_imported_labels_drive_estimate_by_truth_and_segment_scoring(tmp_path):
+    """A user's labelled recording: slide along x, then along y, on the z = 0 plane."""
+    import pandas as pd
+    from conftest import one_json_object, run_cli
+
+    rng = np.random.default_rng(0)
+    n = 3000
+    t = np.arange(n) / 1000.0
+    first = t < 1.5
+    frame = pd.DataFrame({
+        "t": t, "fx": 0.05 * rng.normal(size=n), "fy": 0.05 * rng.normal(size=n),
+        "fz": -5 + 0.05 * rng.normal(size=n), "tx": 0.0, "ty": 0.0, "tz": 0.0,
+        "x": np.where(first, 0.05 * t, 0.075) + 1e-5 * rng.normal(size=n),
+        "y": np.where(first, 0.0, 0.05 * (t - 1.5)) + 1e-5 * rng.normal(size=n),
+        "z": 1e-5 * rng.normal(size=n), "state": np.where(first, "slide-x", "slide-y")})
+    frame.to_csv(tmp_path / "run.csv", index=False)
+    out = tmp_path / "a.h5"
+    r = run_cli("import", tmp_path / "run.csv", "--out", out, "--quiet", "--columns",
+                "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state")
+    assert r.exit_code == 0, r.output
+    r = run_cli("estimate", out, "--segments", "truth", "--json", "--quiet")
+    assert r.exit_code == 0, r.output
+    rows = one_json_object(r.stdout)["trials"]["run"]["segments"]
+    assert [row["label"] for row in rows] == ["slide-x", "slide-y"]
+    assert [row["degree"] for row in rows] == [2, 2]          # free along the sliding axis
+    for row, free in zip(rows, (0, 1)):
+        assert all(abs(nrm[free]) < 0.05 for nrm in row["normals"])
+    r = run_cli("segment", out, "--signal", "wrench", "--json", "--quiet")
+    assert r.exit_code == 0, r.output
+    assert one_json_object(r.stdout)["metrics"]["overall"]["n_true"] == 1

@@ -125,3 +125,10 @@ def test_polygon_model_on_a_planar_trace(tmp_path):
     (c,) = row["contacts"]
     assert np.degrees(np.arccos(min(1.0, abs(np.dot(c["normal"], truth.normal))))) < 1.0
     assert np.linalg.norm(np.subtract(c["point"], truth.point)) / 2.0 < 0.02
+
+
+def test_estimate_on_two_workers_matches_a_serial_run(archive):
+    from contactlab.constraints.archive import estimate_archive
+
+    kw = dict(segments="truth", write=False)
+    assert estimate_archive(archive, workers=2, **kw) == estimate_archive(archive, **kw)

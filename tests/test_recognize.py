@@ -210,3 +210,9 @@ def test_detection_delays_by_hand():
     # B true at 10, marked 12 (delay 2); C true at 23, marked 30 (7 > 5: missed); A@31 extra
     assert d["counts"] == {"0": 0, "1": 0, "2": 1, "3": 0, ">3": 0}
     assert d["missed"] == 1 and d["extra"] == 2 and d["transitions"] == 2
+
+
+def test_recognize_on_two_workers_matches_a_serial_run(files):
+    kw = dict(graph=files["graph"], models=files["models"], write=False)
+    serial = recognize_archive(files["test"], **kw)
+    assert recognize_archive(files["test"], workers=2, **kw) == serial

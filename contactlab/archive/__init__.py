@@ -5,14 +5,14 @@ validator, results store and CSV import.
 - :mod:`.writer`    :func:`create_archive` -> :class:`ArchiveWriter` -> :class:`TrialWriter`
 - :mod:`.reader`    :func:`open_archive` -> :class:`Archive` -> :class:`Trial`
 - :mod:`.validate`  :func:`validate_archive` -> list of :class:`Problem`
-- :mod:`.results`   :func:`write_results`: analysis stages store their output
+- :mod:`.results`   :func:`write_stage` (one stage, many trials, atomic) and :func:`write_results`
 - :mod:`.summary`   :func:`summarize` (``contactlab info``)
 - :mod:`.importer`  :func:`import_csv` (``contactlab import``)
 """
 
 from contactlab.archive.importer import import_csv, parse_column_map
 from contactlab.archive.reader import Archive, Results, Trial, open_archive
-from contactlab.archive.results import write_results
+from contactlab.archive.results import TrialResults, write_results, write_stage
 from contactlab.archive.summary import summarize
 from contactlab.archive.validate import Problem, validate_archive
 from contactlab.archive.writer import ArchiveWriter, TrialWriter, create_archive
@@ -20,5 +20,5 @@ from contactlab.archive.writer import ArchiveWriter, TrialWriter, create_archive
 __all__ = [
     "Archive", "ArchiveWriter", "Problem", "Results", "Trial", "TrialWriter", "create_archive",
     "import_csv", "open_archive", "parse_column_map", "summarize", "validate_archive",
-    "write_results",
+    "TrialResults", "write_results", "write_stage",
 ]

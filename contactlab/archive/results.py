@@ -1,16 +1,41 @@
 """Analysis stages store their output under ``/trials/<id>/results/<stage>``.
 
-:func:`write_results` rebuilds the archive into a temporary file beside it --
-copying every HDF5 object unchanged except the one stage group it replaces --
-and renames it over the original. A crash at any point leaves the original
-archive as it was, measurements are copied chunk for chunk, and replaced
-stages leave no dead space behind.
+:func:`write_stage` writes one stage's results for many trials in one atomic
+step: under an exclusive lock it rebuilds the archive into a temporary file
+beside it -- copying every HDF5 object unchanged (HDF5's object copy moves
+the raw chunks) except the stage groups it replaces -- and renames that over
+the original. :func:`write_results` is the one-trial form of the same call.
+
+Why a rebuild per call rather than in-place writes: HDF5 updates in place are
+not crash-safe (a killed writer can leave a file whose superblock and object
+headers disagree), and deleting a group in place leaves dead space that is
+only reclaimed by a rewrite. A rebuild once per stage run costs one pass over
+the archive -- the same order as the stage reading the trials it analyses --
+so a stage's cost stays linear in the archive, and the archive stays one file.
+
+Guarantees:
+
+- a crash or kill at any moment leaves the old results or the new, never a
+  broken file; measurements are copied chunk for chunk (bit-identical);
+- concurrent writers of one archive serialise on an ``flock`` of the
+  archive's directory and each re-reads the latest file under it, so two
+  stages run at once both land (the second waits for the first's rename);
+- an archive without its owner's write bit is refused with one line naming
+  it and is left as it is; a replaced archive keeps its permission bits;
+- temporary files left beside the archive by a killed write
+  (``.NAME.XXXX.tmp``) are removed, with a note on stderr, by the next write.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import os
+import stat
+import sys
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
@@ -23,46 +48,109 @@ from contactlab.archive.writer import check_name, create_dataset, utc_now
 from contactlab.errors import DataError, UsageError
 from contactlab.fileio import atomic_path
 
-#: Attributes write_results sets itself on every stage group.
+#: Attributes write_stage sets itself on every stage group.
 RESERVED_ATTRS = ("created", "software_version", "parameters")
+
+
+@dataclass
+class TrialResults:
+    """One trial's results of one stage: datasets, attributes and parameters.
+
+    ``datasets`` maps names to arrays (a name with '/' makes subgroups; string
+    arrays are stored as UTF-8); ``parameters`` (JSON-serialisable) become the
+    stage group's ``parameters`` attribute.
+    """
+
+    datasets: dict
+    attrs: dict = field(default_factory=dict)
+    parameters: dict = field(default_factory=dict)
 
 
 def write_results(path: str | os.PathLike, trial_id: str, stage: str, *, datasets: dict,
                   attrs: dict | None = None, parameters: dict | None = None) -> None:
-    """Replace ``results/<stage>`` of trial ``trial_id`` with ``datasets`` and ``attrs``.
+    """Replace ``results/<stage>`` of one trial (:func:`write_stage` for one trial)."""
+    write_stage(path, stage, {trial_id: TrialResults(datasets, dict(attrs or {}),
+                                                     dict(parameters or {}))})
 
-    ``datasets`` maps names to arrays (a name with '/' makes subgroups; string
-    arrays are stored as UTF-8). ``parameters`` (JSON-serialisable) are stored
-    as the stage's ``parameters`` attribute. Measurements are never touched.
+
+def write_stage(path: str | os.PathLike, stage: str,
+                results: Mapping[str, TrialResults]) -> None:
+    """Replace ``results/<stage>`` of every trial in ``results`` in one atomic step.
+
+    Trials not in ``results`` keep what they had; measurements are never
+    touched. Raises DataError (naming the archive) when it is read-only or a
+    trial is missing, UsageError for results that cannot be stored.
     """
     path = Path(path)
     check_name(stage, "results stage")
-    attrs = dict(attrs or {})
-    clash = [k for k in RESERVED_ATTRS if k in attrs]
-    if clash:
-        raise UsageError(f"attribute {clash[0]!r} is set by write_results itself")
-    arrays = {name: _as_array(name, value) for name, value in datasets.items()}
+    prepared = {tid: _prepare(r) for tid, r in results.items()}
+    if not prepared:
+        return
+    check_owner_writable(path)
+    targets = {f"/trials/{tid}/{spec.RESULTS}/{stage}" for tid in prepared}
+    with archive_lock(path):
+        remove_stale_temps(path)
+        with open_archive(path) as archive:
+            missing = next((t for t in prepared if t not in archive), None)
+        if missing is not None:
+            raise DataError("no such trial", file=str(path), field=f"/trials/{missing}")
+        mode = stat.S_IMODE(os.stat(path).st_mode)
+        with atomic_path(path, force=True) as tmp:
+            with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
+                copy_tree(src, dst, skip=targets)
+                for tid, (arrays, attrs, params_json) in prepared.items():
+                    results_group = dst.require_group(f"/trials/{tid}/{spec.RESULTS}")
+                    _write_group(results_group.create_group(stage), arrays, attrs, params_json)
+            os.chmod(tmp, mode)
+            with open(tmp, "rb") as f:
+                os.fsync(f.fileno())
+
+
+def check_owner_writable(path: str | os.PathLike) -> None:
+    """Refuse an archive whose owner write bit is clear (root ignores access checks,
+    so the mode bits, not ``os.access``, say whether the user meant it read-only)."""
     try:
-        params_json = json.dumps(parameters or {}, sort_keys=True, default=_json_default)
-    except (TypeError, ValueError) as err:
-        raise UsageError(f"parameters: {err}") from None
-    with open_archive(path) as archive:
-        if trial_id not in archive:
-            raise DataError("no such trial", file=str(path), field=f"/trials/{trial_id}")
-    target = f"/trials/{trial_id}/{spec.RESULTS}/{stage}"
-    with atomic_path(path, force=True) as tmp:
-        with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
-            copy_tree(src, dst, skip={target})
-            group = dst.require_group(f"/trials/{trial_id}/{spec.RESULTS}").create_group(stage)
-            for name, arr in arrays.items():
-                parent, _, leaf = name.rpartition("/")
-                create_dataset(group.require_group(parent) if parent else group, leaf, arr,
-                               chunk_rows=None)
-            for key, value in attrs.items():
-                group.attrs[key] = _attr_value(key, value)
-            group.attrs["created"] = utc_now()
-            group.attrs["software_version"] = __version__
-            group.attrs["parameters"] = params_json
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise DataError("no such file", file=str(path)) from None
+    if not mode & stat.S_IWUSR:
+        raise DataError("archive is read-only (no owner write permission); results not "
+                        "written", file=str(path))
+
+
+@contextlib.contextmanager
+def archive_lock(path: str | os.PathLike) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on the archive's directory (results writers wait).
+
+    The directory, not the archive, is locked because the archive is replaced
+    by a rename (a lock on its inode would guard the old file) and HDF5 takes
+    its own ``flock`` on files it opens; locking the directory leaves no lock
+    file behind.
+    """
+    fd = os.open(Path(path).resolve().parent, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock
+
+
+def stale_temps(path: str | os.PathLike) -> list[Path]:
+    """Temporary files an interrupted atomic write of ``path`` left beside it."""
+    path = Path(path)
+    return sorted(path.parent.glob(f".{path.name}.*.tmp"))
+
+
+def remove_stale_temps(path: str | os.PathLike) -> list[Path]:
+    """Remove (and note on stderr) the stale temporaries of ``path``; call under the lock."""
+    removed = []
+    for tmp in stale_temps(path):
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+            removed.append(tmp)
+            print(f"contactlab: removed {tmp.name}, a temporary file an interrupted write "
+                  f"of {path} left behind", file=sys.stderr, flush=True)
+    return removed
 
 
 def copy_tree(src: h5py.Group, dst: h5py.Group, *, skip: set[str]) -> None:
@@ -71,16 +159,47 @@ def copy_tree(src: h5py.Group, dst: h5py.Group, *, skip: set[str]) -> None:
     Groups on the way to a skipped path are rebuilt; everything else is copied
     whole with HDF5's object copy (data, chunking, filters and attributes).
     """
+    ancestors = {p.rsplit("/", k)[0] for p in skip for k in range(1, p.count("/"))}
+    _copy_tree(src, dst, skip, ancestors)
+
+
+def _copy_tree(src, dst, skip, ancestors) -> None:
     for key, value in src.attrs.items():
         dst.attrs[key] = value
     for name, obj in src.items():
         path = obj.name
         if path in skip:
             continue
-        if isinstance(obj, h5py.Group) and any(s.startswith(path + "/") for s in skip):
-            copy_tree(obj, dst.create_group(name), skip=skip)
+        if path in ancestors and isinstance(obj, h5py.Group):
+            _copy_tree(obj, dst.create_group(name), skip, ancestors)
         else:
             src.copy(obj, dst, name=name)
+
+
+def _prepare(result: TrialResults):
+    attrs = dict(result.attrs or {})
+    clash = [k for k in RESERVED_ATTRS if k in attrs]
+    if clash:
+        raise UsageError(f"attribute {clash[0]!r} is set by write_results/write_stage itself")
+    arrays = {name: _as_array(name, value) for name, value in result.datasets.items()}
+    try:
+        params_json = json.dumps(result.parameters or {}, sort_keys=True,
+                                 default=_json_default)
+    except (TypeError, ValueError) as err:
+        raise UsageError(f"parameters: {err}") from None
+    return arrays, {k: _attr_value(k, v) for k, v in attrs.items()}, params_json
+
+
+def _write_group(group: h5py.Group, arrays: dict, attrs: dict, params_json: str) -> None:
+    for name, arr in arrays.items():
+        parent, _, leaf = name.rpartition("/")
+        create_dataset(group.require_group(parent) if parent else group, leaf, arr,
+                       chunk_rows=None)
+    for key, value in attrs.items():
+        group.attrs[key] = value
+    group.attrs["created"] = utc_now()
+    group.attrs["software_version"] = __version__
+    group.attrs["parameters"] = params_json
 
 
 def _as_array(name: str, value) -> np.ndarray:

@@ -14,14 +14,18 @@ of the estimate is reported beside it.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
+from contactlab.archive.results import TrialResults
 from contactlab.constraints.alignment import angular_error_deg
 from contactlab.constraints.cartesian import CartesianConstraint, min_samples
 from contactlab.errors import DataError, UsageError
+from contactlab.stages import Stage, TrialOutcome, run_stage
 
-__all__ = ["MODELS", "estimate_archive", "constraint_signals", "planar_signals", "segment_table"]
+__all__ = ["MODELS", "EstimateStage", "estimate_archive", "constraint_signals", "planar_signals",
+           "segment_table"]
 
 MODELS = ("cartesian", "polygon-A", "polygon-B", "polygon-AA", "polygon-BB", "polygon-AB",
           "polygon-line-line")
@@ -91,11 +95,60 @@ def _true_normals(trial, start_s: float, end_s: float):
     return nrm.T
 
 
+class EstimateStage(Stage):
+    """``contactlab estimate`` as a stage: the parameters of :func:`estimate_archive`."""
+
+    name = "estimate"
+
+    def __init__(self, *, model: str = "cartesian", segments: str | None = None,
+                 block: int | None = None, friction: bool = True, motion: str = "position",
+                 write: bool = True, estimator: CartesianConstraint | None = None,
+                 position_sd: float | None = None, force_sd: float | None = None):
+        if model not in MODELS:
+            raise UsageError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
+        if block is not None and block < min_samples(3):
+            raise UsageError(f"block must be >= {min_samples(3)} samples; got {block}")
+        self.model, self.segments, self.block, self.write = model, segments, block, write
+        self.estimator = estimator or CartesianConstraint(friction=friction, motion=motion)
+        # noise levels: given, or estimated per trial unless an estimator was given
+        self.fixed_noise = estimator is not None
+        self.position_sd, self.force_sd = position_sd, force_sd
+
+    def run_trial(self, trial) -> TrialOutcome:
+        """Estimate every piece of one trial; its rows and results/estimate."""
+        est = self.estimator
+        if self.model == "cartesian":
+            if not self.fixed_noise:
+                est = _with_noise(est, trial, self.position_sd, self.force_sd)
+            rows, (datasets, source) = _estimate_trial(trial, est, self.segments, self.block)
+        else:
+            rows, (datasets, source) = _estimate_trial_polygon(
+                trial, self.model[len("polygon-"):], self.segments, self.block)
+        params = est.get_params() if self.model == "cartesian" else {}
+        results = TrialResults(
+            datasets,
+            attrs={"model": self.model, "segments": source,
+                   "normals": "normals[i, :, j]: unit normal j of piece i (NaN padded); "
+                              "log_likelihoods: 8.18 per degree 0..3"},
+            parameters={**params, "block": self.block, "model": self.model})
+        entry = {"segments": rows}
+        if self.model == "cartesian":
+            entry["noise"] = {"position_sd": float(np.mean(est.position_sd)),
+                              "force_sd": float(np.mean(est.force_sd))}
+        return TrialOutcome(entry, results)
+
+    def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
+        """Per-trial rows and counts over all pieces."""
+        out = {tid: o.entry for tid, o in outcomes.items()}
+        return {"trials": out, "summary": _summary(out)}
+
+
 def estimate_archive(path, *, model: str = "cartesian", segments: str | None = None,
                      block: int | None = None, trials=None, friction: bool = True,
                      motion: str = "position", quiet: bool = True, write: bool = True,
                      estimator: CartesianConstraint | None = None,
-                     position_sd: float | None = None, force_sd: float | None = None) -> dict:
+                     position_sd: float | None = None, force_sd: float | None = None,
+                     workers: int = 1, scheduler: str | None = None) -> dict:
     """Estimate the constraint of every segment of every trial of archive ``path``.
 
     ``segments``: "truth", "auto", a results stage name, or None (truth when the
@@ -105,51 +158,15 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
     signals; each one not given is estimated from every trial's own data
     (:mod:`contactlab.constraints.noise`) -- unless an ``estimator`` is given,
     whose accuracies are then used as they are.
-    Writes ``results/estimate`` of each trial when ``write``.  Returns
-    ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
+    Writes ``results/estimate`` of all trials in one atomic step when
+    ``write`` (:func:`contactlab.stages.run_stage`; ``workers`` / ``scheduler``
+    as there).  Returns ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
     """
-    from contactlab.archive import open_archive, write_results
-    from contactlab.progress import progress
-
-    if model not in MODELS:
-        raise UsageError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
-    if block is not None and block < min_samples(3):
-        raise UsageError(f"block must be >= {min_samples(3)} samples; got {block}")
-    est = estimator or CartesianConstraint(friction=friction, motion=motion)
-    out: dict = {}
-    results: dict = {}
-    used: dict = {}
-    with open_archive(path) as archive:
-        ids = archive.select(trials)
-        for tid in progress(ids, desc="estimate", quiet=quiet, unit="trial"):
-            trial = archive.trial(tid)
-            try:
-                if model == "cartesian":
-                    trial_est = est if estimator is not None else _with_noise(
-                        est, trial, position_sd, force_sd)
-                    rows, arrays = _estimate_trial(trial, trial_est, segments, block)
-                else:
-                    rows, arrays = _estimate_trial_polygon(trial, model[len("polygon-"):],
-                                                           segments, block)
-            except DataError as err:
-                raise DataError(err.message, file=str(path), field=err.field) from None
-            out[tid] = {"segments": rows}
-            used[tid] = trial_est.get_params() if model == "cartesian" else {}
-            if model == "cartesian":
-                out[tid]["noise"] = {"position_sd": float(np.mean(trial_est.position_sd)),
-                                     "force_sd": float(np.mean(trial_est.force_sd))}
-            results[tid] = arrays
-    if write:
-        for tid, arrays in results.items():
-            datasets, source = arrays
-            write_results(path, tid, "estimate", datasets=datasets,
-                          attrs={"model": model, "segments": source,
-                                 "normals": "normals[i, :, j]: unit normal j of piece i "
-                                            "(NaN padded); log_likelihoods: 8.18 per "
-                                            "degree 0..3"},
-                          parameters={**used[tid],
-                                      "block": block, "model": model})
-    return {"trials": out, "summary": _summary(out)}
+    stage = EstimateStage(model=model, segments=segments, block=block, friction=friction,
+                          motion=motion, write=write, estimator=estimator,
+                          position_sd=position_sd, force_sd=force_sd)
+    return run_stage(stage, [path], trials=trials, workers=workers, scheduler=scheduler,
+                     quiet=quiet)[Path(path)]
 
 
 def _with_noise(est: CartesianConstraint, trial, position_sd, force_sd) -> CartesianConstraint:

@@ -30,22 +30,43 @@ def resolve(names: list[str], *, run_all: bool = False) -> list[Experiment]:
     return chosen
 
 
-def reproduce(experiments: list[Experiment], *, out: Path, seed: int, quiet: bool = False) -> dict:
+def reproduce(experiments: list[Experiment], *, out: Path, seed: int, quiet: bool = False,
+              workers: int = 1, scheduler: str | None = None) -> dict:
     """Run each experiment into ``out/<name>/`` and rewrite ``out/index.html``.
 
-    Returns ``{name: summary}`` with each run's summary dict plus its wall time.
+    ``workers`` > 1 runs experiments in that many local processes, ``scheduler``
+    on a Dask distributed cluster (:func:`contactlab.stages.parallel_map`; its
+    workers must see ``out``); each experiment is seeded by ``seed`` alone, so
+    the reports are the same either way. Returns ``{name: summary}`` with each
+    run's summary dict plus its wall time; an experiment that fails is raised
+    after the others finished and the index was written.
     """
+    from contactlab.stages import check_workers, parallel_map
+
+    check_workers(workers, scheduler)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summaries = {}
-    for exp in experiments:
-        t0 = time.perf_counter()
-        summary = exp.run(out_dir=out / exp.name, seed=seed, quiet=quiet)
-        summary = dict(summary)
-        summary.setdefault("wall_time_s", round(time.perf_counter() - t0, 3))
-        summaries[exp.name] = summary
+    if workers == 1 and scheduler is None:
+        summaries = {exp.name: run_experiment(exp.name, out, seed, quiet)
+                     for exp in experiments}
+    else:
+        got = parallel_map(run_experiment, [(exp.name, out, seed, True) for exp in experiments],
+                           workers=workers, scheduler=scheduler, quiet=quiet,
+                           desc="reproduce")
+        summaries = {exp.name: r for exp, r in zip(experiments, got)}
     write_index(out)
+    failed = next((r for r in summaries.values() if isinstance(r, Exception)), None)
+    if failed is not None:
+        raise failed
     return summaries
+
+
+def run_experiment(name: str, out: Path, seed: int, quiet: bool = True) -> dict:
+    """Run the experiment ``name`` into ``out/<name>/``; its summary and wall time."""
+    t0 = time.perf_counter()
+    summary = dict(EXPERIMENTS[name].run(out_dir=Path(out) / name, seed=seed, quiet=quiet))
+    summary.setdefault("wall_time_s", round(time.perf_counter() - t0, 3))
+    return summary
 
 
 def write_index(out: Path) -> Path:

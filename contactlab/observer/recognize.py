@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from contactlab import defaults as D
+from contactlab.archive.results import TrialResults
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.models.composite import build_models
@@ -41,6 +42,7 @@ from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
 from contactlab.signals import trial_signals, truth_codes
+from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["recognize_archive", "recognize_trial", "TrialRecognition",
            "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]
@@ -185,89 +187,117 @@ def _trial_datasets(rec: TrialRecognition, graph: FeatureGraph) -> tuple[dict, d
     return ds, attrs
 
 
+class RecognizeStage(Stage):
+    """``contactlab recognize`` as a stage: the parameters of :func:`recognize_archive`."""
+
+    name = STAGE
+
+    def __init__(self, *, graph, models, action=None,
+                 threshold: float = D.OBSERVER_THRESHOLD,
+                 change_size: float = D.OBSERVER_CHANGE_SIZE,
+                 p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
+                 sides: str = "increase", delay_window: int = 50, write: bool = True,
+                 keep: bool = False):
+        self.graph, self.models, self.built = _load(graph, models)
+        self.observer_kw = dict(threshold=threshold, change_size=change_size,
+                                p_prune=p_prune, gap=gap, sides=sides)
+        try:
+            Observer(self.graph, self.built, **self.observer_kw)
+        except ValueError as exc:
+            from contactlab.errors import UsageError
+            raise UsageError(str(exc)) from None
+        self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
+        self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
+                           "models": self.models.source, "reduce": self.models.reduce,
+                           "action": action, "delay_window": delay_window}
+
+    def run_trial(self, trial) -> TrialOutcome:
+        """Observe one trial; its MAP path, confusion counts, delays and results."""
+        graph, K = self.graph, self.graph.n_nodes
+        rec = recognize_trial(trial, graph, self.built, reduce=self.models.reduce,
+                              action=self.action, observer_kw=self.observer_kw)
+        r = rec.result
+        entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rec.fs]
+                          for n, s in r.map_path],
+                 "merged_path": [[n, float(rec.times[max(s, 0)])] for n, s in
+                                 merge_path(r.map_path)],
+                 "n_changes": sum(e.model is not None for e in r.events),
+                 "accuracy": None, "accuracy_online": None}
+        extra = {"confusion": np.zeros((K, K), np.int64),
+                 "confusion_online": np.zeros((K, K), np.int64), "delays": None,
+                 "rec": rec if self.keep else None}
+        if rec.truth is not None and (rec.truth >= 0).any():
+            c = confusion_matrix(rec.truth, r.labels, K)[0]
+            con = confusion_matrix(rec.truth, r.map_node, K)[0]
+            extra.update(confusion=c, confusion_online=con)
+            entry["accuracy"] = float(np.trace(c) / c.sum())
+            entry["accuracy_online"] = float(np.trace(con) / con.sum())
+            entry["confusion"] = c.tolist()
+            entry["delays"] = extra["delays"] = detection_delays(
+                rec.truth, r.map_path, graph.node_names, window=self.delay_window)
+        results = None
+        if self.write:
+            ds, attrs = _trial_datasets(rec, graph)
+            if entry["accuracy"] is not None:
+                attrs["accuracy"] = entry["accuracy"]
+            results = TrialResults(ds, attrs, self.parameters)
+        return TrialOutcome(entry, results, extra)
+
+    def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
+        """Confusion matrices and delay table summed over the archive's trials."""
+        names = list(self.graph.node_names)
+        K = len(names)
+        total = sum((o.extra["confusion"] for o in outcomes.values()),
+                    np.zeros((K, K), np.int64))
+        total_on = sum((o.extra["confusion_online"] for o in outcomes.values()),
+                       np.zeros((K, K), np.int64))
+        delays = {"counts": dict.fromkeys(DELAY_BINS, 0), "missed": 0, "extra": 0,
+                  "transitions": 0}
+        for o in outcomes.values():
+            d = o.extra["delays"]
+            if d is None:
+                continue
+            for b in DELAY_BINS:
+                delays["counts"][b] += d["counts"][b]
+            for k in ("missed", "extra", "transitions"):
+                delays[k] += d[k]
+        has_truth = total.sum() > 0
+        summary = {
+            "archive": str(path), "graph": self.graph.name, "labels": names,
+            "accuracy": float(np.trace(total) / total.sum()) if has_truth else None,
+            "accuracy_online": float(np.trace(total_on) / total_on.sum()) if has_truth
+            else None,
+            "confusion": {"labels": names, "matrix": total.tolist()},
+            "confusion_online": {"labels": names, "matrix": total_on.tolist()},
+            "delays": delays if has_truth else None,
+            "trials": {tid: o.entry for tid, o in outcomes.items()},
+            "parameters": self.parameters, "written": bool(self.write),
+        }
+        if self.keep:
+            summary["_runs"] = [o.extra["rec"] for o in outcomes.values()]
+        return summary
+
+
 def recognize_archive(archive, *, graph, models, action=None,
                       threshold: float = D.OBSERVER_THRESHOLD,
                       change_size: float = D.OBSERVER_CHANGE_SIZE,
                       p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
                       sides: str = "increase", trials=None, delay_window: int = 50,
-                      write: bool = True, quiet: bool = True, keep: bool = False) -> dict:
+                      write: bool = True, quiet: bool = True, keep: bool = False,
+                      workers: int = 1, scheduler: str | None = None) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
 
     Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),
     ``accuracy_online``, ``confusion`` ``{"labels", "matrix"}``, ``delays``,
     ``trials`` ``{id: {"path": [[node, start_s], ...], "merged_path", "accuracy",
     "n_changes"}}`` and the parameters.  Accuracy entries are None without
-    ground truth.  ``write``: results to each trial's ``results/recognize``.
-    ``keep``: also return the :class:`TrialRecognition` objects under ``"_runs"``.
+    ground truth.  ``write``: results to each trial's ``results/recognize``, all
+    trials in one atomic step (:func:`contactlab.stages.run_stage`; ``workers``
+    / ``scheduler`` as there).  ``keep``: also return the
+    :class:`TrialRecognition` objects under ``"_runs"``.
     """
-    from contactlab.archive import open_archive, write_results
-    from contactlab.progress import progress
-
-    graph, gm, built = _load(graph, models)
-    path = Path(archive)
-    kw = dict(threshold=threshold, change_size=change_size, p_prune=p_prune, gap=gap,
-              sides=sides)
-    try:
-        Observer(graph, built, **kw)
-    except ValueError as exc:
-        from contactlab.errors import UsageError
-        raise UsageError(str(exc)) from None
-    K = graph.n_nodes
-    total = np.zeros((K, K), np.int64)
-    total_on = np.zeros((K, K), np.int64)
-    delays = {"counts": dict.fromkeys(DELAY_BINS, 0), "missed": 0, "extra": 0,
-              "transitions": 0}
-    out_trials, runs = {}, []
-    params = {**kw, "graph": graph.source or graph.name, "models": gm.source,
-              "reduce": gm.reduce, "action": action, "delay_window": delay_window}
-    with open_archive(path) as arch:
-        ids = arch.select(trials)
-        recs = []
-        for tid in progress(ids, desc="recognize", quiet=quiet, unit="trial"):
-            rec = recognize_trial(arch.trial(tid), graph, built, reduce=gm.reduce,
-                                  action=action, observer_kw=kw, path=path)
-            recs.append(rec)
-    for rec in recs:
-        r = rec.result
-        rate = rec.fs
-        entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rate]
-                          for n, s in r.map_path],
-                 "merged_path": [[n, float(rec.times[max(s, 0)])] for n, s in
-                                 merge_path(r.map_path)],
-                 "n_changes": sum(e.model is not None for e in r.events),
-                 "accuracy": None, "accuracy_online": None}
-        if rec.truth is not None and (rec.truth >= 0).any():
-            c = confusion_matrix(rec.truth, r.labels, K)[0]
-            con = confusion_matrix(rec.truth, r.map_node, K)[0]
-            total += c
-            total_on += con
-            entry["accuracy"] = float(np.trace(c) / c.sum())
-            entry["accuracy_online"] = float(np.trace(con) / con.sum())
-            entry["confusion"] = c.tolist()
-            d = detection_delays(rec.truth, r.map_path, graph.node_names, window=delay_window)
-            for b in DELAY_BINS:
-                delays["counts"][b] += d["counts"][b]
-            for k in ("missed", "extra", "transitions"):
-                delays[k] += d[k]
-            entry["delays"] = d
-        out_trials[rec.trial_id] = entry
-        if write:
-            ds, attrs = _trial_datasets(rec, graph)
-            if entry["accuracy"] is not None:
-                attrs["accuracy"] = entry["accuracy"]
-            write_results(path, rec.trial_id, STAGE, datasets=ds, attrs=attrs, parameters=params)
-        if keep:
-            runs.append(rec)
-    has_truth = total.sum() > 0
-    summary = {
-        "archive": str(path), "graph": graph.name, "labels": list(graph.node_names),
-        "accuracy": float(np.trace(total) / total.sum()) if has_truth else None,
-        "accuracy_online": float(np.trace(total_on) / total_on.sum()) if has_truth else None,
-        "confusion": {"labels": list(graph.node_names), "matrix": total.tolist()},
-        "confusion_online": {"labels": list(graph.node_names), "matrix": total_on.tolist()},
-        "delays": delays if has_truth else None,
-        "trials": out_trials, "parameters": params, "written": bool(write),
-    }
-    if keep:
-        summary["_runs"] = runs
-    return summary
+    stage = RecognizeStage(graph=graph, models=models, action=action, threshold=threshold,
+                           change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
+                           delay_window=delay_window, write=write, keep=keep)
+    return run_stage(stage, [archive], trials=trials, workers=workers, scheduler=scheduler,
+                     quiet=quiet)[Path(archive)]

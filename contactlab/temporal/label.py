@@ -16,6 +16,7 @@ import numpy as np
 
 from contactlab.errors import DataError, UsageError
 from contactlab.metrics import confusion_matrix
+from contactlab.stages import Stage, TrialOutcome, run_stage
 from contactlab.temporal import energy
 from contactlab.temporal.likelihood import block_loglik, loglik_params
 from contactlab.temporal.model import ModelSet, TemporalModel
@@ -122,7 +123,8 @@ def _log_energy_summary(values, true, classes) -> dict | None:
 
 
 def label_archive(archive, *, models, block: int | None = None, loo=False, trials=None,
-                  labels: str | None = None, write: bool = False, quiet: bool = True) -> dict:
+                  labels: str | None = None, write: bool = False, quiet: bool = True,
+                  workers: int = 1, scheduler: str | None = None) -> dict:
     """Label the blocks of ``archive`` with ``models`` by likelihood (7.2.2).
 
     Parameters
@@ -144,22 +146,62 @@ def label_archive(archive, *, models, block: int | None = None, loo=False, trial
         its own class refitted without it ("the mean and covariance of k was
         estimated from the examples with the test block removed"), models
         refitted from this archive's blocks.
-    write : store each trial's result in ``results/label`` (atomic).
+    write : store each trial's result in ``results/label``, all trials in one
+        atomic step (:func:`contactlab.stages.run_stage`; ``workers`` /
+        ``scheduler`` as there, the unit of work being the archive).
 
     Returns ``{"accuracy", "confusion": {"labels", "matrix", "rates"},
     "predicted_error", "log_energy", "n_blocks", "trials": {id: {...}}, ...}``;
     ``accuracy`` is None when no block has a known true class.
     """
+    stage = LabelStage(models=models, block=block, loo=loo, labels=labels, write=write,
+                       quiet=quiet)
+    if hasattr(archive, "trial_ids"):                  # an open Archive: in this process
+        out = stage.run_archive(archive, archive.select(trials))
+        if write:
+            from contactlab.archive import write_stage
+            write_stage(Path(archive.path), stage.name, out.extra["results"])
+        return out.entry
+    return run_stage(stage, [archive], trials=trials, workers=workers, scheduler=scheduler,
+                     quiet=quiet)[Path(archive)]
+
+
+class LabelStage(Stage):
+    """``contactlab label`` as a stage: the parameters of :func:`label_archive`.
+
+    Its unit of work is the archive (``per_archive``): the channels used are
+    those that vary in every trial, and a leave-one-trial-out refits the
+    classes on the other trials.
+    """
+
+    name = "label"
+    per_archive = True
+
+    def __init__(self, *, models, block: int | None = None, loo=False,
+                 labels: str | None = None, write: bool = True, quiet: bool = True):
+        if not isinstance(models, ModelSet):
+            models = ModelSet.load(models)
+        if loo is True:
+            loo = "trial"
+        if loo not in (False, None) + LOO_UNITS:
+            raise UsageError(f"loo must be False, True, 'trial' or 'block'; got {loo!r}")
+        self.models, self.loo = models, loo or None
+        self.block = models.block if block is None else int(block)
+        self.labels, self.write, self.quiet = labels, write, quiet
+
+    def run_archive(self, archive, trial_ids) -> TrialOutcome:
+        """Label the blocks of ``trial_ids``; the summary and every trial's results."""
+        summary, collected, table, pred = _label(archive, self.models, self.block, self.loo,
+                                                 trial_ids, self.labels, self.quiet)
+        results = _results(collected, table, pred, self.models.labels, summary)
+        return TrialOutcome(summary, None, {"results": results})
+
+
+def _label(archive, models, block, loo, trials, labels, quiet):
+    """The labelling of :func:`label_archive` over an open archive: the summary, the
+    blocks, their log-likelihood table and predicted classes."""
     from contactlab.progress import progress
 
-    if not isinstance(models, ModelSet):
-        models = ModelSet.load(models)
-    if loo is True:
-        loo = "trial"
-    if loo not in (False, None) + LOO_UNITS:
-        raise UsageError(f"loo must be False, True, 'trial' or 'block'; got {loo!r}")
-    loo = loo or None
-    block = models.block if block is None else int(block)
     source = labels or models.provenance.get("labels", "truth")
     classes = models.labels
     with _opened(archive) as (arch, path):
@@ -219,20 +261,18 @@ def label_archive(archive, *, models, block: int | None = None, loo=False, trial
             "accuracy": float(np.mean(pred[idx][sc] == true[idx][sc])) if sc.any() else None,
         }
     summary["trials"] = per_trial
-    if write:
-        _write(Path(path), collected, table, pred, classes, summary, quiet=quiet)
-    return summary
+    return summary, collected, table, pred
 
 
-def _write(path: Path, blocks: LabelledBlocks, table, pred, classes, summary, *, quiet) -> None:
-    from contactlab.archive import write_results
-    from contactlab.progress import progress
+def _results(blocks: LabelledBlocks, table, pred, classes, summary) -> dict:
+    """Every trial's ``results/label``."""
+    from contactlab.archive import TrialResults
 
     code = {c: i for i, c in enumerate(classes)}
-    for tid in progress(list(blocks.signals), desc="write", quiet=quiet, unit="trial"):
+    results = {}
+    for tid in blocks.signals:
         idx = np.flatnonzero(blocks.trial == tid)
-        write_results(
-            path, tid, "label",
+        results[tid] = TrialResults(
             datasets={"start_s": blocks.start_s[idx], "end_s": blocks.end_s[idx],
                       "predicted": np.array([code[p] for p in pred[idx]], dtype=np.int16),
                       "true": np.array([code.get(t, -1) for t in blocks.label[idx]],
@@ -245,3 +285,4 @@ def _write(path: Path, blocks: LabelledBlocks, table, pred, classes, summary, *,
                         "labels_source": summary["labels_source"],
                         "order": summary["order"], "mean": summary["mean"],
                         "channels": blocks.channels})
+    return results
