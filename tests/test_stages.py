@@ -239,3 +239,14 @@ def test_a_bad_scheduler_address_is_one_line_and_writes_nothing(runs, tmp_path):
     r = run_cli("segment", path, "--scheduler", "tcp://127.0.0.1:1", "--workers", "2")
     assert r.exit_code == 2 and "not both" in r.output
     assert path.read_bytes() == before
+
+
+def test_results_through_a_symlink_replace_the_file_and_keep_the_link(runs, tmp_path):
+    real = tmp_path / "real.h5"
+    real.write_bytes(runs.read_bytes())
+    link = tmp_path / "link.h5"
+    link.symlink_to(real)
+    write_results(link, "t0", "segment", datasets={"x": np.arange(2.0)})
+    assert link.is_symlink() and os.readlink(link) == str(real)
+    with open_archive(real) as archive:
+        np.testing.assert_array_equal(archive.trial("t0").results("segment")["x"], [0.0, 1.0])

@@ -81,19 +81,20 @@ def write_stage(path: str | os.PathLike, stage: str,
     touched. Raises DataError (naming the archive) when it is read-only or a
     trial is missing, UsageError for results that cannot be stored.
     """
-    path = Path(path)
+    name = Path(path)                        # as the user gave it, for messages
+    path = Path(os.path.realpath(path))      # through a symlink: replace the file, keep the link
     check_name(stage, "results stage")
     prepared = {tid: _prepare(r) for tid, r in results.items()}
     if not prepared:
         return
-    check_owner_writable(path)
+    check_owner_writable(name)
     targets = {f"/trials/{tid}/{spec.RESULTS}/{stage}" for tid in prepared}
     with archive_lock(path):
         remove_stale_temps(path)
         with open_archive(path) as archive:
             missing = next((t for t in prepared if t not in archive), None)
         if missing is not None:
-            raise DataError("no such trial", file=str(path), field=f"/trials/{missing}")
+            raise DataError("no such trial", file=str(name), field=f"/trials/{missing}")
         mode = stat.S_IMODE(os.stat(path).st_mode)
         with atomic_path(path, force=True) as tmp:
             with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
