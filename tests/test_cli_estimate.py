@@ -1,5 +1,6 @@
 """contactlab estimate on a simulated cartesian archive (the four hand-moved groups)."""
 
+import json
 import shutil
 
 import numpy as np
@@ -131,4 +132,6 @@ def test_estimate_on_two_workers_matches_a_serial_run(archive):
     from contactlab.constraints.archive import estimate_archive
 
     kw = dict(segments="truth", write=False)
-    assert estimate_archive(archive, workers=2, **kw) == estimate_archive(archive, **kw)
+    # compared as JSON text: NaN (undetermined normals) equals NaN there, as it should
+    parallel = json.dumps(estimate_archive(archive, workers=2, **kw), sort_keys=True)
+    assert parallel == json.dumps(estimate_archive(archive, **kw), sort_keys=True)
