@@ -31,7 +31,7 @@ demo: $(STAMP)
 	$(BIN)/contactlab validate build/demo/hf-test.h5
 	$(BIN)/contactlab train build/demo/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out build/demo/hf-models.h5 --force
 	$(BIN)/contactlab recognize build/demo/hf-test.h5 --graph $(GRAPH) --models build/demo/hf-models.h5
-	$(BIN)/contactlab report build/demo/hf-test.h5 --out reports/demo
+	$(BIN)/contactlab report build/demo/hf-test.h5 --out reports/demo --force
 	$(BIN)/contactlab reproduce ph-demo hf-recognition --out reports --seed $(SEED)
 	@echo "demo report: reports/demo/index.html (experiments: reports/index.html)"
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
 from contactlab.constraints.archive import MODELS
 
 
@@ -28,6 +29,7 @@ from contactlab.constraints.archive import MODELS
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option
 @quiet_option
+@checks_archive
 def estimate(archive, model, segments, block, motion, no_friction, trials, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of ARCHIVE.
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
 
 
 @click.command()
@@ -28,6 +29,7 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option
 @quiet_option
+@checks_archive
 def label(archive, models, block, loo, loo_unit, labels, trials, as_json, quiet):
     """Label the blocks of ARCHIVE with the class models in --models.
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
 
 
 @click.command()
@@ -34,6 +35,7 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
 @json_option
 @quiet_option
+@checks_archive
 def recognize(archive, graph_file, models_file, action, threshold, change_size, p_prune, gap,
               sides, trials, no_write, as_json, quiet):
     """Recognise the contact state of every trial of ARCHIVE along a feature graph.

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
 
 
 def _thresholds(ctx, param, value):
@@ -44,6 +45,7 @@ def _thresholds(ctx, param, value):
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @json_option
 @quiet_option
+@checks_archive
 def segment(archive, signal, order, threshold, sweep_values, change_size, combine, tolerance,
             trials, as_json, quiet):
     """Segment every trial of ARCHIVE with the AR + Page-Hinkley detector of 7.2.1.

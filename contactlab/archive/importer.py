@@ -24,6 +24,7 @@ import pandas as pd
 from contactlab.archive import spec
 from contactlab.archive.writer import create_archive
 from contactlab.errors import DataError, UsageError
+from contactlab.fileio import check_writable
 from contactlab.progress import progress
 
 #: Fields that take exactly one column.
@@ -100,6 +101,7 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
         raise UsageError("no CSV files given")
     if "time" not in mapping and rate_hz is None:
         raise UsageError("without a time column the rate must be given")
+    check_writable(out, force=force, inputs=paths)
     stems = [p.stem for p in paths]
     dup = next((s for s in stems if stems.count(s) > 1), None)
     if dup is not None:
