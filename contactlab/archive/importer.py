@@ -120,8 +120,12 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
     tables = [_read_table(p, mapping, rate_hz)
               for p in progress(paths, total=len(paths), desc="import", quiet=quiet, unit="file")]
     names = _label_names(tables, paths, mapping, label_names)
+    for path, table in zip(paths, tables):  # every check before the first byte is written
+        if "labels" in table:
+            table["labels"] = _label_codes(table["labels"], names, path, mapping)
     out = Path(out)
-    with create_archive(out, force=force) as archive:
+    # incremental: a write failure or an interrupt keeps the trials already written
+    with create_archive(out, force=force, incremental=True) as archive:
         for path, table in zip(paths, tables):
             trial = archive.add_trial(path.stem, rate_hz=table.pop("rate_hz"),
                                       controller=controller, environment=environment,
@@ -129,8 +133,7 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
             labels = table.pop("labels", None)
             trial.append(**table)
             if labels is not None:
-                trial.set_ground_truth(labels=_label_codes(labels, names, path, mapping),
-                                       names=names)
+                trial.set_ground_truth(labels=labels, names=names)
             trial.close()
     return out
 
