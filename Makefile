@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SEED   ?= 1
 
-.PHONY: all env demo test bench reproduce clean
+.PHONY: all env demo test fuzz bench reproduce clean
 
 all: test
 
@@ -38,6 +38,11 @@ demo: $(STAMP)
 ## Run the test suite.
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+## Fuzz every reader of user files with many more random cases than `make test` runs
+## (archives, CSV files, feature graphs, models files; a few minutes).
+fuzz: $(STAMP)
+	HYPOTHESIS_PROFILE=fuzz $(BIN)/python -m pytest tests/test_fuzz_inputs.py -p no:cacheprovider
 
 ## Benchmarks against the peers named in the issues (ratios printed, same run).
 bench: $(STAMP)

@@ -311,7 +311,8 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
         if not isinstance(spec, Mapping):
             raise err(where, "must be a table with a kind")
         kind = spec.get("kind")
-        known = MODEL_KINDS.get(kind) or _PLANNED_PARAMS.get(kind)
+        known = (MODEL_KINDS.get(kind) or _PLANNED_PARAMS.get(kind)) \
+            if isinstance(kind, str) else None
         if known is None:
             raise err(f"{where}.kind", f"unknown model kind {kind!r} (known: "
                       f"{', '.join(list(MODEL_KINDS) + list(PLANNED_KINDS))})")

@@ -277,6 +277,8 @@ class ModelSet:
                 ds = g.get(name)
                 if not isinstance(ds, h5py.Dataset):
                     raise err("missing dataset", f"{where}/{name}")
+                if ds.dtype.kind not in "fiu":
+                    raise err(f"dtype {ds.dtype}, expected float", f"{where}/{name}")
                 arrays[name] = np.asarray(ds[()], dtype=np.float64)
             order, mean = int(attr(g, "order", where)), bool(attr(g, "mean", where))
             C = arrays["noise_var"].shape[0] if arrays["noise_var"].ndim == 1 else -1
