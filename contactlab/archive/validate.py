@@ -29,6 +29,10 @@ MAX_COMPRESSION_RATIO = 1100
 #: Declared sizes up to this many bytes are never questioned (tiny datasets).
 SMALL_DATASET_BYTES = 1 << 16
 
+#: What h5py raises for a corrupt header, chunk or attribute.
+_READ_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
+
 @dataclass(frozen=True)
 class Problem:
     """One way a file does not conform: where (HDF5 path or file name) and what."""
@@ -66,7 +70,10 @@ def validate_archive(path: str | os.PathLike, *, trials=None) -> list[Problem]:
         if problem:
             return [Problem(name, problem)]
         walker = _Walker(trials=trials)
-        walker.group(h5, spec.schema()["root"], scope=None)
+        try:
+            walker.group(h5, spec.schema()["root"], scope=None)
+        except _READ_ERRORS as err:  # a corrupt header the walk could not step past
+            walker.report(name, f"cannot be read: {h5_reason(err)}")
         return walker.problems
 
 
@@ -322,7 +329,7 @@ class _Walker:
                 self.group(obj, node, scope)
             else:
                 self.dataset(obj, node, scope)
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as err:
+        except _READ_ERRORS as err:
             self.report(path, f"cannot be read: {h5_reason(err)}")
 
     def _bind(self, group: h5py.Group, symbols: dict) -> _Scope:
@@ -406,31 +413,37 @@ class _Walker:
     def attributes(self, obj, specs: dict, symbols: dict) -> None:
         path = obj.name
         for name, aspec in specs.items():
-            if name not in obj.attrs:
-                if aspec.get("required"):
-                    self.report(path, f"missing attribute '{name}'")
-                continue
-            raw = obj.attrs[name]
-            value = spec.to_plain(raw)
-            if "schema" in aspec:
-                err = jsonschema.exceptions.best_match(
-                    jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
-                if err is not None:
-                    message = (f"{err.instance!r}, expected {err.validator_value!r}"
-                               if err.validator == "const" else err.message)
-                    self.report(path, f"attribute '{name}': {aspec.get('message', message)}")
-                    continue
-            if "shape" in aspec:
-                arr = np.asarray(raw)
-                kind = aspec.get("dtype")
-                if kind and arr.dtype.kind not in spec.DTYPE_KINDS[kind]:
-                    self.report(path, f"attribute '{name}' has dtype {arr.dtype}, expected {kind}")
-                    continue
-                if not self._shape(path, arr.shape, aspec["shape"], symbols, None,
-                                   what=f"attribute '{name}' shape"):
-                    continue
-            for check in aspec.get("checks", []):
-                message = ATTRIBUTE_CHECKS[check](value)
-                if message:
-                    self.report(path, f"attribute '{name}' {message}")
+            try:
+                self.attribute(obj, path, name, aspec, symbols)
+            except _READ_ERRORS as err:
+                self.report(path, f"attribute '{name}' cannot be read: {h5_reason(err)}")
+
+    def attribute(self, obj, path: str, name: str, aspec: dict, symbols: dict) -> None:
+        if name not in obj.attrs:
+            if aspec.get("required"):
+                self.report(path, f"missing attribute '{name}'")
+            return
+        raw = obj.attrs[name]
+        value = spec.to_plain(raw)
+        if "schema" in aspec:
+            err = jsonschema.exceptions.best_match(
+                jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
+            if err is not None:
+                message = (f"{err.instance!r}, expected {err.validator_value!r}"
+                           if err.validator == "const" else err.message)
+                self.report(path, f"attribute '{name}': {aspec.get('message', message)}")
+                return
+        if "shape" in aspec:
+            arr = np.asarray(raw)
+            kind = aspec.get("dtype")
+            if kind and arr.dtype.kind not in spec.DTYPE_KINDS[kind]:
+                self.report(path, f"attribute '{name}' has dtype {arr.dtype}, expected {kind}")
+                return
+            if not self._shape(path, arr.shape, aspec["shape"], symbols, None,
+                               what=f"attribute '{name}' shape"):
+                return
+        for check in aspec.get("checks", []):
+            message = ATTRIBUTE_CHECKS[check](value)
+            if message:
+                self.report(path, f"attribute '{name}' {message}")
 

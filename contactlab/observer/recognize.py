@@ -237,8 +237,8 @@ def recognize_archive(archive, *, graph, models, action=None, threshold: float =
         rate = rec.fs
         entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rate]
                           for n, s in r.map_path],
-                 "merged_path": [[n, float(rec.times[max(s, 0)])] for n, s in
-                                 merge_path(r.map_path)],
+                 "merged_path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rate]
+                                 for n, s in merge_path(r.map_path)],
                  "n_changes": sum(e.model is not None for e in r.events),
                  "accuracy": None, "accuracy_online": None}
         if rec.truth is not None and (rec.truth >= 0).any():
