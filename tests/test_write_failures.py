@@ -251,3 +251,27 @@ def test_a_signal_while_a_stage_writes_leaves_no_temp_file(tmp_path, sig):
         assert err.strip().splitlines() == [f"contactlab: {what} ({sig.name})"], err
     assert temp_files(tmp_path) == []
     assert validate_archive(path) == [] and measurements_digest(path) == before
+
+
+def test_a_signal_while_an_archive_is_written_waits_for_the_writers_safe_point(tmp_path):
+    from conftest import synthetic_measurements
+
+    from contactlab.archive import create_archive
+
+    data = synthetic_measurements(200)
+    fields = ("time", "strain", "wrench", "position")
+    out = tmp_path / "runs.h5"
+    with interrupt.signals_as_interrupt():
+        with pytest.raises(interrupt.Terminated):
+            with create_archive(out, incremental=True) as archive:
+                with archive.add_trial("t1", rate_hz=1000.0) as trial:
+                    trial.append(**{k: data[k] for k in fields})
+                trial = archive.add_trial("t2", rate_hz=1000.0)
+                os.kill(os.getpid(), signal.SIGTERM)  # recorded, not raised inside h5py
+                trial.append(**{k: data[k][:100] for k in fields})  # the safe point
+        assert interrupt.received() == signal.SIGTERM
+        interrupt.checkpoint()  # raised once: a later checkpoint is a no-op
+    assert validate_archive(out) == []
+    with open_archive(out) as a:
+        assert a.trial_ids == ["t1"]
+    assert temp_files(tmp_path) == []

@@ -35,7 +35,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from contactlab import __version__
+from contactlab import __version__, interrupt
 from contactlab.archive import spec
 from contactlab.errors import DataError, UsageError
 from contactlab.fileio import atomic_path, write_error
@@ -107,6 +107,8 @@ class ArchiveWriter:
         self.incremental = incremental
         self._stack = contextlib.ExitStack()
         self.tmp_path: Path = self._stack.enter_context(atomic_path(self.path, force=force))
+        # a signal must not surface inside h5py: it is raised at the next check_space
+        self._stack.enter_context(interrupt.deferred())
         self._reserve: Path | None = None
         self._failures = _FinaliserFailures()
         self._failures.install()
@@ -211,7 +213,9 @@ class ArchiveWriter:
 
     def check_space(self, nbytes: int) -> None:
         """Raise ENOSPC (OSError) before writing ``nbytes`` more would fill the disk,
-        or when a finaliser already met a failed write."""
+        or when a finaliser already met a failed write; raise the interrupt of a
+        SIGINT/SIGTERM received since the last call (the writer's safe point)."""
+        interrupt.checkpoint()
         if self._failures.first is not None:
             raise self._failures.first
         try:
