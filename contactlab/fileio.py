@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
+from contactlab import interrupt
 from contactlab.errors import DataError, UsageError
 
 #: errno values that mean "this target cannot be written" (not a bug of ours).
@@ -174,35 +175,45 @@ def remove_stale_temp_files(path: str | os.PathLike,
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike, *, force: bool = False,
+                interruptible: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it over ``path`` on success.
 
     On an exception the temporary file is removed and ``path`` is untouched;
     a write failure (full disk, read-only, permission) is re-raised as a
-    one-line DataError naming ``path``.
+    one-line DataError naming ``path``. Under
+    :func:`contactlab.interrupt.signals_as_interrupt` a signal received during
+    the block is raised when it ends, before the rename (``interruptible=False``:
+    the file is renamed all the same and the caller raises it).
     """
     final = check_writable(path, force=force)
     remove_stale_temp_files(final)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
-                                   dir=final.parent)
-    except OSError as err:
-        raise (write_error(err, final) or err) from None
-    os.close(fd)
-    tmp_path = Path(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
-    try:
-        yield tmp_path
-        os.replace(tmp_path, final)
-    except BaseException as err:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
-        failure = write_error(err, final) if isinstance(err, Exception) else None
-        if failure is not None:
-            raise failure from None
-        raise
+    # A SIGINT/SIGTERM while the file is written is raised only here, before the
+    # rename (the original stays), never inside h5py or between creating the
+    # temporary file and the block that removes it.
+    with interrupt.deferred():
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
+                                       dir=final.parent)
+        except OSError as err:
+            raise (write_error(err, final) or err) from None
+        tmp_path = Path(tmp)
+        try:
+            os.close(fd)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
+            yield tmp_path
+            if interruptible:
+                interrupt.checkpoint()
+            os.replace(tmp_path, final)
+        except BaseException as err:
+            with contextlib.suppress(FileNotFoundError):
+                tmp_path.unlink()
+            failure = write_error(err, final) if isinstance(err, Exception) else None
+            if failure is not None:
+                raise failure from None
+            raise
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

@@ -275,3 +275,15 @@ def test_a_signal_while_an_archive_is_written_waits_for_the_writers_safe_point(t
     with open_archive(out) as a:
         assert a.trial_ids == ["t1"]
     assert temp_files(tmp_path) == []
+
+
+def test_a_signal_during_an_atomic_write_keeps_the_original(tmp_path):
+    target = tmp_path / "keep.txt"
+    target.write_text("original")
+    with interrupt.signals_as_interrupt():
+        with pytest.raises(KeyboardInterrupt):
+            with atomic_path(target, force=True) as tmp:
+                tmp.write_text("half")
+                os.kill(os.getpid(), signal.SIGINT)  # recorded; raised before the rename
+                tmp.write_text("new")
+    assert target.read_text() == "original" and temp_files(tmp_path) == []

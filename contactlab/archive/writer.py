@@ -106,9 +106,11 @@ class ArchiveWriter:
         self.path = Path(path)
         self.incremental = incremental
         self._stack = contextlib.ExitStack()
-        self.tmp_path: Path = self._stack.enter_context(atomic_path(self.path, force=force))
         # a signal must not surface inside h5py: it is raised at the next check_space
         self._stack.enter_context(interrupt.deferred())
+        # incremental: what was written is kept even when a signal came at the very end
+        self.tmp_path: Path = self._stack.enter_context(
+            atomic_path(self.path, force=force, interruptible=not incremental))
         self._reserve: Path | None = None
         self._failures = _FinaliserFailures()
         self._failures.install()
@@ -248,6 +250,7 @@ class ArchiveWriter:
             raise
         self._release_reserve()
         self._stack.close()  # renames tmp_path over path
+        interrupt.checkpoint()  # a signal during the last steps: the archive is in place
         return self.path
 
     def abort(self, error: BaseException | None = None) -> Path | None:
