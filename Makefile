@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SEED   ?= 1
 
-.PHONY: all env demo test stress bench reproduce clean
+.PHONY: all env demo test stress fuzz bench reproduce clean
 
 all: test
 
@@ -39,7 +39,7 @@ demo: $(STAMP)
 	$(BIN)/contactlab validate $(DEMO)/hf-test.h5
 	$(BIN)/contactlab train $(DEMO)/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out $(DEMO)/hf-models.h5 --force
 	$(BIN)/contactlab recognize $(DEMO)/hf-test.h5 --graph $(GRAPH) --models $(DEMO)/hf-models.h5
-	$(BIN)/contactlab report $(DEMO)/hf-test.h5 --out reports/demo | tee $(DEMO)/summary.txt
+	$(BIN)/contactlab report $(DEMO)/hf-test.h5 --out reports/demo --force | tee $(DEMO)/summary.txt
 	$(BIN)/contactlab reproduce ph-demo hf-recognition --out $(DEMO)/reports --seed $(SEED) | tee -a $(DEMO)/summary.txt
 	@echo
 	@echo "== demo summary =="
@@ -58,6 +58,11 @@ test: $(STAMP)
 ## writes, 20 concurrent segment + label pairs, 10 interrupted stages (make test runs a few).
 stress: $(STAMP)
 	CONTACTLAB_STRESS=1 $(BIN)/python -m pytest tests/test_stages_crash.py -p no:cacheprovider
+
+## Fuzz every reader of user files with many more random cases than `make test` runs
+## (archives, CSV files, feature graphs, models files; a few minutes).
+fuzz: $(STAMP)
+	HYPOTHESIS_PROFILE=fuzz $(BIN)/python -m pytest tests/test_fuzz_inputs.py -p no:cacheprovider
 
 ## Benchmarks against the standard peers (ratios printed, same run).
 bench: $(STAMP)

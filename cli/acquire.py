@@ -8,6 +8,8 @@ from pathlib import Path
 import click
 
 from contactlab.cli.common import echo_json, json_option, quiet_option
+from contactlab.cli.inputs import check_inputs
+from contactlab.fileio import check_not_input
 
 
 @click.command()
@@ -71,6 +73,10 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
         return
     if out is None:
         raise click.UsageError("missing option '--out'")
+    if spec_name is not None and Path(spec_name).is_file():
+        check_not_input(out, [spec_name], option="--out")
+    if append and out.exists():
+        check_inputs([out])  # never append to (and so rewrite) an archive that does not conform
     spec = None
     if source == "sim":
         if spec_name is None:

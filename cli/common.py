@@ -13,6 +13,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from contactlab import interrupt
 from contactlab.errors import ContactlabError
 
 PROG = "contactlab"
@@ -42,7 +43,11 @@ class ContactlabGroup(_ClosingBars):
         """Run the CLI; usage errors become one line on stderr and exit status 2."""
         kwargs["standalone_mode"] = False
         try:
-            rv = super().main(*args, **kwargs)
+            with interrupt.signals_as_interrupt():
+                rv = super().main(*args, **kwargs)
+                signum = interrupt.received()
+                if signum:  # the interrupt was swallowed on the way (e.g. in a finaliser)
+                    _exit_interrupted(signum)
         except click.UsageError as err:
             where = err.ctx.command_path if err.ctx is not None else PROG
             click.echo(f"{where}: error: {err.format_message()} (see '{where} --help')", err=True)
@@ -63,18 +68,32 @@ class ContactlabGroup(_ClosingBars):
                 raise
             click.echo(f"{PROG}: error: {err}", err=True)
             ctx.exit(err.exit_code)
-        except KeyboardInterrupt:
-            click.echo(f"{PROG}: interrupted", err=True)
-            ctx.exit(130)
+        except KeyboardInterrupt as err:
+            if _debug(ctx):
+                raise
+            _exit_interrupted(interrupt.interrupt_signal(err))
         except (click.exceptions.Exit, click.ClickException, click.exceptions.Abort):
             raise
         except Exception as err:  # noqa: BLE001 - the one place that reports the unexpected
             if _debug(ctx):
                 raise
+            signum = interrupt.interrupt_signal(err)
+            if signum:  # an interrupt wrapped on its way out (numba: SystemError)
+                _exit_interrupted(signum)
             msg = str(err).splitlines()[0] if str(err) else ""
             click.echo(f"{PROG}: internal error: {type(err).__name__}: {msg} "
                        f"(run '{PROG} --debug ...' for the traceback)", err=True)
             ctx.exit(1)
+
+
+def _exit_interrupted(signum: int) -> None:
+    """One line and exit status 128 + signal number (130 for SIGINT, 143 for SIGTERM)."""
+    import signal
+
+    name = signal.Signals(signum).name
+    what = "terminated" if signum == signal.SIGTERM else "interrupted"
+    click.echo(f"{PROG}: {what} ({name})", err=True)
+    sys.exit(128 + int(signum))
 
 
 def _debug(ctx: click.Context) -> bool:

@@ -6,6 +6,7 @@ import click
 
 from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
+from contactlab.cli.inputs import checks_archive
 from contactlab.constraints.archive import MODELS
 
 
@@ -36,6 +37,7 @@ from contactlab.constraints.archive import MODELS
 @parallel_options("trials")
 @json_option
 @quiet_option
+@checks_archive
 def estimate(archives, model, segments, block, motion, position_noise, force_noise,
              no_friction, trials, workers, scheduler, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of each ARCHIVE.

@@ -20,7 +20,7 @@ class ColumnMap(click.ParamType):
         if isinstance(value, dict):
             return value
         try:
-            return parse_column_map(value)
+            return parse_column_map(value)  # a bad column-map file: DataError (exit 1)
         except UsageError as err:
             self.fail(str(err), param, ctx)
 

@@ -6,6 +6,7 @@ import click
 
 from contactlab.archive import summarize
 from contactlab.cli.common import archive_argument, echo_json, json_option
+from contactlab.cli.inputs import checks_archive
 
 COLUMNS = ("trial", "duration (s)", "samples", "rate (Hz)", "channels", "labels", "results")
 
@@ -13,6 +14,7 @@ COLUMNS = ("trial", "duration (s)", "samples", "rate (Hz)", "channels", "labels"
 @click.command()
 @archive_argument
 @json_option
+@checks_archive
 def info(archive, as_json):
     """Show the trials in ARCHIVE: duration, samples, rate, channels, labels, results.
 

@@ -8,6 +8,7 @@ import click
 
 from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
+from contactlab.cli.inputs import checks_archive
 
 
 @click.command()
@@ -30,6 +31,7 @@ from contactlab.cli.common import (archives_argument, echo_summaries, json_optio
 @parallel_options("archives")
 @json_option
 @quiet_option
+@checks_archive
 def label(archives, models, block, loo, loo_unit, labels, trials, workers, scheduler, as_json,
           quiet):
     """Label the blocks of each ARCHIVE with the class models in --models.

@@ -10,6 +10,7 @@ from contactlab import defaults as D
 
 from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
+from contactlab.cli.inputs import checks_archive
 
 
 @click.command()
@@ -38,6 +39,7 @@ from contactlab.cli.common import (archives_argument, echo_summaries, json_optio
 @parallel_options("trials")
 @json_option
 @quiet_option
+@checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
               sides, trials, no_write, workers, scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.

@@ -7,6 +7,8 @@ from pathlib import Path
 import click
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
+from contactlab.errors import DataError
 
 
 @click.command()
@@ -14,9 +16,11 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory [default: reports/ARCHIVE-STEM].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--force", is_flag=True, help="Replace a report already in OUT.")
 @json_option
 @quiet_option
-def report(archive, out, trials, as_json, quiet):
+@checks_archive
+def report(archive, out, trials, force, as_json, quiet):
     """Write a thesis-style figure report of ARCHIVE: signals, truth and results.
 
     Each trial's position, velocity, force, strains, high-frequency
@@ -30,11 +34,16 @@ def report(archive, out, trials, as_json, quiet):
     \b
     Examples:
       contactlab report runs.h5
-      contactlab report runs.h5 --out reports/runs --trial t001
+      contactlab report runs.h5 --out reports/runs --trial t001 --force
     """
     from contactlab.report.archive_report import report_archive
 
     out = out if out is not None else Path("reports") / archive.stem
+    existing = [out / name for name in ("index.html", "report.pdf") if (out / name).exists()]
+    if existing and not force:
+        raise DataError("holds a report already; pass --force to replace it", file=str(out))
+    if out.exists() and not out.is_dir():
+        raise DataError("is not a directory", file=str(out))
     summary = report_archive(archive, out_dir=out, trials=list(trials) or None, quiet=quiet)
     if as_json:
         echo_json(summary)

@@ -8,6 +8,7 @@ from contactlab import defaults as D
 
 from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
+from contactlab.cli.inputs import checks_archive
 
 
 def _thresholds(ctx, param, value):
@@ -59,6 +60,7 @@ def _thresholds(ctx, param, value):
 @parallel_options("trials")
 @json_option
 @quiet_option
+@checks_archive
 def segment(archives, signal, order, method, threshold, window_s, sweep_values, change_size,
             combine, tolerance, trials, workers, scheduler, as_json, quiet):
     """Segment every trial of each ARCHIVE into stretches of one AR model per channel.

@@ -10,6 +10,7 @@ import click
 from contactlab import defaults as D
 
 from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.inputs import checks_archive
 
 
 @click.command()
@@ -40,6 +41,7 @@ from contactlab.cli.common import archive_argument, echo_json, json_option, quie
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @json_option
 @quiet_option
+@checks_archive
 def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file, reduce,
           force, as_json, quiet):
     """Train one temporal model per class of ARCHIVE and write them to --out.
@@ -74,7 +76,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
         raise click.BadParameter(f"must be >= 1; got {order}", param_hint="'--order'")
     if block < 1:
         raise click.BadParameter(f"must be >= 1; got {block}", param_hint="'--block'")
-    check_writable(out, force=force)
+    check_writable(out, force=force, inputs=(archive, graph_file))
     if graph_file is not None:
         _train_graph(archive, graph_file, out=out, labels=labels, signal=signal, order=order,
                      mean=mean, block=block, classes=classes, trials=trials, reduce=reduce,

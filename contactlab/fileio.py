@@ -1,52 +1,219 @@
-"""Atomic output files: write to a temporary sibling, then rename.
+"""Output files: refused when they would replace an input, written atomically.
 
-A crash or interrupt never leaves a half-written file under the final name,
-and an existing file is replaced only when ``force`` is true.
+Every output goes to a temporary sibling ``.NAME.PID-XXXXXXXX.tmp`` that is
+renamed over ``NAME`` only when it is complete, so a crash or interrupt never
+leaves a half-written file under the final name, and an existing file is
+replaced only when ``force`` is true. A temporary file whose writer died
+without cleaning up (SIGKILL, power loss) is found by the next write of the
+same file, or the next command that reads it, and removed with a note.
+
+Write failures (read-only target, full disk, no permission) become one-line
+:class:`~contactlab.errors.DataError` messages naming the target.
 """
 
 from __future__ import annotations
 
-import hashlib
-
 import contextlib
+import errno
+import hashlib
 import os
+import re
+import stat
+import sys
 import tempfile
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from contactlab.errors import DataError
+from contactlab import interrupt
+from contactlab.errors import DataError, UsageError
+
+#: errno values that mean "this target cannot be written" (not a bug of ours).
+WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM,
+                errno.EFBIG}
+#: A temporary file without a writer's pid in its name is stale after this long.
+STALE_AFTER_S = 3600.0
+
+_WRITE_ERRNO_TEXT = re.compile(r"errno = (\d+)|\[Errno (\d+)\]")
 
 
-def check_writable(path: str | os.PathLike, *, force: bool) -> Path:
-    """Refuse to overwrite ``path`` unless ``force``; return it as a Path."""
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether ``a`` and ``b`` name the same file (links and ``..`` resolved)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def check_not_input(out: str | os.PathLike, inputs: Iterable, *, option: str = "--out") -> None:
+    """Refuse an output that is one of the command's inputs (``--force`` or not)."""
+    for src in inputs:
+        if src is not None and same_file(out, src):
+            raise UsageError(f"{option} {out} is also an input of this command "
+                             f"({src}); write the output to another file")
+
+
+def read_only_reason(path: str | os.PathLike) -> str | None:
+    """Why ``path`` (a file or directory) must not be written, by its mode bits.
+
+    The mode bits are consulted rather than ``os.access`` because the super-user
+    may write anything: a file someone made read-only is still refused then.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if not mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+        what = "directory" if stat.S_ISDIR(mode) else "file"
+        return f"{what} is read-only (mode {stat.S_IMODE(mode):04o}); refusing to write it"
+    return None
+
+
+def check_writable(path: str | os.PathLike, *, force: bool,
+                   inputs: Iterable = ()) -> Path:
+    """Refuse to overwrite ``path`` unless ``force``, to write into a read-only
+    file or directory, or to replace one of ``inputs``; return it as a Path."""
     path = Path(path)
+    check_not_input(path, inputs)
+    if path.is_dir():
+        raise DataError("is a directory, not a file", file=str(path))
     if path.exists() and not force:
         raise DataError("exists; pass --force to overwrite", file=str(path))
-    if not path.parent.exists():
-        raise DataError("directory does not exist", file=str(path.parent))
+    parent = path.parent
+    if not parent.exists():
+        raise DataError("directory does not exist", file=str(parent))
+    for target in ((path,) if path.exists() else ()) + (parent,):
+        reason = read_only_reason(target)
+        if reason:
+            raise DataError(reason, file=str(target))
     return path
 
 
+def write_error(err: BaseException, target: str | os.PathLike) -> DataError | None:
+    """The one-line DataError for a failed write of ``target`` (None if ``err`` is
+    not a write failure: full disk, quota, read-only file system, permission)."""
+    code = getattr(err, "errno", None)
+    if code is None and isinstance(err, (OSError, RuntimeError)):
+        match = _WRITE_ERRNO_TEXT.search(str(err))
+        if match:
+            code = int(match.group(1) or match.group(2))
+    if code not in WRITE_ERRNOS:
+        return None
+    reason = {errno.ENOSPC: "no space left on the device",
+              errno.EDQUOT: "disk quota exceeded"}.get(code, os.strerror(code).lower())
+    return DataError(f"cannot be written: {reason}", file=str(target))
+
+
+# -- temporary files ------------------------------------------------------------------
+
+def _temp_pattern(final: Path) -> re.Pattern:
+    return re.compile(r"\." + re.escape(final.name) + r"\.(?:(\d+)-)?[A-Za-z0-9_]+\.tmp")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def stale_temp_files(path: str | os.PathLike) -> list[Path]:
+    """Temporary siblings of ``path`` whose writer is gone (a killed run's leftovers).
+
+    A name with a writer's pid is stale when that process no longer exists;
+    an older name without one when it is more than :data:`STALE_AFTER_S` old.
+    """
+    final = Path(path)
+    pattern = _temp_pattern(final)
+    stale = []
+    try:
+        entries = list(os.scandir(final.parent if str(final.parent) else "."))
+    except OSError:
+        return []
+    for entry in entries:
+        match = pattern.fullmatch(entry.name)
+        if not match:
+            continue
+        if match.group(1) is not None:
+            pid = int(match.group(1))
+            if pid == os.getpid() or _alive(pid):
+                continue
+        else:
+            with contextlib.suppress(OSError):
+                if time.time() - entry.stat().st_mtime < STALE_AFTER_S:
+                    continue
+        stale.append(Path(entry.path))
+    return sorted(stale)
+
+
+def _note(message: str) -> None:
+    print(f"contactlab: note: {message}", file=sys.stderr, flush=True)
+
+
+def remove_stale_temp_files(path: str | os.PathLike,
+                            notify: Callable[[str], None] | None = _note) -> list[Path]:
+    """Remove the stale temporary siblings of ``path``; say so through ``notify``."""
+    removed = []
+    for tmp in stale_temp_files(path):
+        try:
+            tmp.unlink()
+        except OSError as err:
+            if notify:
+                notify(f"{tmp}: stale temporary file left by an interrupted run "
+                       f"cannot be removed ({err.strerror})")
+            continue
+        removed.append(tmp)
+        if notify:
+            notify(f"removed {tmp}, a temporary file left by an interrupted run")
+    return removed
+
+
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike, *, force: bool = False,
+                interruptible: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it over ``path`` on success.
 
-    On an exception the temporary file is removed and ``path`` is untouched.
+    On an exception the temporary file is removed and ``path`` is untouched;
+    a write failure (full disk, read-only, permission) is re-raised as a
+    one-line DataError naming ``path``. Under
+    :func:`contactlab.interrupt.signals_as_interrupt` a signal received during
+    the block is raised when it ends, before the rename (``interruptible=False``:
+    the file is renamed all the same and the caller raises it).
     """
     final = check_writable(path, force=force)
-    fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
-    try:
-        yield tmp_path
-        os.replace(tmp_path, final)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
-        raise
+    remove_stale_temp_files(final)
+    # A SIGINT/SIGTERM while the file is written is raised only here, before the
+    # rename (the original stays), never inside h5py or between creating the
+    # temporary file and the block that removes it.
+    with interrupt.deferred():
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
+                                       dir=final.parent)
+        except OSError as err:
+            raise (write_error(err, final) or err) from None
+        tmp_path = Path(tmp)
+        try:
+            os.close(fd)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
+            yield tmp_path
+            if interruptible:
+                interrupt.checkpoint()
+            os.replace(tmp_path, final)
+        except BaseException as err:
+            with contextlib.suppress(FileNotFoundError):
+                tmp_path.unlink()
+            failure = write_error(err, final) if isinstance(err, Exception) else None
+            if failure is not None:
+                raise failure from None
+            raise
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

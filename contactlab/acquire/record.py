@@ -9,36 +9,17 @@ first; the result replaces the original only by an atomic rename.
 
 from __future__ import annotations
 
-import contextlib
-import signal
 import sys
-import threading
 from pathlib import Path
 
 from contactlab.archive import create_archive
 from contactlab.errors import UsageError
+from contactlab.interrupt import Terminated, signals_as_interrupt  # noqa: F401 - re-exported
 from contactlab.progress import bar
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM received: handled exactly like Ctrl-C."""
-
-
-@contextlib.contextmanager
-def sigterm_as_interrupt():
-    """While active (main thread only), SIGTERM raises :class:`Terminated`."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum, frame):
-        raise Terminated(f"signal {signum}")
-
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+#: SIGTERM is handled like Ctrl-C while :func:`record` runs (kept here for callers).
+sigterm_as_interrupt = signals_as_interrupt
 
 
 def record(source, *, out: str | Path, n_trials: int, seed: int, append: bool = False,
@@ -57,6 +38,10 @@ def record(source, *, out: str | Path, n_trials: int, seed: int, append: bool = 
         raise UsageError(f"--append: {out} does not exist (leave out --append to create it)")
     if append and force:
         raise UsageError("--append and --force exclude each other")
+    if append:
+        from contactlab.archive.validate import check_archive
+
+        check_archive(out)  # an archive that does not conform is left as it is
     if log is None:
         def log(message: str) -> None:
             if not quiet:

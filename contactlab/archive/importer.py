@@ -24,6 +24,7 @@ import pandas as pd
 from contactlab.archive import spec
 from contactlab.archive.writer import SEGMENT_DTYPE, create_archive
 from contactlab.errors import DataError, UsageError
+from contactlab.fileio import check_writable
 from contactlab.progress import progress
 
 #: Fields that take exactly one column.
@@ -31,6 +32,9 @@ SCALAR_FIELDS = ("time", "labels", "action")
 #: Fields that take several columns; the width is fixed by the schema where it says so.
 VECTOR_FIELDS = ("strain", "wrench", "position", "velocity")
 FIELDS = SCALAR_FIELDS + VECTOR_FIELDS
+#: Largest integer label code: codes name classes 0..code, each stored as a label
+#: name; a code beyond this is a data error, not a thousand-class labelling.
+MAX_LABEL_CODE = 1023
 
 
 def parse_column_map(text: str) -> dict[str, list[str]]:
@@ -45,11 +49,15 @@ def parse_column_map(text: str) -> dict[str, list[str]]:
             raw = json.loads(path.read_text(encoding="utf-8"))
         except OSError as err:
             raise UsageError(f"cannot read column map file {text}: {err.strerror}") from None
-        except ValueError as err:
-            raise UsageError(f"column map file {text} is not valid JSON: {err}") from None
+        except (ValueError, RecursionError) as err:
+            raise DataError(f"is not valid JSON ({err})", file=text) from None
         if not isinstance(raw, dict):
-            raise UsageError(f"column map file {text} must hold one JSON object")
-        return normalize_column_map(raw)
+            raise DataError(f"must hold one JSON object mapping fields to columns, not "
+                            f"{type(raw).__name__ if raw is not None else 'null'}", file=text)
+        try:
+            return normalize_column_map(raw)
+        except UsageError as err:
+            raise DataError(str(err), file=text) from None
     mapping: dict[str, str] = {}
     for part in filter(None, (p.strip() for p in text.split(";"))):
         field, eq, cols = part.partition("=")
@@ -100,6 +108,11 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
         raise UsageError("no CSV files given")
     if "time" not in mapping and rate_hz is None:
         raise UsageError("without a time column the rate must be given")
+    check_writable(out, force=force, inputs=paths)
+    for p in paths:
+        if not p.stem or p.stem in (".", "..") or "/" in p.stem:
+            raise DataError(f"gives the trial id {p.stem!r}, which is not a valid name; "
+                            "rename the file", file=str(p))
     stems = [p.stem for p in paths]
     dup = next((s for s in stems if stems.count(s) > 1), None)
     if dup is not None:
@@ -107,8 +120,12 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
     tables = [_read_table(p, mapping, rate_hz)
               for p in progress(paths, total=len(paths), desc="import", quiet=quiet, unit="file")]
     names = _label_names(tables, paths, mapping, label_names)
+    for path, table in zip(paths, tables):  # every check before the first byte is written
+        if "labels" in table:
+            table["labels"] = _label_codes(table["labels"], names, path, mapping)
     out = Path(out)
-    with create_archive(out, force=force) as archive:
+    # incremental: a write failure or an interrupt keeps the trials already written
+    with create_archive(out, force=force, incremental=True) as archive:
         for path, table in zip(paths, tables):
             rate = table.pop("rate_hz")
             trial = archive.add_trial(path.stem, rate_hz=rate,
@@ -117,10 +134,8 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
             labels = table.pop("labels", None)
             trial.append(**table)
             if labels is not None:
-                codes = _label_codes(labels, names, path, mapping)
-                trial.set_ground_truth(labels=codes, names=names,
-                                       segments=label_runs(codes, table["time"], rate))
-
+                trial.set_ground_truth(labels=labels, names=names,
+                                       segments=label_runs(labels, table["time"], rate))
             trial.close()
     return out
 
@@ -263,6 +278,11 @@ def _label_codes(column: pd.Series, names: list[str] | None, path: Path,
         if not np.all(values == np.round(values)) or values.min(initial=-1) < -1:
             raise DataError("integer label codes must be whole numbers >= -1", file=str(path),
                             field=col)
+        if values.max(initial=-1) > MAX_LABEL_CODE:
+            i = int(np.argmax(values))
+            raise DataError(f"label code {values[i]:.0f} (data row {i + 1}) is above "
+                            f"{MAX_LABEL_CODE}; give names with --label-names, or codes "
+                            f"0..{MAX_LABEL_CODE}", file=str(path), field=col)
         codes = values.astype(np.int64)
         if names is not None and codes.max(initial=-1) >= len(names):
             raise DataError(f"label code {int(codes.max())} has no name ({len(names)} names)",

@@ -16,6 +16,7 @@ import contextlib
 import functools
 import json
 import os
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -47,8 +48,10 @@ def h5_reason(err: Exception) -> str:
     text = str(err)
     if "truncated" in text:
         return "truncated HDF5 file (it ends before its stored end of file)"
-    if "lock" in text:
+    if re.search(r"\bunable to lock file\b|\bfile locking\b|\block(ed)? by\b", text):
         return "cannot be opened: the file is locked by another process"
+    if "superblock" in text or "file signature" in text:
+        return f"corrupt HDF5 file: its superblock cannot be read ({text.splitlines()[0]})"
     return f"unreadable HDF5 file ({text.splitlines()[0] if text else type(err).__name__})"
 
 
@@ -315,6 +318,11 @@ class Trial:
         ds = self._dataset(group, name, required=required)
         if ds is None:
             return None
+        from contactlab.archive.validate import dataset_size_problem
+
+        too_big = dataset_size_problem(ds, os.path.getsize(self._archive.path))
+        if too_big:
+            raise self._error(too_big, ds.name)
         with unreadable_as_data_error(self._archive.path, ds.name):
             return ds[()]
 

@@ -20,6 +20,18 @@ import numpy as np
 
 from contactlab.archive import spec
 from contactlab.archive.reader import archive_version_problem, h5_reason
+from contactlab.errors import DataError
+
+#: Deflate never compresses better than about 1032:1 (RFC 1951: a 258-byte match
+#: costs at least 2 bits), so a dataset that declares more bytes than this many
+#: times its stored bytes cannot hold them: it is refused before anything is read.
+MAX_COMPRESSION_RATIO = 1100
+#: Declared sizes up to this many bytes are never questioned (tiny datasets).
+SMALL_DATASET_BYTES = 1 << 16
+
+#: What h5py raises for a corrupt header, chunk or attribute.
+_READ_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
 
 @dataclass(frozen=True)
 class Problem:
@@ -32,8 +44,12 @@ class Problem:
         return f"{self.path}: {self.message}"
 
 
-def validate_archive(path: str | os.PathLike) -> list[Problem]:
-    """Every way the file at ``path`` departs from the archive format ([] = conforms)."""
+def validate_archive(path: str | os.PathLike, *, trials=None) -> list[Problem]:
+    """Every way the file at ``path`` departs from the archive format ([] = conforms).
+
+    ``trials`` (ids) limits the walk under ``/trials`` to those trials; an id
+    the archive does not hold is a problem.
+    """
     name = str(path)
     path = Path(path)
     if not path.exists():
@@ -53,9 +69,50 @@ def validate_archive(path: str | os.PathLike) -> list[Problem]:
             return [Problem(name, h5_reason(err))]
         if problem:
             return [Problem(name, problem)]
-        walker = _Walker()
-        walker.group(h5, spec.schema()["root"], scope=None)
+        walker = _Walker(trials=trials)
+        try:
+            walker.group(h5, spec.schema()["root"], scope=None)
+        except _READ_ERRORS as err:  # a corrupt header the walk could not step past
+            walker.report(name, f"cannot be read: {h5_reason(err)}")
         return walker.problems
+
+
+def check_archive(path: str | os.PathLike, *, trials=None) -> None:
+    """The up-front check every command runs on an archive it reads.
+
+    Raises a :class:`DataError` naming the file, the first offending HDF5 path
+    and what is wrong (the same words as ``contactlab validate``), with the
+    number of further problems; returns None when the archive (or the trials
+    ``trials`` of it) conforms.
+    """
+    problems = validate_archive(path, trials=trials or None)
+    if not problems:
+        return
+    first = problems[0]
+    more = len(problems) - 1
+    message = first.message + (f" (and {more} more problem{'s' if more > 1 else ''}; "
+                                f"see 'contactlab validate {path}')" if more else "")
+    field = None if first.path == str(path) else first.path
+    raise DataError(message, file=str(path), field=field)
+
+
+def dataset_size_problem(ds: h5py.Dataset, file_size: int) -> str | None:
+    """Why ``ds`` cannot hold the data its shape declares (None when it can).
+
+    Compares the declared size with the bytes the file stores for it (and the
+    file's size) before anything is allocated, so a header declaring 10^12
+    rows is an error message, not a memory error.
+    """
+    declared = int(np.prod(ds.shape, dtype=np.float64) * ds.dtype.itemsize) \
+        if ds.shape is not None else 0
+    if declared <= SMALL_DATASET_BYTES:
+        return None
+    stored = int(ds.id.get_storage_size())
+    limit = MAX_COMPRESSION_RATIO * min(max(stored, 1), max(file_size, 1))
+    if declared > limit:
+        return (f"shape {ds.shape} declares {declared:,} bytes, but the file stores only "
+                f"{stored:,} bytes for it (a file of {file_size:,} bytes cannot hold it)")
+    return None
 
 
 # -- value checks named by the schema -------------------------------------------------
@@ -70,7 +127,8 @@ class _Scope:
 
     def time(self) -> np.ndarray | None:
         ds = self.group.get(self.time_path)
-        if isinstance(ds, h5py.Dataset) and ds.ndim == 1 and ds.dtype.kind == "f":
+        if isinstance(ds, h5py.Dataset) and ds.ndim == 1 and ds.dtype.kind == "f" and \
+                dataset_size_problem(ds, _file_size(ds)) is None:
             return ds[()]
         return None
 
@@ -80,6 +138,13 @@ class _Scope:
                 and np.isfinite(rate):
             return float(rate)
         return None
+
+
+def _file_size(obj) -> int:
+    try:
+        return os.path.getsize(obj.file.filename)
+    except OSError:
+        return 0
 
 
 def _first(mask: np.ndarray) -> int:
@@ -99,6 +164,10 @@ def _check_finite(ds: h5py.Dataset, data: np.ndarray, scope: _Scope | None) -> l
                        f"{'' if f is None else f' in field {f}'}, first at index "
                        f"{tuple(int(i) for i in where) if len(where) > 1 else int(where[0])}")
     return out
+
+
+def _check_nonempty(ds, data, scope) -> list[str]:
+    return [] if len(data) else ["no samples (an empty trial)"]
 
 
 def _check_strictly_increasing(ds, data, scope) -> list[str]:
@@ -172,6 +241,7 @@ def _check_segments(ds, data, scope) -> list[str]:
 #: check name (as used in the schema) -> function(dataset, data, scope) -> messages.
 CHECKS: dict[str, Callable] = {
     "finite": _check_finite,
+    "nonempty": _check_nonempty,
     "strictly_increasing": _check_strictly_increasing,
     "matches_rate": _check_matches_rate,
     "label_codes": _check_label_codes,
@@ -187,8 +257,16 @@ def _check_json_attr(value) -> str | None:
     return None
 
 
+def _check_finite_attr(value) -> str | None:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and \
+            not np.isfinite(value):
+        return f"is {value!r}, expected a finite number"
+    return None
+
+
 #: attribute check name -> function(value) -> message or None.
-ATTRIBUTE_CHECKS: dict[str, Callable] = {"json": _check_json_attr}
+ATTRIBUTE_CHECKS: dict[str, Callable] = {"json": _check_json_attr,
+                                         "finite": _check_finite_attr}
 
 
 # -- the schema walk ------------------------------------------------------------------
@@ -196,8 +274,9 @@ ATTRIBUTE_CHECKS: dict[str, Callable] = {"json": _check_json_attr}
 class _Walker:
     """Walks an HDF5 tree beside the schema, collecting problems."""
 
-    def __init__(self):
+    def __init__(self, trials=None):
         self.problems: list[Problem] = []
+        self.trials = None if trials is None else list(trials)
 
     def report(self, path: str, message: str) -> None:
         self.problems.append(Problem(path, message))
@@ -214,7 +293,13 @@ class _Walker:
             self.report(path, f"needs at least one of {', '.join(node['require_any'])}")
         each = node.get("each")
         if each is not None:
-            for name in sorted(group.keys()):
+            names = sorted(group.keys())
+            if path == "/trials" and self.trials is not None:
+                for name in self.trials:
+                    if name not in group:
+                        self.report(f"/trials/{name}", "no such trial")
+                names = [n for n in self.trials if n in group]
+            for name in names:
                 if name not in members:
                     self.member(group, name, each, scope)
 
@@ -222,7 +307,16 @@ class _Walker:
         path = f"{parent.name.rstrip('/')}/{name}"
         kind = node["kind"]
         try:
+            link = parent.get(name, getlink=True)
+            if isinstance(link, h5py.ExternalLink):
+                self.report(path, f"is an external link to {link.filename}:{link.path} "
+                                  "(an archive holds its data itself)")
+                return
             obj = parent.get(name)
+            if obj is None and isinstance(link, h5py.SoftLink):
+                self.report(path, f"is a dangling soft link (to {link.path}, which does "
+                                  "not exist)")
+                return
             if obj is None:
                 if node.get("required"):
                     self.report(path, f"missing {kind}")
@@ -235,13 +329,16 @@ class _Walker:
                 self.group(obj, node, scope)
             else:
                 self.dataset(obj, node, scope)
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as err:
+        except _READ_ERRORS as err:
             self.report(path, f"cannot be read: {h5_reason(err)}")
 
     def _bind(self, group: h5py.Group, symbols: dict) -> _Scope:
         time_path = symbols["n"]
         scope = _Scope(group, time_path)
-        ds = group.get(time_path)
+        try:
+            ds = group.get(time_path)
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError):
+            ds = None  # reported when the walk reaches it
         if isinstance(ds, h5py.Dataset) and ds.ndim == 1:
             scope.n = int(ds.shape[0])
         return scope
@@ -252,6 +349,11 @@ class _Walker:
         symbols: dict[str, int] = {}
         ok = self._shape(path, ds.shape, node["shape"], symbols, scope, what="shape") and ok
         self.attributes(ds, node.get("attributes", {}), symbols)
+        if ok:
+            too_big = dataset_size_problem(ds, _file_size(ds))
+            if too_big:
+                self.report(path, too_big)
+                ok = False
         if ok and node.get("checks"):
             data = ds[()]
             for check in node["checks"]:
@@ -311,31 +413,37 @@ class _Walker:
     def attributes(self, obj, specs: dict, symbols: dict) -> None:
         path = obj.name
         for name, aspec in specs.items():
-            if name not in obj.attrs:
-                if aspec.get("required"):
-                    self.report(path, f"missing attribute '{name}'")
-                continue
-            raw = obj.attrs[name]
-            value = spec.to_plain(raw)
-            if "schema" in aspec:
-                err = jsonschema.exceptions.best_match(
-                    jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
-                if err is not None:
-                    message = (f"{err.instance!r}, expected {err.validator_value!r}"
-                               if err.validator == "const" else err.message)
-                    self.report(path, f"attribute '{name}': {aspec.get('message', message)}")
-                    continue
-            if "shape" in aspec:
-                arr = np.asarray(raw)
-                kind = aspec.get("dtype")
-                if kind and arr.dtype.kind not in spec.DTYPE_KINDS[kind]:
-                    self.report(path, f"attribute '{name}' has dtype {arr.dtype}, expected {kind}")
-                    continue
-                if not self._shape(path, arr.shape, aspec["shape"], symbols, None,
-                                   what=f"attribute '{name}' shape"):
-                    continue
-            for check in aspec.get("checks", []):
-                message = ATTRIBUTE_CHECKS[check](value)
-                if message:
-                    self.report(path, f"attribute '{name}' {message}")
+            try:
+                self.attribute(obj, path, name, aspec, symbols)
+            except _READ_ERRORS as err:
+                self.report(path, f"attribute '{name}' cannot be read: {h5_reason(err)}")
+
+    def attribute(self, obj, path: str, name: str, aspec: dict, symbols: dict) -> None:
+        if name not in obj.attrs:
+            if aspec.get("required"):
+                self.report(path, f"missing attribute '{name}'")
+            return
+        raw = obj.attrs[name]
+        value = spec.to_plain(raw)
+        if "schema" in aspec:
+            err = jsonschema.exceptions.best_match(
+                jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
+            if err is not None:
+                message = (f"{err.instance!r}, expected {err.validator_value!r}"
+                           if err.validator == "const" else err.message)
+                self.report(path, f"attribute '{name}': {aspec.get('message', message)}")
+                return
+        if "shape" in aspec:
+            arr = np.asarray(raw)
+            kind = aspec.get("dtype")
+            if kind and arr.dtype.kind not in spec.DTYPE_KINDS[kind]:
+                self.report(path, f"attribute '{name}' has dtype {arr.dtype}, expected {kind}")
+                return
+            if not self._shape(path, arr.shape, aspec["shape"], symbols, None,
+                               what=f"attribute '{name}' shape"):
+                return
+        for check in aspec.get("checks", []):
+            message = ATTRIBUTE_CHECKS[check](value)
+            if message:
+                self.report(path, f"attribute '{name}' {message}")
 

@@ -14,23 +14,31 @@ removes the temporary file, so no half-written archive ever carries the
 final name. With ``incremental=True`` an exception (Ctrl-C included) instead
 keeps every trial that was closed: unfinished trials are deleted and the file
 is renamed into place before the exception propagates.
+
+A full disk must not strand the finished trials either: an incremental writer
+keeps a small reserve file (:data:`RESERVE_BYTES`) beside the archive and
+deletes it when a write fails, so that HDF5 has the room to delete the
+unfinished trial and close the file cleanly. The failure is then reported in
+one line naming the archive and the trials it kept.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import math
 import os
+import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from contactlab import __version__
+from contactlab import __version__, interrupt
 from contactlab.archive import spec
 from contactlab.errors import DataError, UsageError
-from contactlab.fileio import atomic_path
+from contactlab.fileio import atomic_path, write_error
 
 #: Rows per HDF5 chunk of the per-sample datasets.
 CHUNK_ROWS = 1024
@@ -41,6 +49,13 @@ COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 PER_SAMPLE_TRUTH = ("labels", "contact", "contact_normals", "moving", "impact", "texture")
 
 SEGMENT_DTYPE = np.dtype([("start_s", "<f8"), ("end_s", "<f8"), ("label", "<i2")])
+
+#: Room kept free for closing an incremental archive after a write failure: the
+#: metadata HDF5 writes on close plus one chunk cache (1 MiB) to spare.
+RESERVE_BYTES = 4 << 20
+#: Free space an append needs beyond its own bytes (dirty chunk caches, metadata);
+#: with less, the writer stops with ENOSPC before HDF5 runs into the full disk.
+SPACE_MARGIN = 2 << 20
 
 
 def utc_now() -> str:
@@ -91,8 +106,18 @@ class ArchiveWriter:
         self.path = Path(path)
         self.incremental = incremental
         self._stack = contextlib.ExitStack()
-        self.tmp_path: Path = self._stack.enter_context(atomic_path(self.path, force=force))
+        # a signal must not surface inside h5py: it is raised at the next check_space
+        self._stack.enter_context(interrupt.deferred())
+        # incremental: what was written is kept even when a signal came at the very end
+        self.tmp_path: Path = self._stack.enter_context(
+            atomic_path(self.path, force=force, interruptible=not incremental))
+        self._reserve: Path | None = None
+        self._failures = _FinaliserFailures()
+        self._failures.install()
         try:
+            if incremental:
+                self._reserve = self.tmp_path.with_name(self.tmp_path.name[:-4] + "-reserve.tmp")
+                _reserve_space(self._reserve, RESERVE_BYTES)
             self._file = h5py.File(self.tmp_path, "w")
             self._file.attrs["format"] = spec.FORMAT
             self._file.attrs["format_version"] = spec.FORMAT_VERSION
@@ -102,6 +127,8 @@ class ArchiveWriter:
                 self._file.attrs["title"] = title
             self._trials_group = self._file.create_group("trials")
         except BaseException as err:
+            self._release_reserve()
+            self._failures.uninstall()
             self._stack.__exit__(type(err), err, err.__traceback__)
             raise
         self._trials: dict[str, TrialWriter] = {}
@@ -161,6 +188,7 @@ class ArchiveWriter:
         is kept unless this archive has one. Returns the copied trial ids.
         """
         self._check_open()
+        self.check_space(os.path.getsize(path))
         copied = []
         with h5py.File(path, "r") as src:
             if "title" in src.attrs and "title" not in self._file.attrs:
@@ -181,7 +209,23 @@ class ArchiveWriter:
     def flush(self) -> None:
         """Push everything written so far to the temporary file on disk."""
         self._check_open()
+        self.check_space(0)
         self._file.flush()
+        self.check_space(0)
+
+    def check_space(self, nbytes: int) -> None:
+        """Raise ENOSPC (OSError) before writing ``nbytes`` more would fill the disk,
+        or when a finaliser already met a failed write; raise the interrupt of a
+        SIGINT/SIGTERM received since the last call (the writer's safe point)."""
+        interrupt.checkpoint()
+        if self._failures.first is not None:
+            raise self._failures.first
+        try:
+            st = os.statvfs(self.tmp_path.parent)
+        except OSError:
+            return
+        if st.f_bavail * st.f_frsize < nbytes + SPACE_MARGIN:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.tmp_path))
 
     # -- ending -----------------------------------------------------------------
     def close(self) -> Path:
@@ -195,8 +239,18 @@ class ArchiveWriter:
             self.abort(err)
             raise
         self._closed = True
-        self._file.close()
+        try:
+            self._file.close()
+            self._failures.uninstall()
+            if self._failures.first is not None:
+                raise self._failures.first
+        except BaseException as err:
+            self._release_reserve()
+            self._stack.__exit__(type(err), err, err.__traceback__)
+            raise
+        self._release_reserve()
         self._stack.close()  # renames tmp_path over path
+        interrupt.checkpoint()  # a signal during the last steps: the archive is in place
         return self.path
 
     def abort(self, error: BaseException | None = None) -> Path | None:
@@ -209,6 +263,7 @@ class ArchiveWriter:
         if self._closed:
             return None
         self._closed = True
+        self._release_reserve()  # room for HDF5 to close the file after a full disk
         error = error or RuntimeError("archive writing aborted")
         # copied trials (append) alone are no reason to keep: the original still holds them
         keep = self.incremental and any(t.complete for t in self._trials.values())
@@ -218,13 +273,22 @@ class ArchiveWriter:
                     # should deleting fail, the trial stays marked complete=False
                     with contextlib.suppress(Exception):
                         del self._trials_group[tid]
-        with contextlib.suppress(Exception):
+        try:
             self._file.close()
+        except Exception:  # noqa: BLE001 - the file could not be finished: keep nothing
+            keep = False
+        self._failures.uninstall()
         if keep:
             self._stack.close()
             return self.path
         self._stack.__exit__(type(error), error, error.__traceback__)
         return None
+
+    def _release_reserve(self) -> None:
+        if self._reserve is not None:
+            with contextlib.suppress(OSError):
+                self._reserve.unlink()
+            self._reserve = None
 
     def __enter__(self) -> ArchiveWriter:
         return self
@@ -232,13 +296,69 @@ class ArchiveWriter:
     def __exit__(self, exc_type, exc, tb) -> bool:
         if exc is None:
             self.close()
-        else:
-            self.abort(exc)
+            return False
+        failure = write_error(exc, self.path) if isinstance(exc, Exception) else None
+        kept = self.abort(exc)
+        if failure is not None:
+            done = [tid for tid, t in self._trials.items() if t.complete]
+            note = (f"; the {len(done)} finished trials are kept in it ({', '.join(done)})"
+                    if kept else "; nothing was written")
+            raise DataError(failure.message + note, file=str(self.path)) from None
         return False
 
     def _check_open(self) -> None:
         if self._closed:
             raise UsageError(f"archive {self.path} is already closed")
+
+
+def _reserve_space(path: Path, size: int) -> None:
+    """Create ``path`` holding ``size`` allocated bytes (DataError when there is no room)."""
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except OSError as err:
+        raise (write_error(err, path.parent) or err) from None
+    try:
+        try:
+            os.posix_fallocate(fd, 0, size)
+        except OSError as err:
+            if err.errno not in (errno.EOPNOTSUPP, errno.EINVAL):
+                raise
+            os.write(fd, bytes(size))  # a file system without fallocate
+    except OSError as err:
+        os.close(fd)
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise (write_error(err, path.parent) or err) from None
+    os.close(fd)
+
+
+class _FinaliserFailures:
+    """h5py meets a failed write (a full disk) inside finalisers too, where it prints
+    "Exception ignored in ... ObjectID.__dealloc__" and nobody sees it. While a
+    writer is open such failures are recorded here (and kept off stderr) so the
+    writer raises the first of them at its next step instead of going on."""
+
+    def __init__(self):
+        self.first: BaseException | None = None
+        self._previous = None
+
+    def install(self) -> None:
+        self._previous = sys.unraisablehook
+        sys.unraisablehook = self._hook
+
+    def _hook(self, unraisable) -> None:
+        if self.first is None and write_error(unraisable.exc_value, "") is not None:
+            self.first = unraisable.exc_value
+        elif self.first is None:
+            self._previous(unraisable)
+        # after a failed write, what follows from it is the same failure: not printed
+
+    def uninstall(self) -> None:
+        import gc
+
+        gc.collect()  # finalise what the failure left behind while the hook still listens
+        if sys.unraisablehook == self._hook:
+            sys.unraisablehook = self._previous
 
 
 class TrialWriter:
@@ -306,6 +426,7 @@ class TrialWriter:
             raise self._error(f"every append must give the same datasets ({what})",
                               (missing or extra)[0])
         arrays = {k: self._coerce(k, v) for k, v in given.items()}
+        self._archive.check_space(sum(a.nbytes for a in arrays.values()))
         rows = len(arrays["time"])
         for name, arr in arrays.items():
             if len(arr) != rows:

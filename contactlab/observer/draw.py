@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contactlab.errors import UsageError
 from contactlab.fileio import atomic_path
 from contactlab.observer.graph import FeatureGraph
 
@@ -77,11 +78,18 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
     ax.set_title(graph.title, fontsize=10)
 
 
+#: File suffixes draw_graph writes (the format follows the suffix).
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
 def draw_graph(graph: FeatureGraph, path, *, force: bool = False, probabilities=None) -> Path:
     """Write a drawing of ``graph`` to ``path`` (format from the suffix), atomically."""
     import matplotlib.pyplot as plt
 
     path = Path(path)
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise UsageError(f"{path}: --out: unsupported figure format {path.suffix or '(none)'!r} "
+                         f"(use {', '.join(FIGURE_SUFFIXES)})")
     fig, ax = plt.subplots(figsize=(6, 6))
     try:
         plot_graph(graph, ax, probabilities=probabilities)

@@ -39,6 +39,9 @@ UNAVAILABLE_KINDS: dict[str, str] = {
     "constraint": "constraint models are estimated by 'contactlab estimate', not by the observer"}
 _UNAVAILABLE_PARAMS = {"constraint": {"trained": False, "constraint": False}}
 
+#: Signals a graph model may read (7.1 conditioning, plus the kinematic channels).
+KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position")
+
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "wrench"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
@@ -225,6 +228,9 @@ def load_graph(path) -> FeatureGraph:
         raise DataError(f"cannot read ({exc.strerror})", file=str(path)) from None
     try:
         doc = tomllib.loads(raw.decode("utf-8"))
+    except RecursionError:
+        raise DataError("TOML nested too deeply to be a feature graph", file=str(path),
+                        field="toml") from None
     except UnicodeDecodeError:
         raise DataError("not UTF-8 text (a feature graph is a TOML file)", file=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
@@ -328,13 +334,15 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
         if not isinstance(spec, Mapping):
             raise err(where, "must be a table with a kind")
         kind = spec.get("kind")
-        known = MODEL_KINDS.get(kind) or _UNAVAILABLE_PARAMS.get(kind)
+        known = (MODEL_KINDS.get(kind) or _UNAVAILABLE_PARAMS.get(kind)) \
+            if isinstance(kind, str) else None
         if known is None:
             raise err(f"{where}.kind", f"unknown model kind {kind!r} (known: "
                       f"{', '.join(list(MODEL_KINDS) + list(UNAVAILABLE_KINDS))})")
         signal = spec.get("signal", _DEFAULT_SIGNAL[kind])
-        if not isinstance(signal, str) or not signal:
-            raise err(f"{where}.signal", "must be a signal name (e.g. hf, velocity, wrench)")
+        if not isinstance(signal, str) or signal not in KNOWN_SIGNALS:
+            raise err(f"{where}.signal", f"unknown signal {signal!r} (known: "
+                      f"{', '.join(KNOWN_SIGNALS)})")
         params = {k: v for k, v in spec.items() if k not in ("kind", "signal")}
         for k in params:
             if k not in known:

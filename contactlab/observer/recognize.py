@@ -219,8 +219,8 @@ class RecognizeStage(Stage):
         r = rec.result
         entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rec.fs]
                           for n, s in r.map_path],
-                 "merged_path": [[n, float(rec.times[max(s, 0)])] for n, s in
-                                 merge_path(r.map_path)],
+                 "merged_path": [[n, float(rec.times[max(s, 0)]) if len(rec.times)
+                                  else s / rec.fs] for n, s in merge_path(r.map_path)],
                  "n_changes": sum(e.model is not None for e in r.events),
                  "accuracy": None, "accuracy_online": None}
         extra = {"confusion": np.zeros((K, K), np.int64),

@@ -226,6 +226,8 @@ class ModelSet:
         try:
             with unreadable_as_data_error(path, "/"):
                 return cls._read(h5, path)
+        except (TypeError, ValueError, OverflowError) as exc:  # an attribute of the wrong type
+            raise DataError(f"malformed models file ({exc})", file=str(path)) from None
         finally:
             h5.close()
 
@@ -249,8 +251,17 @@ class ModelSet:
         if version.split(".")[0] != FORMAT_VERSION.split(".")[0]:
             raise err(f"unsupported format_version {version!r} (this contactlab reads 1.x)",
                       "/format_version")
+        from contactlab.segmentation import SIGNALS
+
         signal = str(attr(h5, "signal", "/"))
-        fs = float(attr(h5, "fs", "/"))
+        if signal not in SIGNALS:
+            raise err(f"unknown signal {signal!r} (known: {', '.join(SIGNALS)})", "/signal")
+        fs = attr(h5, "fs", "/")
+        if isinstance(fs, (bool, np.bool_)) or not isinstance(fs, (int, float, np.number)) \
+                or not (np.isfinite(fs) and fs > 0):
+            raise err(f"must be a sample rate > 0 Hz; got {getattr(fs, 'item', lambda: fs)()!r}",
+                      "/fs")
+        fs = float(fs)
         labels = [s.decode() if isinstance(s, bytes) else str(s)
                   for s in np.atleast_1d(attr(h5, "labels", "/"))]
         try:
@@ -276,6 +287,8 @@ class ModelSet:
                 ds = g.get(name)
                 if not isinstance(ds, h5py.Dataset):
                     raise err("missing dataset", f"{where}/{name}")
+                if ds.dtype.kind not in "fiu":
+                    raise err(f"dtype {ds.dtype}, expected float", f"{where}/{name}")
                 arrays[name] = np.asarray(ds[()], dtype=np.float64)
             order, mean = int(attr(g, "order", where)), bool(attr(g, "mean", where))
             C = arrays["noise_var"].shape[0] if arrays["noise_var"].ndim == 1 else -1
