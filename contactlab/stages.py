@@ -114,7 +114,7 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     raised at the end.
     """
     from contactlab.archive import open_archive
-    from contactlab.archive.results import check_owner_writable, write_stage
+    from contactlab.archive.results import check_archive_writable, write_stage
 
     check_workers(workers, scheduler)
     paths = list(dict.fromkeys(Path(p) for p in paths))
@@ -125,7 +125,7 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
         if stage.write and stage.name:
             if not path.exists():
                 raise DataError("no such file", file=str(path))
-            check_owner_writable(path)
+            check_archive_writable(path)
         with open_archive(path) as archive:
             ids = stage.select(archive, trials)
         tasks += [(path, tuple(ids))] if stage.per_archive else [(path, tid) for tid in ids]

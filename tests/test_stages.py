@@ -14,7 +14,7 @@ from conftest import one_json_object, run_cli
 from test_temporal_train import SEPARATED, write_ar_archive
 
 from contactlab.archive import open_archive, validate_archive, write_results
-from contactlab.archive import results as results_module
+from contactlab.fileio import stale_temp_files
 from contactlab.errors import DataError
 from contactlab.segmentation import SegmentStage, run_archive
 from contactlab.stages import Stage, TrialOutcome, run_stage
@@ -127,7 +127,7 @@ def test_an_interrupted_stage_keeps_every_old_result(runs, tmp_path):
     with pytest.raises(KeyboardInterrupt):
         run_stage(Interrupting(threshold=300.0), [path])
     assert _stored(path, "segment") == old
-    assert not results_module.stale_temps(path)
+    assert not stale_temp_files(path)
 
 
 def test_several_archives_in_one_command(runs, tmp_path):
@@ -182,11 +182,16 @@ def test_one_atomic_write_per_stage_run_keeps_mode_and_measurements(runs, tmp_pa
 def test_stale_temporary_files_are_removed_and_noted(runs, tmp_path, capsys):
     path = tmp_path / "a.h5"
     path.write_bytes(runs.read_bytes())
-    stale = tmp_path / ".a.h5.k1ll3d.tmp"
+    import subprocess
+    import sys
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])   # a writer that has exited
+    gone.wait()
+    stale = tmp_path / f".a.h5.{gone.pid}-k1ll3d.tmp"
     stale.write_bytes(b"half an archive")
     write_results(path, "t0", "segment", datasets={"x": np.arange(3.0)})
     assert not stale.exists()
-    assert ".a.h5.k1ll3d.tmp" in capsys.readouterr().err
+    assert stale.name in capsys.readouterr().err
     with open_archive(path) as archive:
         np.testing.assert_array_equal(archive.trial("t0").results("segment")["x"],
                                       np.arange(3.0))

@@ -23,7 +23,7 @@ from test_stages import measurement_bytes as _measurements
 from test_temporal_train import SEPARATED, write_ar_archive
 
 from contactlab.archive import validate_archive
-from contactlab.archive.results import stale_temps
+from contactlab.fileio import stale_temp_files as stale_temps
 
 STRESS = bool(os.environ.get("CONTACTLAB_STRESS"))
 KILLS = 100 if STRESS else 4

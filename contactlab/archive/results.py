@@ -20,10 +20,11 @@ Guarantees:
 - concurrent writers of one archive serialise on an ``flock`` of the
   archive's directory and each re-reads the latest file under it, so two
   stages run at once both land (the second waits for the first's rename);
-- an archive without its owner's write bit is refused with one line naming
-  it and is left as it is; a replaced archive keeps its permission bits;
+- a read-only archive (no write bit) is refused with one line naming it and
+  is left as it is; a replaced archive keeps its permission bits;
 - temporary files left beside the archive by a killed write
-  (``.NAME.XXXX.tmp``) are removed, with a note on stderr, by the next write.
+  (``.NAME.PID-XXXX.tmp`` whose writer is gone) are removed, with a note on
+  stderr, by the next write (:func:`contactlab.fileio.atomic_path`).
 """
 
 from __future__ import annotations
@@ -33,7 +34,6 @@ import fcntl
 import json
 import os
 import stat
-import sys
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,7 +46,7 @@ from contactlab.archive import spec
 from contactlab.archive.reader import open_archive
 from contactlab.archive.writer import check_name, create_dataset, utc_now
 from contactlab.errors import DataError, UsageError
-from contactlab.fileio import atomic_path
+from contactlab.fileio import atomic_path, read_only_reason
 
 #: Attributes write_stage sets itself on every stage group.
 RESERVED_ATTRS = ("created", "software_version", "parameters")
@@ -87,10 +87,9 @@ def write_stage(path: str | os.PathLike, stage: str,
     prepared = {tid: _prepare(r) for tid, r in results.items()}
     if not prepared:
         return
-    check_owner_writable(name)
+    check_archive_writable(name)
     targets = {f"/trials/{tid}/{spec.RESULTS}/{stage}" for tid in prepared}
     with archive_lock(path):
-        remove_stale_temps(path)
         with open_archive(path) as archive:
             missing = next((t for t in prepared if t not in archive), None)
         if missing is not None:
@@ -107,16 +106,15 @@ def write_stage(path: str | os.PathLike, stage: str,
                 os.fsync(f.fileno())
 
 
-def check_owner_writable(path: str | os.PathLike) -> None:
-    """Refuse an archive whose owner write bit is clear (root ignores access checks,
-    so the mode bits, not ``os.access``, say whether the user meant it read-only)."""
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise DataError("no such file", file=str(path)) from None
-    if not mode & stat.S_IWUSR:
-        raise DataError("archive is read-only (no owner write permission); results not "
-                        "written", file=str(path))
+def check_archive_writable(path: str | os.PathLike) -> None:
+    """Refuse, before any work, an archive that is missing or read-only by its mode
+    bits (:func:`contactlab.fileio.read_only_reason`: the super-user may write
+    anything, so the bits, not ``os.access``, say whether it was made read-only)."""
+    if not Path(path).exists():
+        raise DataError("no such file", file=str(path))
+    reason = read_only_reason(path)
+    if reason:
+        raise DataError(f"archive {reason}; results not written", file=str(path))
 
 
 @contextlib.contextmanager
@@ -134,24 +132,6 @@ def archive_lock(path: str | os.PathLike) -> Iterator[None]:
         yield
     finally:
         os.close(fd)  # closing the descriptor releases the lock
-
-
-def stale_temps(path: str | os.PathLike) -> list[Path]:
-    """Temporary files an interrupted atomic write of ``path`` left beside it."""
-    path = Path(path)
-    return sorted(path.parent.glob(f".{path.name}.*.tmp"))
-
-
-def remove_stale_temps(path: str | os.PathLike) -> list[Path]:
-    """Remove (and note on stderr) the stale temporaries of ``path``; call under the lock."""
-    removed = []
-    for tmp in stale_temps(path):
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-            removed.append(tmp)
-            print(f"contactlab: removed {tmp.name}, a temporary file an interrupted write "
-                  f"of {path} left behind", file=sys.stderr, flush=True)
-    return removed
 
 
 def copy_tree(src: h5py.Group, dst: h5py.Group, *, skip: set[str]) -> None:
