@@ -166,7 +166,7 @@ def test_report_gives_recognition_accuracy_beside_chance(tmp_path):
     assert r["confusion"] == [[60, 0], [75, 35]]
     assert r["majority_node"] == "B" and r["chance_majority"] == 110 / 170
     assert r["chance_uniform"] == 0.5
-    text = CliRunner().invoke(main, ["report", str(path), "--out", str(out)]).stdout
+    text = CliRunner().invoke(main, ["report", str(path), "--out", str(out), "--force"]).stdout
     # the line make demo's closing summary picks out
     line = next(ln for ln in text.splitlines() if ln.startswith("recognised: "))
     assert "55.9 % of 170 labelled points" in line and "64.7 % always B" in line
