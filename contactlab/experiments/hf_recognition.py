@@ -298,7 +298,8 @@ def _headline(res, hmm_res) -> str:
             f"{100 * THESIS['test_cf']['accuracy']:.0f} %, HMM peer "
             f"{100 * _acc(hmm_res['test'][0]):.0f} %), with context "
             f"{100 * ctx['accuracy']:.0f} % (thesis {100 * THESIS['test_ctx']['accuracy']:.0f} "
-            "%); the simulated H0-H2 sit at the converter floor, see 'Where ours differ'")
+            "%); the simulated pressed state sits at the stationary level, see 'Where ours "
+            "differ'")
 
 
 def _differences(res, hmm_res, gm) -> list[str]:

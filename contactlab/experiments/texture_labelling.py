@@ -329,9 +329,9 @@ def _report(results: dict, *, out_dir: Path, seed: int) -> dict:
         "contactlab.temporal.label_archive also returns a log-energy prediction "
         "(equal-prior average error): " + ", ".join(
             f"sample {n} {r['lpc']['block']['predicted_error']:.3g}" for n, r in results.items())
-        + ". It takes log|y_d| with the conditioning's default floor of 1e-12, so the exact "
-        "zeros of the quantised strain difference enter as -27.6; the half-LSB floor used "
-        "above is the one the conditioning module recommends for quantised strains.")
+        + ". It uses the same y_h and half-LSB floor, so it agrees with the normal fit above "
+        "(which reports the sum of the two confusion probabilities, this their average) up "
+        "to the blocks' edges.")
     paths = page.write()
     summary = {"experiment": "texture-labelling", "seed": seed, "block": BLOCK, "order": ORDER,
                "samples": {name: _summary(name, r) for name, r in results.items()},
