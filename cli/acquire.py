@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import echo_json, json_option, quiet_option
+from contactlab.cli.common import count, echo_json, json_option, quiet_option
 from contactlab.cli.inputs import check_inputs
 from contactlab.fileio import check_not_input
 
@@ -118,7 +118,7 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
     if as_json:
         echo_json(summary)
     else:
-        click.echo(f"{out}: {summary['trials_written']} trials written "
+        click.echo(f"{out}: {count(summary['trials_written'], 'trial')} written "
                    f"({', '.join(summary['trial_ids'])}), seed {seed}")
 
 

@@ -179,6 +179,11 @@ def to_jsonable(obj):
     return obj
 
 
+def count(n: int, noun: str) -> str:
+    """``"1 trial"``, ``"3 trials"``: a count with its noun in the right number."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def echo_json(obj) -> None:
     """Print ``obj`` as exactly one JSON object on stdout."""
     sys.stdout.write(json.dumps(to_jsonable(obj), sort_keys=False) + "\n")

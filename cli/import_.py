@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from contactlab.archive import import_csv, parse_column_map, summarize
-from contactlab.cli.common import echo_json, json_option, quiet_option
+from contactlab.cli.common import count, echo_json, json_option, quiet_option
 from contactlab.errors import UsageError
 
 
@@ -72,5 +72,5 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
         echo_json({"file": str(path), "trials": [t["id"] for t in summary["trials"]],
                    "n_samples": summary["n_samples"], "duration_s": summary["duration_s"]})
     else:
-        click.echo(f"{path}: imported {summary['n_trials']} trial{'s' if summary['n_trials'] != 1 else ''}, {summary['n_samples']} "
-                   f"samples ({summary['duration_s']:.3g} s)")
+        click.echo(f"{path}: imported {count(summary['n_trials'], 'trial')}, "
+                   f"{count(summary['n_samples'], 'sample')} ({summary['duration_s']:.3g} s)")

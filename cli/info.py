@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from contactlab.archive import summarize
-from contactlab.cli.common import archive_argument, echo_json, json_option
+from contactlab.cli.common import archive_argument, count, echo_json, json_option
 from contactlab.cli.inputs import checks_archive
 
 COLUMNS = ("trial", "duration (s)", "samples", "rate (Hz)", "channels", "labels", "results")
@@ -28,7 +28,7 @@ def info(archive, as_json):
         echo_json(summary)
         return
     title = f" - {summary['title']}" if summary["title"] else ""
-    click.echo(f"{archive}{title}: {summary['n_trials']} trials, format "
+    click.echo(f"{archive}{title}: {count(summary['n_trials'], 'trial')}, format "
                f"{summary['format_version']}, written by contactlab "
                f"{summary['software_version']} on {summary['created']}")
     if summary["trials"]:

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import (archive_argument, count, echo_json, json_option,
+                                   quiet_option)
 from contactlab.cli.inputs import checks_archive
 from contactlab.errors import DataError
 
@@ -48,7 +49,7 @@ def report(archive, out, trials, force, as_json, quiet):
     if as_json:
         echo_json(summary)
         return
-    click.echo(f"{archive}: {len(summary['trials'])} trials -> {summary['html']}, {summary['pdf']}")
+    click.echo(f"{archive}: {count(len(summary['trials']), 'trial')} -> {summary['html']}, {summary['pdf']}")
     r = summary.get("recognition")
     if r and r["points"]:
         click.echo(f"recognised: {100 * r['accuracy']:.1f} % of {r['points']} labelled points "

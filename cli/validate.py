@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from contactlab.archive import open_archive, summarize, validate_archive
-from contactlab.cli.common import PROG, echo_json, json_option
+from contactlab.cli.common import PROG, count, echo_json, json_option
 from contactlab.errors import DataError
 
 
@@ -44,8 +44,8 @@ def _check(archive: Path, *, quiet: bool) -> dict:
     if quiet:
         pass
     elif summary:
-        click.echo(f"{archive}: ok, {summary['n_trials']} trials, {summary['n_samples']} "
-                   f"samples ({summary['duration_s']:.3g} s), format "
+        click.echo(f"{archive}: ok, {count(summary['n_trials'], 'trial')}, "
+                   f"{count(summary['n_samples'], 'sample')} ({summary['duration_s']:.3g} s), format "
                    f"{summary['format_version']}")
     else:
         for problem in problems:

@@ -126,3 +126,9 @@ def test_reproduce_list_shows_the_readme_table_what_and_headline():
             assert rows[name]["headline"] == headline
     text = CliRunner().invoke(main, ["reproduce", "--list"]).stdout
     assert table["ph-demo"][1] in text
+
+
+def test_counts_read_in_the_right_number():
+    from contactlab.cli.common import count
+
+    assert [count(n, "trial") for n in (0, 1, 2)] == ["0 trials", "1 trial", "2 trials"]
