@@ -1,9 +1,8 @@
 """Stage cost over whole archives: linear in the trials, and the speed-up of workers.
 
-``contactlab segment`` (strain, the defaults) over archives imported from CSV
-(``contactlab import``) of 20 and of 200 ten-second 8-strain trials at
-1000 Hz: AR(2) strains whose noise level steps every 2.5 s, so the detector
-restarts. The goal: the 200-trial run within 1.3x of ten times the 20-trial
+``contactlab segment`` (strain, the defaults: the two-model AR GLR) over archives
+imported from CSV (``contactlab import``) of 20 and of 200 ten-second 8-strain
+trials at 1000 Hz: AR(2) strains whose noise level steps every 2.5 s. The goal: the 200-trial run within 1.3x of ten times the 20-trial
 run (the row's ratio is 10 x t20 / t200, so >= 0.77 meets it) and >= 1000x
 real time overall; and the 200-trial run on 2 local worker processes against
 1 (ratio: the speed-up). Every run includes reading the archive, all trials'

@@ -79,10 +79,6 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     act = action
     if action is not None and action.lstrip("-").isdigit():
         act = int(action)
-    for archive in archives:
-        if not archive.is_file():
-            from contactlab.errors import DataError
-            raise DataError("no such file", file=str(archive))
     from contactlab.observer.graph import load_graph
 
     g = load_graph(graph_file)

@@ -31,7 +31,7 @@ def _thresholds(ctx, param, value):
                    "trial has strain gauges, else wrench]")
 @click.option("--order", type=int, default=D.SEGMENT_ORDER, show_default=True,
               help="AR order of every channel's square-root estimator.")
-@click.option("--method", type=click.Choice(["glr", "page-hinkley"]), default="glr",
+@click.option("--method", type=click.Choice(["glr", "page-hinkley"]), default=D.SEGMENT_METHOD,
               show_default=True,
               help="glr: two-model AR likelihood-ratio test (finds changes of the AR "
                    "coefficients as well as of the level; the default because it was the "
@@ -39,11 +39,11 @@ def _thresholds(ctx, param, value):
                    "thesis's sequential test of the innovations' size (fig 7.6).")
 @click.option("--threshold", type=float, default=None,
               help="Decision threshold: for glr the likelihood ratio per degree of freedom "
-                   "(default 3, the best on the benchmark suite); for page-hinkley T^2 "
-                   "(default 200, the thesis's).")
+                   f"(default {D.GLR_THRESHOLD:g}, the best on the benchmark suite); for "
+                   f"page-hinkley T^2 (default {D.SEGMENT_THRESHOLD:g}, the thesis's).")
 @click.option("--window", "window_s", type=float, default=None, metavar="SECONDS",
               help="glr only: seconds of signal on each side of a candidate change "
-                   "(default 0.24, the best on the benchmark suite).")
+                   f"(default {D.GLR_WINDOW_S:g}, the best on the benchmark suite).")
 @click.option("--sweep", "sweep_values", callback=_thresholds, default=None,
               metavar="T1,T2,...",
               help="Segment at each threshold (fig 7.7); prints, writes nothing.")

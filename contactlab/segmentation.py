@@ -122,7 +122,7 @@ METHODS = ("glr", "page-hinkley")
 #: the default: on the synthetic piecewise-AR suite (``make bench``) the GLR finds
 #: every change within 50 ms (F1 1.00) where the thesis's test at T^2 = 200 reaches
 #: 0.61 and misses most coefficient-only changes (module notes of ``ar_glr``)
-DEFAULT_METHOD = "glr"
+DEFAULT_METHOD = D.SEGMENT_METHOD
 _DEFAULT_THRESHOLDS = {"glr": GLR_DEFAULTS["threshold"], "page-hinkley": D.SEGMENT_THRESHOLD}
 
 
@@ -144,16 +144,18 @@ class Segmentation:
     Attributes
     ----------
     boundaries : (K,) int64 sample index of the first sample of each new
-        segment (Page-Hinkley change-time estimate + 1), increasing.
+        segment (page-hinkley: the change-time estimate + 1; glr: the most
+        likely split), increasing.
     alarms : (K,) int64 sample index at which each change was detected
-        (the estimators and detector restart at ``alarms + 1``).
-    sides : (K,) int64 which test fired: 0 = covariance increase,
-        1 = decrease (names in :data:`SIDES`).
+        (page-hinkley: the estimators and detector restart at ``alarms + 1``;
+        glr, offline: the last sample of the window that first sees it).
+    sides : (K,) int64 0 = covariance increase, 1 = decrease (names in
+        :data:`SIDES`; page-hinkley: the test that fired).
     times : (N,) time (s) of every sample of the segmented signal.
-    statistic : the chi-square statistic fed to the detector(s); NaN where
-        undefined (estimator warm-up after a start or restart): (N,) for
-        ``combine="sum"``, (N, len(channels)) (one chi-square(1) column per
-        channel used) for ``combine="channel"``.
+    statistic : page-hinkley: the chi-square statistic fed to the detector(s),
+        NaN where undefined (estimator warm-up after a start or restart), (N,)
+        for ``combine="sum"``, (N, len(channels)) for ``combine="channel"``;
+        glr: the window likelihood ratio per degree of freedom, (N,).
     channels : indices of the channels used (constant channels are left out).
     parameters : the parameters of the run (order, threshold, change_size,
         warmup, fs, combine, ...).
@@ -503,6 +505,8 @@ def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str | None
           method: str = "page-hinkley", **kwargs) -> dict[float, Segmentation]:
     """Segment at each of ``thresholds`` (fig 7.7): ``{threshold: Segmentation}``.
 
+    The default method is the thesis's test, whose threshold sweep fig 7.7 shows
+    (``segment --sweep`` passes the command's ``--method``, glr by default).
     ``y_or_trial`` is an array (then ``fs`` is required) or an archive trial
     (then ``signal`` picks the signal); ``kwargs`` go to :func:`segment_signal`
     (``method="page-hinkley"``) or :func:`segment_glr` (``method="glr"``).
@@ -601,6 +605,15 @@ def pooled_metrics(per_trial: list[dict], tolerance_s: float) -> dict | None:
 _pooled = pooled_metrics          # the former private name
 
 
+#: what ``boundaries_s``, ``change_s`` and ``alarm_s`` of results/segment mean, per method
+_BOUNDARY_NOTE = {
+    "page-hinkley": "boundaries_s: first sample of the new segment; change_s: Page-Hinkley "
+                    "last zero (the sample before); alarm_s: detection time",
+    "glr": "boundaries_s: first sample of the new segment (most likely split); change_s: "
+           "the sample before; alarm_s: end of the window that first sees it (offline)",
+}
+
+
 class SegmentStage(Stage):
     """``contactlab segment`` as a stage: the parameters of :func:`run_archive`."""
 
@@ -665,9 +678,8 @@ class SegmentStage(Stage):
             results = TrialResults(
                 datasets,
                 attrs={"side_names": list(SIDES), "signal": seg.parameters["signal"],
-                       "boundary": "boundaries_s: first sample of the new segment; "
-                                   "change_s: Page-Hinkley last zero (the sample before); "
-                                   "alarm_s: detection time"},
+                       "boundary": _BOUNDARY_NOTE[seg.parameters.get("method",
+                                                                      "page-hinkley")]},
                 parameters={**seg.parameters, "channels": seg.channels.tolist()})
         return TrialOutcome(entry, results, {"metrics": metrics})
 
@@ -709,9 +721,9 @@ def run_archive(path, *, signal: str | None = None, order: int = D.SEGMENT_ORDER
     ``results/segment``: ``boundaries_s``, ``change_s`` (alarm times),
     ``sides`` (0 increase, 1 decrease; names in the ``side_names``
     attribute), ``boundaries`` / ``alarms`` (indices into the conditioned
-    signal), ``statistic`` and ``statistic_time_s`` (the chi-square trace;
-    one column per channel used for ``combine="channel"``, which also stores
-    ``alarm_channels``), with the parameters.  With ``thresholds`` (a sweep, fig 7.7) nothing is
+    signal), ``statistic`` and ``statistic_time_s`` (the detector's input, see
+    :class:`Segmentation`; ``combine="channel"`` also stores ``alarm_channels``),
+    with the parameters.  With ``thresholds`` (a sweep, fig 7.7) nothing is
     written.  All trials' results are written in one atomic step
     (:func:`contactlab.stages.run_stage`; ``workers`` / ``scheduler`` as there).
 

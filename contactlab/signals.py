@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactlab.conditioning import condition_strains, lowpass_decimate, quantisation_floor
+from contactlab.conditioning import difference, log_energy, lowpass_decimate, quantisation_floor
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
@@ -49,10 +49,12 @@ STREAMS = SIGNALS + ("velocity", "position")
 FACTOR = 4
 #: the lowpass cutoff is ``fs / CUTOFF_DIVISOR`` (7.1: 125 Hz at 1000 Hz, second order)
 CUTOFF_DIVISOR = 8.0
+#: differences averaged into one y_h sample (7.1: blocks of 8, every 4th sample)
+HF_BLOCK = 2 * FACTOR
 #: input samples each conditioned sample depends on: the decimation step (4) for the
 #: lowpassed signals; for y_h[k] the 8 differences y(n) - y(n-1), n = 4k+1 .. 4k+8, i.e.
 #: inputs 4k .. 4k+8 (7.1); raw kinematics sampled at the newest input depend on one
-WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": 2 * FACTOR + 1, "velocity": 1,
+WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": HF_BLOCK + 1, "velocity": 1,
           "position": 1}
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
@@ -153,12 +155,11 @@ def condition_array(raw, signal: str, *, fs: float) -> Signal:
     decimates it.  ``times`` count from 0 at input sample 0."""
     raw = np.asarray(raw, dtype=np.float64)
     fs = float(fs)
-    if signal in ("strain", "hf"):
-        floor = quantisation_floor(raw) if signal == "hf" else None
-        kw = {} if floor is None else {"log_floor": floor}
-        c = condition_strains(raw, fs=fs, cutoff_hz=fs / CUTOFF_DIVISOR, factor=FACTOR, **kw)
-        y, index = (c.hf, c.hf_index) if signal == "hf" else (c.low, c.low_index)
-    else:
+    if signal == "hf":          # y_h only: the lowpass branch of 7.1 is not needed
+        y = log_energy(difference(raw), block=HF_BLOCK, factor=FACTOR,
+                       floor=quantisation_floor(raw))
+        index = FACTOR * np.arange(len(y)) + HF_BLOCK
+    else:                       # y_l of the strains, or any other channel, alike
         y = lowpass(raw, fs=fs)
         index = FACTOR * np.arange(len(y))
     index = np.asarray(index, dtype=np.int64)

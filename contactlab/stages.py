@@ -123,9 +123,7 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     tasks: list[tuple[Path, str]] = []
     for path in paths:
         if stage.write and stage.name:
-            if not path.exists():
-                raise DataError("no such file", file=str(path))
-            check_archive_writable(path)
+            check_archive_writable(path)      # also: no such file
         with open_archive(path) as archive:
             ids = stage.select(archive, trials)
         tasks += [(path, tuple(ids))] if stage.per_archive else [(path, tid) for tid in ids]
@@ -170,16 +168,10 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     return summaries
 
 
-def _run_one(stage: Stage, path: Path, tid, archive=None) -> TrialOutcome | TrialFailure:
-    """Run one trial (``tid`` a tuple of ids: a per-archive stage's trials) in whatever
-    process gets it, opening the archive unless it is given open; errors come back
-    as values."""
-    from contactlab.archive import open_archive
-
+def _run_one(stage: Stage, path: Path, tid, archive) -> TrialOutcome | TrialFailure:
+    """Run one trial (``tid`` a tuple of ids: a per-archive stage's trials) of the open
+    ``archive`` at ``path``; errors come back as values."""
     try:
-        if archive is None:
-            with open_archive(path) as opened:
-                return _run_one_open(stage, opened, tid)
         return _run_one_open(stage, archive, tid)
     except DataError as err:
         if isinstance(tid, tuple):

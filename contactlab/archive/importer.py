@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from contactlab.archive import spec
-from contactlab.archive.writer import SEGMENT_DTYPE, create_archive
+from contactlab.archive.writer import create_archive, label_segments
 from contactlab.errors import DataError, UsageError
 from contactlab.fileio import check_writable
 from contactlab.progress import progress
@@ -135,31 +135,9 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
             trial.append(**table)
             if labels is not None:
                 trial.set_ground_truth(labels=labels, names=names,
-                                       segments=label_runs(labels, table["time"], rate))
+                                       segments=label_segments(labels, table["time"], rate))
             trial.close()
     return out
-
-
-def label_runs(codes, time, rate_hz: float) -> np.ndarray:
-    """Ground-truth segments from per-sample label codes: one row per run of equal
-    labelled codes, ``(start_s, end_s, label)``; unlabelled (-1) runs are left out.
-
-    A run from sample i to j (inclusive) spans ``[time[i], time[j + 1])``, the
-    last run ending one sample period after the last sample.
-    """
-    codes = np.asarray(codes)
-    time = np.asarray(time, dtype=np.float64)
-    if len(codes) == 0:
-        return np.zeros(0, dtype=SEGMENT_DTYPE)
-    starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
-    ends = np.r_[starts[1:], len(codes)]
-    edges = np.r_[time, time[-1] + 1.0 / rate_hz]
-    keep = codes[starts] >= 0
-    table = np.zeros(int(keep.sum()), dtype=SEGMENT_DTYPE)
-    table["start_s"] = edges[starts[keep]]
-    table["end_s"] = edges[ends[keep]]
-    table["label"] = codes[starts[keep]]
-    return table
 
 
 def _is_pattern(name: str) -> bool:

@@ -46,7 +46,7 @@ from contactlab.archive import spec
 from contactlab.archive.reader import open_archive
 from contactlab.archive.writer import check_name, create_dataset, utc_now
 from contactlab.errors import DataError, UsageError
-from contactlab.fileio import atomic_path, read_only_reason
+from contactlab.fileio import atomic_path, check_writable, read_only_reason
 
 #: Attributes write_stage sets itself on every stage group.
 RESERVED_ATTRS = ("created", "software_version", "parameters")
@@ -107,14 +107,16 @@ def write_stage(path: str | os.PathLike, stage: str,
 
 
 def check_archive_writable(path: str | os.PathLike) -> None:
-    """Refuse, before any work, an archive that is missing or read-only by its mode
-    bits (:func:`contactlab.fileio.read_only_reason`: the super-user may write
+    """Refuse, before any work, an archive that is missing or read-only (or in a
+    read-only directory) by its mode bits (:func:`contactlab.fileio.read_only_reason`: the super-user may write
     anything, so the bits, not ``os.access``, say whether it was made read-only)."""
     if not Path(path).exists():
         raise DataError("no such file", file=str(path))
     reason = read_only_reason(path)
     if reason:
         raise DataError(f"archive {reason}; results not written", file=str(path))
+    # the rebuild goes to a temporary file beside it: its directory must take one too
+    check_writable(os.path.realpath(path), force=True)
 
 
 @contextlib.contextmanager

@@ -50,6 +50,30 @@ PER_SAMPLE_TRUTH = ("labels", "contact", "contact_normals", "moving", "impact", 
 
 SEGMENT_DTYPE = np.dtype([("start_s", "<f8"), ("end_s", "<f8"), ("label", "<i2")])
 
+
+def label_segments(codes, time, rate_hz: float) -> np.ndarray:
+    """Ground-truth segments from per-sample label codes: one row per run of equal
+    labelled codes, ``(start_s, end_s, label)``; unlabelled (-1) runs are left out.
+
+    A run from sample i to j (inclusive) spans ``[time[i], time[j + 1])``, the
+    last run ending one sample period after the last sample.
+    """
+    codes = np.asarray(codes)
+    time = np.asarray(time, dtype=np.float64)
+    if len(codes) == 0:
+        return np.zeros(0, dtype=SEGMENT_DTYPE)
+    starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
+    ends = np.r_[starts[1:], len(codes)]
+    edges = np.r_[time, time[-1] + 1.0 / rate_hz]
+    keep = codes[starts] >= 0
+    table = np.zeros(int(keep.sum()), dtype=SEGMENT_DTYPE)
+    table["start_s"] = edges[starts[keep]]
+    table["end_s"] = edges[ends[keep]]
+    table["label"] = codes[starts[keep]]
+    return table
+
+
+
 #: Room kept free for closing an incremental archive after a write failure: the
 #: metadata HDF5 writes on close plus one chunk cache (1 MiB) to spare.
 RESERVE_BYTES = 4 << 20
@@ -116,7 +140,7 @@ class ArchiveWriter:
         self._failures.install()
         try:
             if incremental:
-                self._reserve = self.tmp_path.with_name(self.tmp_path.name[:-4] + "-reserve.tmp")
+                self._reserve = self.tmp_path.with_name(self.tmp_path.name[:-4] + "_reserve.tmp")
                 _reserve_space(self._reserve, RESERVE_BYTES)
             self._file = h5py.File(self.tmp_path, "w")
             self._file.attrs["format"] = spec.FORMAT

@@ -22,6 +22,7 @@ from contactlab.archive.results import TrialResults
 from contactlab.constraints.alignment import angular_error_deg
 from contactlab.constraints.cartesian import CartesianConstraint, min_samples
 from contactlab.errors import DataError, UsageError
+from contactlab.signals import CUTOFF_DIVISOR, default_signal
 from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["MODELS", "EstimateStage", "estimate_archive", "constraint_signals", "planar_signals",
@@ -58,7 +59,7 @@ def segment_table(trial, segments: str, times: np.ndarray):
     if segments == "auto":
         from contactlab.segmentation import segment_trial
 
-        signal = "strain" if trial.strain is not None else "wrench"
+        signal = default_signal(trial)
         b = segment_trial(trial, signal=signal).boundaries_s
         source = f"auto ({signal})"
     else:
@@ -173,16 +174,16 @@ def _with_noise(est: CartesianConstraint, trial, position_sd, force_sd) -> Carte
     """``est`` with the trial's measurement accuracies at the conditioned rate: the raw
     noise given, or estimated from the trial (one level per quantity, the RMS over
     axes), times the lowpass's noise gain (:mod:`contactlab.constraints.noise`)."""
-    from contactlab.constraints.noise import lowpass_noise_gain, raw_noise_sd
+    from contactlab.constraints.noise import conditioned_noise_sd, lowpass_noise_gain
 
     fs = float(trial.rate_hz)
-    gain = math.sqrt(lowpass_noise_gain(fs=fs, cutoff_hz=fs / 8.0))
+    cutoff = fs / CUTOFF_DIVISOR
 
     def level(given, data):
         if given is not None:
-            return float(given) * gain
-        s = raw_noise_sd(np.asarray(data, dtype=np.float64))
-        return float(np.sqrt(np.mean(s ** 2))) * gain
+            return float(given) * math.sqrt(lowpass_noise_gain(fs=fs, cutoff_hz=cutoff))
+        s = conditioned_noise_sd(np.asarray(data, dtype=np.float64), fs=fs, cutoff_hz=cutoff)
+        return float(np.sqrt(np.mean(s ** 2)))
 
     params = est.get_params()
     params["position_sd"] = level(position_sd, trial.position)

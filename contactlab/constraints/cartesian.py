@@ -1,6 +1,6 @@
 """Cartesian constraint estimation in R^k (thesis 8.1.1).
 
-Long module (~640 lines), kept whole on purpose: the stiffness and constraint forms
+One module on purpose: the stiffness and constraint forms
 of 8.1.1 share the block statistics, the reciprocity-preserving scaling and the
 Newton/Powell optimisation over rotations; each form is a class over those helpers.
 

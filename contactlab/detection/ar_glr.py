@@ -69,14 +69,14 @@ import numpy as np
 from numba import njit
 from scipy.signal import find_peaks
 
+from contactlab import defaults as D
 from contactlab.errors import UsageError
 
 __all__ = ["ARPrefix", "glr_window_statistic", "segment_glr_statistic", "glr_segment",
            "GLR_DEFAULTS"]
 
-#: defaults of :func:`glr_segment`: the best pooled F1 within 50 ms on the synthetic
-#: piecewise-AR suite (see ``benchmarks/bench_suite.py``)
-GLR_DEFAULTS = dict(order=2, window_s=0.24, threshold=3.0)
+#: defaults of :func:`glr_segment` (:mod:`contactlab.defaults`)
+GLR_DEFAULTS = dict(order=D.GLR_ORDER, window_s=D.GLR_WINDOW_S, threshold=D.GLR_THRESHOLD)
 
 
 class ARPrefix:

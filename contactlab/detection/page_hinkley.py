@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms
-from contactlab.detection.cusum import _cusum_numpy, _cusum_run, cusum_step  # noqa: F401
+from contactlab.detection.cusum import _cusum_numpy, _cusum_run
 from contactlab.detection.increments import (
     MEAN_SIDES,
     VARIANCE_SIDES,

@@ -7,7 +7,7 @@ lists those statements with their criteria; this module simulates the situations
 are about (the dataset specs' trials where one exists, a few small setups otherwise),
 measures one number per statement and says whether its criterion holds.
 
-Signals are conditioned as in 7.1 by :mod:`contactlab.conditioning` (y_h: block-averaged
+Signals are conditioned as in 7.1 by :mod:`contactlab.signals` (y_h: block-averaged
 log|strain difference|, log floor at half a converter step, averaged over the 8 strains);
 states come from the simulator's ground truth through the acquire label functions.
 """
@@ -18,24 +18,22 @@ import json
 import math
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy import stats as scipy_stats
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import stats  # noqa: E402
-
-from contactlab import sim  # noqa: E402
-from contactlab.acquire.sim import labels_hf, labels_texture, simulate_trial  # noqa: E402
-from contactlab.acquire.spec import load_spec  # noqa: E402
-from contactlab.conditioning import condition_strains, quantisation_floor  # noqa: E402
-from contactlab.experiments.apparatus_facts import FACTS  # noqa: E402
-from contactlab.fileio import write_text_atomic  # noqa: E402
-from contactlab.progress import bar  # noqa: E402
-from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab import sim
+from contactlab.acquire.sim import labels_hf, labels_texture, simulate_trial
+from contactlab.acquire.spec import load_spec
+from contactlab.experiments.apparatus_facts import FACTS
+from contactlab.fileio import write_text_atomic
+from contactlab.progress import bar
+from contactlab.signals import WINDOW, codes_at, condition_array
+from contactlab.temporal.blocks import mask_runs
+from contactlab.temporal.energy import normal_confusion_1d
+from contactlab.report.page import ReportPage
 
 UNIT = 100            # 7.3: "segmented into units of 100 measurements"
-WINDOW = 9            # input samples one y_h value depends on (difference + block of 8)
 MOVING = sim.constants.MOVING_SPEED_THRESHOLD
 
 
@@ -43,21 +41,13 @@ MOVING = sim.constants.MOVING_SPEED_THRESHOLD
 def channel_mean_yh(r) -> tuple[np.ndarray, np.ndarray]:
     """``(y_h, index)``: the 7.1 log-energy averaged over the strains, and each value's newest
     input sample."""
-    fs = float(r.rate_hz)
-    cond = condition_strains(r.strain, fs=fs, cutoff_hz=fs / 8.0,
-                             log_floor=quantisation_floor(r.strain))
-    return cond.hf.mean(axis=1), cond.hf_index
+    hf = condition_array(r.strain, "hf", fs=float(r.rate_hz))
+    return hf.y.mean(axis=1), hf.index
 
 
-def pure_codes(codes: np.ndarray, index: np.ndarray, window: int = WINDOW) -> np.ndarray:
-    """The label of each conditioned sample when all ``window`` input samples it depends on
-    carry it, else -1."""
-    codes = np.asarray(codes)
-    lo = np.clip(index - window + 1, 0, None)
-    out = codes[index].astype(np.int64)
-    change = np.r_[0, np.cumsum(codes[1:] != codes[:-1])]
-    out[change[index] != change[lo]] = -1
-    return out
+def pure_codes(codes: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """The label of each y_h sample when every input sample it depends on carries it, else -1."""
+    return codes_at(codes, index, window=WINDOW["hf"])
 
 
 def unit_means(y: np.ndarray, codes: np.ndarray, *, unit: int = UNIT) -> dict[int, list[float]]:
@@ -79,18 +69,9 @@ def normal_fit_error(a, b) -> float:
     b = np.asarray(b, float)
     if len(a) < 2 or len(b) < 2:
         return math.nan
-    ma, sa = a.mean(), max(a.std(ddof=1), 1e-9)
-    mb, sb = b.mean(), max(b.std(ddof=1), 1e-9)
-    lo = min(ma - 12 * sa, mb - 12 * sb)
-    hi = max(ma + 12 * sa, mb + 12 * sb)
-    x = np.linspace(lo, hi, 20001)
-    p = np.minimum(stats.norm.pdf(x, ma, sa), stats.norm.pdf(x, mb, sb))
-    return float(0.5 * np.trapezoid(p, x))
-
-
-def _runs(mask) -> list[tuple[int, int]]:
-    m = np.diff(np.r_[0, np.asarray(mask, np.int8), 0])
-    return list(zip(np.flatnonzero(m == 1).tolist(), np.flatnonzero(m == -1).tolist()))
+    c = normal_confusion_1d([a.mean(), b.mean()],
+                            [max(a.std(ddof=1), 1e-9), max(b.std(ddof=1), 1e-9)])
+    return float(0.5 * (c[0, 1] + c[1, 0]))
 
 
 # -- dataset-spec trials -----------------------------------------------------------------------
@@ -285,7 +266,7 @@ def stick_slip_position(seed: int) -> dict:
     fs = r.rate_hz
     sl = slice(int(0.8 * fs), int(3.6 * fs))
     stuck = ~r.moving[sl]
-    episodes = [(a, b) for a, b in _runs(stuck) if b - a >= 5]
+    episodes = [(a, b) for a, b in mask_runs(stuck) if b - a >= 5]
     # the thesis's command of 9.1.2, (100, -100, 200) mN: 141 mN along the surface
     f = sim.IntegralForceController(forces=((0.0, (0.0, 0.0, -0.2)), (0.3, (0.1, -0.1, -0.2))))
     r2 = _sim(env, f, 2.5, seed, (0.0, 0.0, 0.0099))
@@ -483,7 +464,7 @@ def fig_textures(measured: dict):
                 continue
             ax.hist(v, bins=40, density=True, alpha=0.5, label=name)
             x = np.linspace(v.min(), v.max(), 200)
-            ax.plot(x, stats.norm.pdf(x, v.mean(), v.std()), lw=1.0)
+            ax.plot(x, scipy_stats.norm.pdf(x, v.mean(), v.std()), lw=1.0)
         ax.set_xlabel("y_h (log V)")
         ax.set_ylabel("density")
         ax.set_title(f"{title}: y_h while stroking")

@@ -31,6 +31,7 @@ from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.archive_report import plot_trial  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.temporal.blocks import mask_runs  # noqa: E402
 
 
 def _setup(spec) -> str:
@@ -186,21 +187,14 @@ def sliding_phase(command, floor_contact, command_kind: str) -> np.ndarray:
     return active & floor_contact
 
 
-def _runs(mask) -> list[tuple[int, int]]:
-    """[start, end) index pairs of the runs of True in ``mask``."""
-    m = np.r_[False, np.asarray(mask, bool), False].astype(np.int8)
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
-
-
 def stick_episodes(moving, phase, *, min_stick: int) -> int:
     """Stick-slip count: runs of "not moving" at least ``min_stick`` samples long that lie
     strictly inside a run of ``phase`` (so sliding precedes and follows each: one stick and
     one slip, two alternations). A stop that lasts to the end of the phase is not counted."""
     moving = np.asarray(moving, bool)
     count = 0
-    for a, b in _runs(phase):
-        for s, e in _runs(~moving[a:b]):
+    for a, b in mask_runs(phase):
+        for s, e in mask_runs(~moving[a:b]):
             if s > 0 and e < b - a and e - s >= min_stick:
                 count += 1
     return count
@@ -238,7 +232,7 @@ def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: 
     the 250 Hz blocks whose input samples all share one truth class: "rest" (not moving, no
     impact) or texture ``t`` (moving over material ``t``, no impact). NaN when a class has
     no whole block."""
-    from contactlab.signals import condition_array
+    from contactlab.signals import WINDOW, codes_at, condition_array
 
     hf = condition_array(strain, "hf", fs=rate_hz)
     yh = hf.y.mean(axis=1)
@@ -247,15 +241,10 @@ def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: 
     texture = np.asarray(texture, int)
     cls = np.where(moving, np.where(texture >= 0, 1 + texture, -1), 0)
     cls = np.where(impact, -1, cls)
-    block = 8
-    ends = np.asarray(hf.index, int)              # newest input sample + 1 of each block
+    codes = codes_at(cls, hf.index, window=WINDOW["hf"])   # -1 where a block mixes classes
     out = {}
-    starts = np.clip(ends - block, 0, None)
-    lo = np.array([cls[a:b].min() for a, b in zip(starts, ends)])
-    hi = np.array([cls[a:b].max() for a, b in zip(starts, ends)])
-    pure = lo == hi
     for c in range(1 + n_textures):
-        sel = pure & (lo == c)
+        sel = codes == c
         out["rest" if c == 0 else c - 1] = float(yh[sel].mean()) if sel.any() else float("nan")
     return out
 

@@ -46,14 +46,12 @@ def reproduce(experiments: list[Experiment], *, out: Path, seed: int, quiet: boo
     check_workers(workers, scheduler)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    if workers == 1 and scheduler is None:
-        summaries = {exp.name: run_experiment(exp.name, out, seed, quiet)
-                     for exp in experiments}
-    else:
-        got = parallel_map(run_experiment, [(exp.name, out, seed, True) for exp in experiments],
-                           workers=workers, scheduler=scheduler, quiet=quiet,
-                           desc="reproduce")
-        summaries = {exp.name: r for exp, r in zip(experiments, got)}
+    serial = workers == 1 and scheduler is None   # in this process: each shows its own bar
+    got = parallel_map(run_experiment,
+                       [(exp.name, out, seed, quiet if serial else True) for exp in experiments],
+                       workers=workers, scheduler=scheduler, quiet=quiet or serial,
+                       desc="reproduce")
+    summaries = {exp.name: r for exp, r in zip(experiments, got)}
     write_index(out)
     failed = next((r for r in summaries.values() if isinstance(r, Exception)), None)
     if failed is not None:

@@ -1,6 +1,6 @@
 """stroke-segmentation: AR segmentation of the stroking trials (7.2.1, figs 7.5, 7.7).
 
-Long module (~940 lines), kept whole on purpose: one experiment end to end -- the
+One module on purpose: one experiment end to end -- the
 run, the evaluation against truth and peers, and a report page of five sections that
 all read one summary.  The parts users need live in the library
 (:mod:`contactlab.acquire.stroke_phases`, :mod:`contactlab.peers.ruptures_ar`).

@@ -1,6 +1,6 @@
 """The contact feature observer of section 6.4 (figures 1.3, 6.1).
 
-Long module (~670 lines), kept whole on purpose: the observer of 6.4 -- path
+One module on purpose: the observer of 6.4 -- path
 search, change-triggered spawning with catch-up, merging, probability-mass and gap
 pruning, buffer trimming -- is one algorithm over one shared mutable state; split
 across modules its invariants would have to be read in several places.

@@ -5,5 +5,5 @@
 - :mod:`.hmm` -- a supervised Gaussian HMM decoded by Viterbi (hmmlearn; the
   recognition peer of 7.3)
 
-The peer libraries are imported on first use.
+Importing a peer module imports its library (ruptures, hmmlearn).
 """

@@ -42,13 +42,17 @@ def fit_hmm(train: list[dict], n_states: int, *, pseudo: float = 1.0):
     C = train[0]["y"].shape[1]
     means, covs = np.zeros((K, C)), np.zeros((K, C, C))
     for k in range(K):
-        y = np.concatenate([t["y"][t["pure"] == k] for t in train])
+        y = np.concatenate([t["y"][t["pure"] == k] for t in train if t["pure"] is not None])
         means[k] = y.mean(axis=0)
         covs[k] = np.atleast_2d(np.cov(y, rowvar=False)) + 1e-9 * np.eye(C)
     trans = np.full((K, K), pseudo)
     start = np.full(K, pseudo)
     for t in train:
+        if t["truth"] is None:
+            continue                               # a trial without ground truth
         lab = t["truth"][t["truth"] >= 0]          # unlabelled gaps skipped
+        if not len(lab):
+            continue
         np.add.at(trans, (lab[:-1], lab[1:]), 1.0)
         start[lab[0]] += 1.0
     model = GaussianHMM(n_components=K, covariance_type="full", init_params="", params="")

@@ -8,7 +8,6 @@ a PDF. Later stages add their own panels through :data:`RESULT_PLOTTERS`.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 
@@ -16,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
-from contactlab.signals import condition  # noqa: E402
+from contactlab.signals import condition, default_signal  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -230,7 +229,7 @@ def _measurement_panels(trial) -> list[tuple]:
     hf_source = trial.strain if trial.strain is not None else trial.wrench
     # y_h is the energy above the 125 Hz lowpass (7.1): it exists only above 250 Hz
     if hf_source is not None and len(t) > 16 and trial.rate_hz > 2 * 125.0:
-        hf = condition(trial, "hf", source="strain" if trial.strain is not None else "wrench")
+        hf = condition(trial, "hf", source=default_signal(trial))
         what, unit = ("strains", units) if trial.strain is not None else ("wrench", "N")
         c = hf.y.shape[1] if hf.y.ndim > 1 else 1
         legend = ([f"gauge {k + 1}" for k in range(c)] if trial.strain is not None
@@ -363,14 +362,17 @@ def _plot_segment(trial, results: dict, fig) -> str:
         ax1.axvline(b, color="k", lw=1.0, ls="--", label="true boundary" if j == 0 else None)
     ax1.legend(fontsize=7, loc="upper right")
     params = _parameters(results)
+    glr = params.get("method") == "glr"
     if ax2 is not None:
         x = results.get("statistic_time_s")
         stat = np.asarray(stat, float)
         x = trial.time if x is None or len(x) != len(stat) else np.asarray(x, float)
         ax2.plot(x, stat, lw=0.6, color="C0",
-                 label=None if stat.ndim > 1 else "chi-square of the innovations")
+                 label=None if stat.ndim > 1 else ("likelihood ratio per degree of freedom"
+                                                   if glr else "chi-square of the innovations"))
         ax2.set_yscale("log")
-        ax2.set_ylabel("detector input\n(chi-square, -)", fontsize=8)
+        ax2.set_ylabel("detector input\n(" + ("GLR" if glr else "chi-square") + ", -)",
+                       fontsize=8)
         if stat.ndim == 1:
             ax2.legend(fontsize=7, loc="upper right")
     (ax2 or ax1).set_xlabel("time (s)")
@@ -378,12 +380,21 @@ def _plot_segment(trial, results: dict, fig) -> str:
     fig.suptitle(f"Trial {trial.id}: segmentation of the {signal} signal (7.2.1)", fontsize=10)
     fig.tight_layout()
     th = params.get("threshold")
-    return (f"Segmentation of trial {trial.id} (AR + Page-Hinkley, 7.2.1"
+    what, bottom = _SEGMENT_WORDS[glr]
+    return (f"Segmentation of trial {trial.id} ({what}"
             + (f", threshold {th:g}" if th is not None else "") + "). Top: "
             f"{drew} with the detected boundaries (red, the first sample of each new segment)"
             + (" and the ground-truth boundaries (dashed)" if len(true_b) else "") + "."
-            + (" Bottom: the sum of squared normalised innovations fed to the Page-Hinkley "
-               "test (log scale; NaN while the estimators restart)." if ax2 is not None else ""))
+            + (f" Bottom: {bottom}" if ax2 is not None else ""))
+
+
+#: (method, bottom panel) words of the segment figure: page-hinkley, glr
+_SEGMENT_WORDS = {
+    False: ("AR + Page-Hinkley, 7.2.1", "the sum of squared normalised innovations fed to the "
+            "Page-Hinkley test (log scale; NaN while the estimators restart)."),
+    True: ("two-model AR likelihood-ratio test", "the window likelihood ratio per degree of "
+           "freedom; peaks above the threshold are changes (log scale)."),
+}
 
 
 def _plot_label(trial, results: dict, fig) -> str:
@@ -511,12 +522,9 @@ RESULT_PLOTTERS.update(segment=_plot_segment, label=_plot_label, estimate=_plot_
 
 
 def _parameters(results) -> dict:
-    raw = getattr(results, "attrs", {}).get("parameters", "{}")
-    try:
-        out = json.loads(raw) if isinstance(raw, str) else dict(raw)
-    except (TypeError, ValueError):
-        return {}
-    return out if isinstance(out, dict) else {}
+    """The stage's decoded parameters (:class:`~contactlab.archive.reader.Results`), or none."""
+    params = getattr(results, "parameters", None)
+    return params if isinstance(params, dict) else {}
 
 
 def _safe(s: str) -> str:

@@ -1,14 +1,20 @@
 """Physical constants of the simulated apparatus, each with where it comes from.
 
-Sources are of three kinds, marked in the comment:
+Sources are of these kinds, marked in the comment:
 
 - ``thesis X.Y``  a statement in Eberman (1995), section X.Y;
-- ``datasheet``   a datasheet-level value for the PHANToM 1.0 (SensAble
-  Technologies) or for a generic 1990s strain-gauge acquisition chain;
-- ``physics``     a physical argument (handbook material value, geometry).
+- ``datasheet`` / ``datasheet-level``  a value of the PHANToM 1.0 (SensAble
+  Technologies) or of a generic 1990s strain-gauge acquisition chain, or the
+  range such parts have (the comment gives the range);
+- ``physics``     a physical argument (handbook material value, geometry);
+- ``identified``  system identification from a *signal* fact the thesis
+  measured on its apparatus (a level, a frequency, which states its signals
+  tell apart; the fact is named and checked by ``contactlab reproduce
+  apparatus``);
+- ``numerics``    a choice of the simulation itself (a seed, a step size).
 
-Nothing here is tuned to reproduce a number the thesis reports.  Units are SI
-(m, kg, s, N) throughout.
+Nothing here is tuned to reproduce an accuracy, confusion or error rate the
+thesis reports.  Units are SI (m, kg, s, N) throughout.
 """
 
 from __future__ import annotations
@@ -388,3 +394,10 @@ crests (crosswise 80-grit scratches, anisotropy 0.9).  Where most of the relief 
 isotropic (rough wood, 0.3) the sphere is held by isolated 2-D peaks whose hand-overs
 a 1-D ridge profile does not represent, and the spectral followed/bridged split is kept
 for all components."""
+
+
+BOLTZMANN = 1.380649e-23
+"""physics: Boltzmann's constant, J/K (the bridge's Johnson noise)."""
+
+ROOM_TEMPERATURE_K = 300.0
+"""physics: the bridge's temperature, K (a laboratory at about 27 C)."""

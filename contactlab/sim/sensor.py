@@ -53,8 +53,6 @@ def maltese_cross_matrix(arm_length: float = C.SENSOR_ARM_LENGTH) -> np.ndarray:
     return np.array(rows)
 
 
-BOLTZMANN = 1.380649e-23
-ROOM_TEMPERATURE_K = 300.0
 
 
 @dataclass(frozen=True)
@@ -134,7 +132,7 @@ class StrainGaugeSensor:
     @property
     def noise_v(self) -> float:
         """Rms amplifier + bridge noise at the converter input, V."""
-        johnson = 4.0 * BOLTZMANN * ROOM_TEMPERATURE_K * self.bridge_resistance
+        johnson = 4.0 * C.BOLTZMANN * C.ROOM_TEMPERATURE_K * self.bridge_resistance
         density = np.sqrt(self.amplifier_noise_density**2 + johnson)
         return float(density * np.sqrt(np.pi / 2.0 * self.amplifier_bandwidth_hz) * self.amplifier_gain)
 

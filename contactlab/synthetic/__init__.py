@@ -19,7 +19,7 @@ nothing to :mod:`contactlab.sim`, with the standard peers side by side:
 Generators are pure functions of a seed (``numpy.random.default_rng``).
 """
 
-from contactlab.synthetic.archives import segment_table, write_archive
+from contactlab.synthetic.archives import write_archive
 from contactlab.synthetic.contacts import ContactTrial, contact_trial, contact_trials
 from contactlab.synthetic.piecewise_ar import (
     CHANGE_KINDS,
@@ -33,5 +33,5 @@ from contactlab.synthetic.textures import TEXTURES, TextureTrial, texture_trial,
 
 __all__ = ["CHANGE_KINDS", "ContactTrial", "PiecewiseAR", "TEXTURES", "TextureTrial",
            "ar2_coefficients", "ar2_variance", "contact_trial", "contact_trials",
-           "piecewise_ar", "piecewise_ar_trials", "segment_table", "texture_trial",
+           "piecewise_ar", "piecewise_ar_trials", "texture_trial",
            "texture_trials", "write_archive"]

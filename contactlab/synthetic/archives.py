@@ -11,20 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from contactlab.archive import create_archive
+from contactlab.archive.writer import label_segments
 
-__all__ = ["write_archive", "segment_table"]
-
-
-def segment_table(codes, times, names) -> list[tuple]:
-    """``(start_s, end_s, name)`` rows of the runs of equal ``codes`` (end exclusive,
-    one sample period after the run's last sample)."""
-    codes = np.asarray(codes)
-    times = np.asarray(times, float)
-    dt = float(times[1] - times[0]) if len(times) > 1 else 1.0
-    edges = np.flatnonzero(np.diff(codes)) + 1
-    starts, ends = np.r_[0, edges], np.r_[edges, len(codes)]
-    return [(float(times[a]), float(times[b - 1] + dt), names[int(codes[a])])
-            for a, b in zip(starts, ends)]
+__all__ = ["write_archive"]
 
 
 def write_archive(trials, path, *, force: bool = False, title: str = "",
@@ -49,7 +38,7 @@ def write_archive(trials, path, *, force: bool = False, title: str = "",
             tw.append(time=f["time"], **meas)
             if f.get("labels") is not None:
                 tw.set_ground_truth(labels=np.asarray(f["labels"], np.int64), names=f["names"],
-                                    segments=segment_table(f["labels"], f["time"], f["names"]))
+                                    segments=label_segments(f["labels"], f["time"], f["rate_hz"]))
             if f.get("truth"):
                 tw.set_truth(**f["truth"])
             if f.get("attrs"):

@@ -76,12 +76,11 @@ class PiecewiseAR:
     def boundaries_s(self) -> np.ndarray:
         return self.boundaries / self.fs
 
-    def lowpassed(self, *, cutoff_hz: float = 125.0, factor: int = 4) -> tuple[np.ndarray, float]:
-        """The 7.1 lowpass (second-order Butterworth at ``cutoff_hz``) and ``factor``:1
-        decimation of ``y``: ``(y_l, fs / factor)``; boundaries scale by ``1/factor``."""
-        from contactlab.conditioning import lowpass_decimate
-        return lowpass_decimate(self.y, fs=self.fs, cutoff_hz=cutoff_hz, factor=factor), \
-            self.fs / factor
+    def lowpassed(self) -> tuple[np.ndarray, float]:
+        """The 7.1 lowpass and decimation of ``y`` (:func:`contactlab.signals.lowpass`):
+        ``(y_l, fs / FACTOR)``; boundaries scale by ``1/FACTOR``."""
+        from contactlab.signals import FACTOR, lowpass
+        return lowpass(self.y, fs=self.fs), self.fs / FACTOR
 
     def archive_fields(self) -> dict:
         """Measurements and truth for :func:`contactlab.synthetic.write_archive`: the
@@ -145,7 +144,6 @@ def piecewise_ar(*, seed: int, duration_s: float = 6.0, fs: float = 1000.0, chan
     y = np.empty((n, channels))
     starts = np.r_[0, np.cumsum(lengths)[:-1]]
     for c in range(channels):
-        prev = np.zeros(2)
         # start in the stationary distribution of the first segment: burn in 500 samples
         burn = lfilter([drive[0, c]], [1, -a1[0, c], -a2[0, c]], rng.standard_normal(500))
         prev = burn[-2:][::-1]

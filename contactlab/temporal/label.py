@@ -74,13 +74,12 @@ def confusion(true, predicted, labels) -> dict:
 def _hf_signal(trial, path):
     """The log-energy y_h of the trial's strains (or, lacking strains, of its wrench),
     averaged over channels, and its times (:func:`contactlab.signals.condition`)."""
-    from contactlab.signals import condition
+    from contactlab.signals import condition, default_signal
 
     if trial.strain is None and trial.wrench is None:
         raise DataError("trial has neither strain nor wrench", file=path,
                         field=f"/trials/{trial.id}/measurements")
-    source = "strain" if trial.strain is not None else "wrench"
-    sig = condition(trial, "hf", path=path, source=source)
+    sig = condition(trial, "hf", path=path, source=default_signal(trial))
     return sig.y.mean(axis=1), sig.times
 
 

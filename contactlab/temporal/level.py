@@ -15,7 +15,7 @@ spread, won (0.80 against 0.75).
 What.  Per class and channel the training blocks also give the spread of the
 log level: ``d = log(noise_var_block / V_nu)``, whose variance is the level's
 own variance plus the sampling variance of a variance estimate from
-``M - q`` rows (``2 / (M - q)``); half the difference is the variance
+``M - q`` rows (``2 / (M - q)``); a quarter of the difference (d = 2 log s) is the variance
 ``tau^2`` of the log *amplitude* ``log s``.  A block ``Y`` of amplitude ``s``
 is ``s`` times a block of the class's level, so with ``log s ~ N(0, tau^2)``
 

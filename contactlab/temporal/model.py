@@ -251,7 +251,7 @@ class ModelSet:
         if version.split(".")[0] != FORMAT_VERSION.split(".")[0]:
             raise err(f"unsupported format_version {version!r} (this contactlab reads 1.x)",
                       "/format_version")
-        from contactlab.segmentation import SIGNALS
+        from contactlab.signals import SIGNALS
 
         signal = str(attr(h5, "signal", "/"))
         if signal not in SIGNALS:
