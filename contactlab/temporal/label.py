@@ -58,7 +58,9 @@ def _loo_block_table(blocks: LabelledBlocks, models: dict[str, TemporalModel]) -
         cov = scatter / (K - 2)
         noise = (K * m.noise_var - feats.noise_var[idx]) / (K - 1)
         sub = feats.take(idx)
-        table[idx, j] = loglik_params(sub, mean, cov, noise, level_sd=m.level_sd).sum(axis=1)
+        table[idx, j] = loglik_params(sub, mean, cov, noise, level_sd=m.level_sd,
+                                      level_mean=m.level_mean,
+                                      level_cov=m.level_cov).sum(axis=1)
     return table
 
 

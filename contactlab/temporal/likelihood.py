@@ -60,21 +60,23 @@ def block_loglik(features: BlockFeatures, model: TemporalModel, *,
     """
     _check(features, model)
     ll = loglik_params(features, model.theta_mean, model.theta_cov, model.noise_var,
-                       level_sd=model.level_sd)
+                       level_sd=model.level_sd, level_mean=model.level_mean,
+                       level_cov=model.level_cov)
     return ll if per_channel else ll.sum(axis=1)
 
 
 def loglik_params(features: BlockFeatures, theta_mean, theta_cov, noise_var,
-                  level_sd=None) -> np.ndarray:
+                  level_sd=None, level_mean=None, level_cov=None) -> np.ndarray:
     """(K, C) log-likelihood (7.4-7.5) of every block and channel under the prior
     ``theta_mean`` (..., C, q), ``theta_cov`` (..., C, q, q), ``noise_var`` (..., C),
     broadcast against the K blocks (one model, or one per block); with
-    ``level_sd`` (C,) > 0 the level is a random effect
+    ``level_sd`` (C,) > 0 the level is a random effect, with mean ``level_mean``
+    (C,) and covariance ``level_cov`` (C, q) with the parameters
     (:func:`contactlab.temporal.level.level_marginal`)."""
     if level_sd is not None and np.any(np.asarray(level_sd) > 0):
         from contactlab.temporal.level import level_marginal
-        return level_marginal(lambda f: loglik_params(f, theta_mean, theta_cov, noise_var),
-                              features, level_sd)
+        return level_marginal(features, theta_mean, theta_cov, noise_var, level_sd,
+                              level_mean=level_mean, level_cov=level_cov)
     s = features.scale                                   # (K, C, q)
     q = features.n_params
     M = features.rows

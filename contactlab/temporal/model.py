@@ -12,6 +12,8 @@ File format (HDF5, documented in ``datasets_spec/MODELS.md``)::
         structure_sqrt     (C, q, q) float64
         noise_var          (C,) float64
         level_sd           (C,) float64   (format 1.1; optional: absent reads as 0)
+        level_mean         (C,) float64   (format 1.2; optional: absent reads as 0)
+        level_cov          (C, q) float64 (format 1.2; optional: absent reads as 0)
 
 Groups are numbered (labels are free text); ``labels`` gives their order.
 """
@@ -33,7 +35,8 @@ from contactlab.temporal.features import BlockFeatures
 __all__ = ["TemporalModel", "ModelSet", "fit_class", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "contactlab-models"
-FORMAT_VERSION = "1.1"
+FORMAT_VERSION = "1.2"
+_LEVEL = ("level_sd", "level_mean", "level_cov")
 _ARRAYS = ("theta_mean", "theta_cov", "structure_sqrt", "noise_var")
 
 
@@ -56,6 +59,9 @@ class TemporalModel:
     n_blocks : training blocks; block : training block length (samples).
     level_sd : (C,) spread of the log amplitude over the training blocks
         (:mod:`contactlab.temporal.level`); zeros give 7.4-7.5 exactly.
+    level_mean : (C,) mean log amplitude of the drive, relative to ``noise_var``.
+    level_cov : (C, q) covariance of the log amplitude with the orthogonal
+        parameters (the drive moving with the spectrum, :mod:`.level`).
     """
 
     label: str
@@ -68,10 +74,15 @@ class TemporalModel:
     n_blocks: int
     block: int
     level_sd: np.ndarray | None = None
+    level_mean: np.ndarray | None = None
+    level_cov: np.ndarray | None = None
 
     def __post_init__(self):
-        if self.level_sd is None:
-            object.__setattr__(self, "level_sd", np.zeros(np.shape(self.noise_var)))
+        for name, shape in (("level_sd", np.shape(self.noise_var)),
+                            ("level_mean", np.shape(self.noise_var)),
+                            ("level_cov", np.shape(self.theta_mean))):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(shape))
 
     @property
     def channels(self) -> int:
@@ -112,7 +123,7 @@ class TemporalModel:
                 and self.mean == other.mean and self.n_blocks == other.n_blocks
                 and self.block == other.block
                 and all(np.array_equal(getattr(self, a), getattr(other, a))
-                        for a in _ARRAYS + ("level_sd",)))
+                        for a in _ARRAYS + _LEVEL))
 
 
 def fit_class(label: str, features: BlockFeatures, *, block: int) -> TemporalModel:
@@ -141,11 +152,12 @@ def fit_class(label: str, features: BlockFeatures, *, block: int) -> TemporalMod
                          "is singular (identical blocks or a constant channel)") from None
     info = np.einsum("kcij,kclj->cil", features.info_sqrt, features.info_sqrt)
     structure = np.linalg.cholesky(info)
-    from contactlab.temporal.level import level_sd
+    from contactlab.temporal.level import level_model
+    u0, tau, c = level_model(features)
     return TemporalModel(label=str(label), order=features.order, mean=features.mean,
                          theta_mean=mean, theta_cov=cov, structure_sqrt=structure,
                          noise_var=features.noise_var.mean(axis=0), n_blocks=int(K),
-                         block=int(block), level_sd=level_sd(features))
+                         block=int(block), level_sd=tau, level_mean=u0, level_cov=c)
 
 
 @dataclass
@@ -213,7 +225,7 @@ class ModelSet:
                     g.attrs["mean"] = bool(m.mean)
                     g.attrs["n_blocks"] = int(m.n_blocks)
                     g.attrs["block"] = int(m.block)
-                    for name in _ARRAYS + ("level_sd",):
+                    for name in _ARRAYS + _LEVEL:
                         g.create_dataset(name, data=np.asarray(getattr(m, name), np.float64))
 
     @classmethod
@@ -303,12 +315,15 @@ class ModelSet:
                     raise err("has NaN or infinite values", f"{where}/{name}")
             if np.any(arrays["noise_var"] <= 0):
                 raise err("noise variances must be > 0", f"{where}/noise_var")
-            ds = g.get("level_sd")
-            if isinstance(ds, h5py.Dataset):
-                arrays["level_sd"] = np.asarray(ds[()], dtype=np.float64)
-                if arrays["level_sd"].shape != (C,) or not (
-                        np.isfinite(arrays["level_sd"]).all() and (arrays["level_sd"] >= 0).all()):
-                    raise err(f"expected ({C},) finite values >= 0", f"{where}/level_sd")
+            for name, sh, low in (("level_sd", (C,), 0.0), ("level_mean", (C,), -np.inf),
+                                  ("level_cov", (C, q), -np.inf)):
+                ds = g.get(name)
+                if isinstance(ds, h5py.Dataset):
+                    arrays[name] = np.asarray(ds[()], dtype=np.float64)
+                    if arrays[name].shape != sh or not (np.isfinite(arrays[name]).all()
+                                                        and (arrays[name] >= low).all()):
+                        raise err(f"expected {sh} finite values"
+                                  + (" >= 0" if low == 0 else ""), f"{where}/{name}")
             if shape is not None and (C, order, mean) != shape:
                 raise err("models of one file must share channels, order and mean", where)
             shape = (C, order, mean)
