@@ -23,6 +23,11 @@ from contactlab.constraints.archive import MODELS
 @click.option("--block", type=click.IntRange(min=7), default=None, metavar="N",
               help="Estimate consecutive blocks of N samples (250 Hz) inside each segment "
                    "(the thesis's degree test uses 25).")
+@click.option("--sequential/--independent", default=True, show_default=True,
+              help="With --block: decide each block with every sample of its segment up "
+                   "to the block's end (the running estimate; the default, the more "
+                   "accurate on the synthetic contact suite), or from the block alone "
+                   "(the degree test of 8.2 as the thesis ran it).")
 @click.option("--motion", type=click.Choice(["position", "velocity"]), default="position",
               show_default=True, help="Use positions (preferred, 8.1.1) or velocities.")
 @click.option("--position-noise", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -38,8 +43,8 @@ from contactlab.constraints.archive import MODELS
 @json_option
 @quiet_option
 @checks_archive
-def estimate(archives, model, segments, block, motion, position_noise, force_noise,
-             no_friction, trials, workers, scheduler, as_json, quiet):
+def estimate(archives, model, segments, block, sequential, motion, position_noise,
+             force_noise, no_friction, trials, workers, scheduler, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of each ARCHIVE.
 
     Force (wrench[:, :3]), position and velocity are lowpassed and decimated
@@ -58,6 +63,7 @@ def estimate(archives, model, segments, block, motion, position_noise, force_noi
       contactlab estimate runs.h5
       contactlab estimate runs.h5 --segments auto --json
       contactlab estimate runs.h5 --block 25 --trial cartesian-004 --json
+      contactlab estimate runs.h5 --block 25 --independent
       contactlab estimate runs.h5 --position-noise 1e-5 --force-noise 0.01
       contactlab estimate runs.h5 --motion velocity --no-friction
 
@@ -70,7 +76,8 @@ def estimate(archives, model, segments, block, motion, position_noise, force_noi
 
     stage = EstimateStage(model=model, segments=segments, block=block,
                           friction=not no_friction, motion=motion,
-                          position_sd=position_noise, force_sd=force_noise)
+                          position_sd=position_noise, force_sd=force_noise,
+                          sequential=sequential)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
     if as_json:
