@@ -215,3 +215,23 @@ def test_bad_parameters():
                {"noise_floor": -1.0}, {"position_sd": 0.0}):
         with pytest.raises(UsageError):
             CartesianConstraint(**kw).fit(x, w)
+
+
+def test_fit_from_running_information_equals_the_block_fit():
+    """fit_information_blocks on the running information of RecursiveConstraint after
+    n samples is fit_blocks on those n samples (frames, 8.18, decision)."""
+    from contactlab.constraints import CartesianConstraint, RecursiveConstraint
+    from contactlab.synthetic import contact_trial
+
+    t = contact_trial(seed=8, degree=1, duration_s=0.4, position_sd=1e-5, force_sd=0.01)
+    pos, frc = t.position[::4], t.force[::4]
+    est = CartesianConstraint(position_sd=1e-5, force_sd=0.01)
+    rec = RecursiveConstraint(est)
+    path = rec.update(pos, frc, return_path=True)
+    ends = np.array([30, 60, 99])
+    got = est.fit_information_blocks(path[ends - 1], ends, scaling=rec.scaling)
+    for i, n in enumerate(ends):
+        want = est.fit_blocks(pos[:n], frc[:n])
+        np.testing.assert_allclose(got.log_likelihoods[i], want.log_likelihoods[0], rtol=1e-9)
+        assert got.degree[i] == want.degree[0] == 1
+    assert got.n.tolist() == ends.tolist()

@@ -97,6 +97,10 @@ def test_degree_tests_on_rich_blocks_and_the_noise_warning():
     a = np.asarray(r["alignment"])
     for c in (0, 1, 3):
         assert np.mean(a[y == c] == c) > 0.9
+    # consecutive blocks decided with their run so far: never worse than the blocks alone
+    c = res["kinds"]["consecutive"]
+    seq = c["likelihood"]["sequential"]["gated"]
+    assert np.mean(seq == c["true"]) >= np.mean(c["likelihood"]["gated"] == c["true"])
     # pure noise: the exploration gate declares it undetermined, the alignment test does not
     assert np.all(res["noise_likelihood"]["gated"] < 0)
     assert np.median(r["noise_alignment_posterior"]) > 0.9

@@ -314,7 +314,7 @@ class BlockFits:
     frames : (B, k+1, k, k) best frame ``[N, T]`` of each degree, normalised units.
     explored : (B,) exploration diagnostic.
     information : (B, 2k, 2k) joint information, normalised units.
-    n : samples per block.  scaling : the scaling used.
+    n : samples per block (an int, or (B,) counts).  scaling : the scaling used.
     """
 
     degree: np.ndarray
@@ -322,7 +322,7 @@ class BlockFits:
     frames: np.ndarray
     explored: np.ndarray
     information: np.ndarray
-    n: int
+    n: int | np.ndarray
     scaling: Scaling
 
     def __len__(self) -> int:
@@ -482,11 +482,24 @@ class CartesianConstraint:
         The fast path for many short blocks (the 8.2 degree test, benchmarks).
         """
         y, scaling = _prepare(self, position, force, velocity)
-        B, n, kk = y.shape
-        k = kk // 2
+        return self.fit_information_blocks(_information(y), y.shape[1], scaling=scaling)
+
+    def fit_information_blocks(self, information, n, *, scaling: Scaling) -> BlockFits:
+        """:meth:`fit_blocks` from joint information matrices (B, 2k, 2k) of ``n`` samples
+        each (an int, or (B,) counts: e.g. the running information of
+        :class:`~contactlab.constraints.RecursiveConstraint` at several times) in the
+        normalised units of ``scaling``.  The frames depend on ``I`` alone; 8.18 scales
+        with each block's own ``n``."""
+        I = np.asarray(information, dtype=np.float64)
+        I = I[None] if I.ndim == 2 else I
+        k = I.shape[-1] // 2
+        counts = np.broadcast_to(np.asarray(n, dtype=np.float64), I.shape[:1])
+        if np.any(counts < min_samples(k)):
+            raise DataError(f"a block of {int(counts.min())} samples; the {2 * k}-dimensional "
+                            f"joint covariance needs at least {min_samples(k)}", field="position")
         degrees = self._check(k)
-        I = _information(y)
-        frames, ll, _ = self._fit_information(I, n, degrees)
+        frames, ll, _ = self._fit_information(I, 1, degrees)
+        ll = ll * counts[:, None]
         expl = exploration(I, threshold=self.exploration_threshold).explored
         if self.degree is None:
             finite = np.isfinite(ll).all(axis=1)
@@ -494,7 +507,8 @@ class CartesianConstraint:
                                                     axis=1), -1)
         else:
             deg = np.where(np.isfinite(ll[:, self.degree]), self.degree, -1)
-        return BlockFits(deg.astype(np.int64), ll, frames, expl, I, n, scaling)
+        n_out = int(counts[0]) if np.all(counts == counts[0]) else counts.astype(np.int64)
+        return BlockFits(deg.astype(np.int64), ll, frames, expl, I, n_out, scaling)
 
     def fit(self, position, force, velocity=None) -> ConstraintFit:
         """Fit one block: ``position``, ``force`` (and ``velocity``), each (n, k).
