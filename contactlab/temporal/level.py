@@ -71,7 +71,7 @@ __all__ = ["level_model", "level_sd", "scaled_features", "level_marginal", "node
 
 MAX_NODES = 401
 #: largest number of (node, block, channel, parameter) values held at once
-_CHUNK = 4_000_000
+_CHUNK = 1_000_000
 _LOG_2PI = math.log(2.0 * math.pi)
 #: the conditional covariance of (1) keeps at least this share of the prior's (a
 #: sample covariance of k and u can claim a correlation of 1)
