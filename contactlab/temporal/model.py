@@ -319,6 +319,8 @@ class ModelSet:
                                   ("level_cov", (C, q), -np.inf)):
                 ds = g.get(name)
                 if isinstance(ds, h5py.Dataset):
+                    if ds.dtype.kind not in "fiu":
+                        raise err(f"dtype {ds.dtype}, expected float", f"{where}/{name}")
                     arrays[name] = np.asarray(ds[()], dtype=np.float64)
                     if arrays[name].shape != sh or not (np.isfinite(arrays[name]).all()
                                                         and (arrays[name] >= low).all()):
