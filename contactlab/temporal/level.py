@@ -67,7 +67,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.special import logsumexp
 
-__all__ = ["level_model", "level_sd", "scaled_features", "level_marginal", "nodes"]
+__all__ = ["level_model", "level_sd", "conditional_prior", "scaled_features", "level_marginal",
+           "nodes"]
 
 MAX_NODES = 401
 #: largest number of (node, block, channel, parameter) values held at once
