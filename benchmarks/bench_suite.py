@@ -222,9 +222,9 @@ def segmentation_rows(tmp: Path) -> list[dict]:
                   f"beta {beta_c:g}: {acc(m_costar)}"},
         {"name": "suite: segment, the 250 Hz copy as an archive", "ours_s": None,
          "peer": None, "peer_s": None, "ratio": None,
-         "notes": f"{acc(m_copy)}: segment conditions every archive with the 7.1 lowpass "
-                  f"at fs/8 and 4:1 decimation, so a 250 Hz recording is cut to 31 Hz "
-                  f"and 62.5 Hz before the detector sees it"},
+         "notes": f"{acc(m_copy)}: a 250 Hz recording is segmented at 250 Hz (7.1's "
+                  f"4:1 decimation and fs/8 lowpass apply at 1000 Hz; "
+                  f"contactlab.signals.factor_for)"},
         {"name": "suite: segment --method page-hinkley", "ours_s": t_thesis / n,
          "peer": f"ruptures Binseg (beta {beta_b:g})", "peer_s": t_b / n,
          "ratio": t_b / t_thesis,

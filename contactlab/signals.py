@@ -6,9 +6,16 @@ attributes: ``rate_hz``, ``time``, ``strain``, ``wrench``, ``position``,
 ``velocity``, ``labels``, ``label_names``) becomes the signals the stages and
 experiments analyse.  It owns the conditioning constants of 7.1:
 
-* the lowpass cutoff at ``fs / 8`` (:data:`CUTOFF_DIVISOR`; 125 Hz at
-  1000 Hz) and the ``4:1`` decimation (:data:`FACTOR`; 250 Hz), the filter
-  itself being :func:`contactlab.conditioning.lowpass_decimate`;
+* the ``4:1`` decimation of 1000 Hz to 250 Hz (:data:`FACTOR`) and the
+  lowpass cutoff at ``fs / 8`` (:data:`CUTOFF_DIVISOR`; 125 Hz, the output's
+  Nyquist rate), the filter itself being
+  :func:`contactlab.conditioning.lowpass_decimate`.  A recording at another
+  rate is decimated to the rate nearest 250 Hz it can reach by an integer
+  factor (:func:`factor_for`: 500 Hz by 2, 250 Hz and below not at all), with
+  the cutoff at the output's Nyquist rate (:func:`cutoff_for`; none when the
+  factor is 1).  The thesis conditions 1000 Hz data only; keeping its 4:1 at
+  every rate would leave a 250 Hz wrist-sensor recording at 62.5 Hz,
+  lowpassed at 31 Hz, and hide most of its contact events;
 * the log floor of ``y_h``: half the strain converter step
   (:func:`contactlab.conditioning.quantisation_floor`), so exact zeros of the
   difference of quantised strains enter as ``log(lsb / 2)``, not ``log(1e-12)``;
@@ -37,7 +44,8 @@ import numpy as np
 from contactlab.conditioning import difference, log_energy, lowpass_decimate, quantisation_floor
 from contactlab.errors import DataError, UsageError
 
-__all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
+__all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "TARGET_RATE_HZ",
+           "factor_for", "cutoff_for", "hf_block_for", "window_of", "Signal",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE", "loudest_channel"]
 
@@ -45,19 +53,52 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "Signal",
 SIGNALS = ("strain", "wrench", "hf")
 #: every stream :func:`trial_signals` gives: the conditioned signals and the kinematics
 STREAMS = SIGNALS + ("velocity", "position")
-#: decimation factor of 7.1 (1000 Hz -> 250 Hz)
+#: decimation factor of 7.1 at the thesis's 1000 Hz (1000 Hz -> 250 Hz)
 FACTOR = 4
-#: the lowpass cutoff is ``fs / CUTOFF_DIVISOR`` (7.1: 125 Hz at 1000 Hz, second order)
-CUTOFF_DIVISOR = 8.0
+#: the conditioned rate 7.1 decimates to (1000 Hz / 4)
+TARGET_RATE_HZ = 250.0
+#: the lowpass cutoff is ``fs / CUTOFF_DIVISOR`` at 1000 Hz (7.1: 125 Hz, second order)
+CUTOFF_DIVISOR = 2.0 * FACTOR
 #: differences averaged into one y_h sample (7.1: blocks of 8, every 4th sample)
 HF_BLOCK = 2 * FACTOR
-#: input samples each conditioned sample depends on: the decimation step (4) for the
-#: lowpassed signals; for y_h[k] the 8 differences y(n) - y(n-1), n = 4k+1 .. 4k+8, i.e.
-#: inputs 4k .. 4k+8 (7.1); raw kinematics sampled at the newest input depend on one
+#: input samples each conditioned sample depends on at 1000 Hz (:func:`window_of`)
 WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": HF_BLOCK + 1, "velocity": 1,
           "position": 1}
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
+
+
+def factor_for(fs: float) -> int:
+    """The integer decimation that brings ``fs`` nearest :data:`TARGET_RATE_HZ` from
+    above or at it: 4 at 1000 Hz (7.1), 2 at 500 Hz, 1 at 250 Hz and below."""
+    fs = float(fs)
+    if not fs > 0:
+        raise ValueError(f"rate must be > 0 Hz; got {fs!r}")
+    return max(1, int(fs // TARGET_RATE_HZ))
+
+
+def cutoff_for(fs: float) -> float | None:
+    """The lowpass cutoff (Hz) before :func:`factor_for`'s decimation: the output's
+    Nyquist rate (``fs / 8`` at 1000 Hz, 7.1), or None when nothing is decimated."""
+    factor = factor_for(fs)
+    return None if factor == 1 else float(fs) / (2.0 * factor)
+
+
+def hf_block_for(fs: float) -> int:
+    """Differences averaged into one y_h sample: two decimation steps (8 at 1000 Hz, 7.1)."""
+    return 2 * factor_for(fs)
+
+
+def window_of(signal: str, fs: float) -> int:
+    """Input samples a conditioned sample of ``signal`` depends on at input rate ``fs``:
+    the decimation step for the lowpassed signals; for y_h[k] the ``2 f`` differences
+    ``y(n) - y(n-1)``, ``n = f k + 1 .. f k + 2 f`` (7.1 at f = 4), i.e. ``2 f + 1``
+    inputs; raw kinematics sampled at the newest input depend on one."""
+    if signal in ("velocity", "position"):
+        return 1
+    if signal == "hf":
+        return hf_block_for(fs) + 1
+    return factor_for(fs)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,9 +150,14 @@ def resolve_signal(trial, signal: str | None, *, path=None, known=SIGNALS) -> st
 
 def lowpass(x, *, fs: float) -> np.ndarray:
     """``x`` (N, ...) through the 7.1 lowpass (second-order Butterworth at
-    ``fs / 8``) and 4:1 decimation; output k is at input sample ``4 k``."""
-    return lowpass_decimate(np.asarray(x, dtype=np.float64), fs=float(fs),
-                            cutoff_hz=float(fs) / CUTOFF_DIVISOR, factor=FACTOR)
+    :func:`cutoff_for`, ``fs / 8`` at 1000 Hz) and :func:`factor_for`'s decimation
+    (4:1 at 1000 Hz); output k is at input sample ``factor * k``.  At 250 Hz and
+    below nothing is filtered or dropped (a copy of ``x``)."""
+    x = np.asarray(x, dtype=np.float64)
+    cutoff = cutoff_for(fs)
+    if cutoff is None:
+        return x.copy()
+    return lowpass_decimate(x, fs=float(fs), cutoff_hz=cutoff, factor=factor_for(fs))
 
 
 def _raw(trial, name: str, path) -> np.ndarray:
@@ -155,17 +201,19 @@ def condition_array(raw, signal: str, *, fs: float) -> Signal:
     decimates it.  ``times`` count from 0 at input sample 0."""
     raw = np.asarray(raw, dtype=np.float64)
     fs = float(fs)
+    factor = factor_for(fs)
     if signal == "hf":          # y_h only: the lowpass branch of 7.1 is not needed
-        y = log_energy(difference(raw), block=HF_BLOCK, factor=FACTOR,
+        block = hf_block_for(fs)
+        y = log_energy(difference(raw), block=block, factor=factor,
                        floor=quantisation_floor(raw))
-        index = FACTOR * np.arange(len(y)) + HF_BLOCK
+        index = factor * np.arange(len(y)) + block
     else:                       # y_l of the strains, or any other channel, alike
         y = lowpass(raw, fs=fs)
-        index = FACTOR * np.arange(len(y))
+        index = factor * np.arange(len(y))
     index = np.asarray(index, dtype=np.int64)
     y = np.asarray(y, dtype=np.float64)
     y = y[:, None] if y.ndim == 1 else y
-    return Signal(signal, y, index, index / fs, fs / FACTOR)
+    return Signal(signal, y, index, index / fs, fs / factor)
 
 
 def conditioned_signal(trial, signal: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
@@ -180,8 +228,9 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
 
     Returns ``({signal: (n, C)}, index (n,), fs)``: ``hf``/``strain``/``wrench``
     from :func:`condition`, ``velocity``/``position`` the raw channels at the
-    conditioned samples' newest input sample (``index``; 4:1 from input sample 3
-    when no conditioned signal is asked for).  ``reduce="mean"`` replaces a
+    conditioned samples' newest input sample (``index``; every
+    :func:`factor_for`-th sample from the factor's last when no conditioned signal is
+    asked for).  ``reduce="mean"`` replaces a
     conditioned signal's channels by their mean.  All streams are cut to the
     shortest.
     """
@@ -206,13 +255,14 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         n = min(len(v) for v in indices)
         index = indices[0][:n]
     else:
-        index = np.arange(FACTOR - 1, n_in, FACTOR)
+        factor = factor_for(trial.rate_hz)
+        index = np.arange(factor - 1, n_in, factor)
         n = len(index)
     for s in signals:
         if s in ("velocity", "position"):
             out[s] = _raw(trial, s, path)[index]
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
-    fs = float(trial.rate_hz) / FACTOR
+    fs = float(trial.rate_hz) / factor_for(trial.rate_hz)
     return out, index[:n], fs
 
 

@@ -106,3 +106,50 @@ def test_default_signal_follows_the_trial(tmp_path, archive_path):
     assert r.exit_code != 0 and "Traceback" not in r.output
     line = r.output.strip().splitlines()[-1]
     assert "no strain" in line and "--signal wrench" in line and "wrist.h5" in line
+
+
+@pytest.mark.parametrize("fs, factor, cutoff", [(1000.0, 4, 125.0), (500.0, 2, 125.0),
+                                                (2000.0, 8, 125.0), (250.0, 1, None),
+                                                (100.0, 1, None), (50.0, 1, None)])
+def test_conditioning_reaches_250_hz_at_any_rate(fs, factor, cutoff):
+    """The 7.1 decimation aims at 250 Hz: 4:1 at the thesis's 1000 Hz, nothing below 250 Hz;
+    the cutoff is the output's Nyquist rate (scipy's Butterworth applied by hand)."""
+    from contactlab.signals import condition_array, cutoff_for, factor_for, window_of
+
+    assert factor_for(fs) == factor and cutoff_for(fs) == cutoff
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(int(4 * fs), 2))
+    low = condition_array(x, "wrench", fs=fs)
+    assert low.fs == pytest.approx(fs / factor)
+    if cutoff is None:
+        np.testing.assert_array_equal(low.y, x)
+    else:
+        sos = sps.butter(2, cutoff, fs=fs, output="sos")
+        zi = sps.sosfilt_zi(sos)[:, :, None] * x[0]
+        np.testing.assert_allclose(low.y, sps.sosfilt(sos, x, axis=0, zi=zi)[0][::factor],
+                                   atol=1e-12)
+    hf = condition_array(x, "hf", fs=fs)
+    block = 2 * factor                       # 7.1: blocks of 8 every 4th sample at 1000 Hz
+    d = np.abs(np.diff(x, axis=0))
+    k = len(hf.y) // 2
+    np.testing.assert_allclose(hf.y[k], np.log(d[factor * k:factor * k + block]).mean(axis=0))
+    assert hf.index[k] == factor * k + block and window_of("hf", fs) == block + 1
+
+
+def test_segment_finds_changes_in_a_250_hz_recording(tmp_path):
+    """A recording made at 250 Hz is segmented at 250 Hz, not cut to 62.5 Hz: the
+    piecewise-AR suite's changes are found in its lowpassed 250 Hz copy."""
+    from dataclasses import replace
+
+    from contactlab.synthetic import piecewise_ar_trials, write_archive
+
+    trials = piecewise_ar_trials(3, seed=7)
+    low = [replace(t, y=y, fs=fs, boundaries=t.boundaries // 4)
+           for t, (y, fs) in zip(trials, (t.lowpassed() for t in trials))]
+    assert all(t.fs == 250.0 for t in low)
+    path = tmp_path / "rec250.h5"
+    write_archive(low, path, title="250 Hz recording")
+    res = run_cli("segment", path, "--tolerance", "0.05", "--json", "--quiet")
+    assert res.exit_code == 0, res.output
+    m = one_json_object(res.stdout)["metrics"]["overall"]
+    assert m["f1"] >= 0.9, m

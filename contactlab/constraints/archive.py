@@ -32,7 +32,7 @@ from contactlab.archive.results import TrialResults
 from contactlab.constraints.alignment import angular_error_deg
 from contactlab.constraints.cartesian import CartesianConstraint, min_samples
 from contactlab.errors import DataError, UsageError
-from contactlab.signals import CUTOFF_DIVISOR, default_signal
+from contactlab.signals import cutoff_for, default_signal
 from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["MODELS", "EstimateStage", "estimate_archive", "constraint_signals", "planar_signals",
@@ -194,7 +194,7 @@ def _with_noise(est: CartesianConstraint, trial, position_sd, force_sd) -> Carte
     from contactlab.constraints.noise import conditioned_noise_sd, lowpass_noise_gain
 
     fs = float(trial.rate_hz)
-    cutoff = fs / CUTOFF_DIVISOR
+    cutoff = cutoff_for(fs)
 
     def level(given, data):
         if given is not None:
@@ -277,7 +277,7 @@ def planar_signals(trial):
     planar trace); the wrench columns ``fx``, ``fy`` and a torque about z
     (``tz``/``mz``/``tau``) are taken by name.
     """
-    from contactlab.signals import FACTOR, lowpass
+    from contactlab.signals import factor_for, lowpass
 
     tid = trial.id
     for name in ("wrench", "position"):
@@ -299,7 +299,7 @@ def planar_signals(trial):
     wrench = np.asarray(trial.wrench, dtype=np.float64)
     config = lowpass(position[:, [pcols.index(c) for c in ("x", "y", "theta")]], fs=fs)
     w = lowpass(wrench[:, [wcols.index(c) for c in ("fx", "fy", torque)]], fs=fs)
-    times = np.asarray(trial.time, dtype=np.float64)[FACTOR * np.arange(len(config))]
+    times = np.asarray(trial.time, dtype=np.float64)[factor_for(fs) * np.arange(len(config))]
     return times, config, w
 
 

@@ -63,9 +63,14 @@ def raw_noise_sd(y) -> np.ndarray:
     return np.maximum(s, quant / math.sqrt(12.0))
 
 
-def lowpass_noise_gain(*, fs: float, cutoff_hz: float, order: int = 2) -> float:
-    """``sum_j h_j^2`` of the 7.1 Butterworth lowpass (the variance ratio of white noise)."""
+def lowpass_noise_gain(*, fs: float, cutoff_hz: float | None, order: int = 2) -> float:
+    """``sum_j h_j^2`` of the 7.1 Butterworth lowpass (the variance ratio of white noise);
+    1 when ``cutoff_hz`` is None (a rate the conditioning does not filter,
+    :func:`contactlab.signals.cutoff_for`)."""
     from contactlab.conditioning import butter_sos
+
+    if cutoff_hz is None:
+        return 1.0
 
     sos = butter_sos(fs=fs, cutoff_hz=cutoff_hz, order=order)
     impulse = np.zeros(int(20 * fs / cutoff_hz) + 64)
@@ -74,7 +79,7 @@ def lowpass_noise_gain(*, fs: float, cutoff_hz: float, order: int = 2) -> float:
     return float(h @ h)
 
 
-def conditioned_noise_sd(y, *, fs: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
+def conditioned_noise_sd(y, *, fs: float, cutoff_hz: float | None, order: int = 2) -> np.ndarray:
     """Per-column noise standard deviation of ``y`` after the 7.1 lowpass, (1) and (2)."""
     return raw_noise_sd(y) * math.sqrt(lowpass_noise_gain(fs=fs, cutoff_hz=cutoff_hz,
                                                           order=order))

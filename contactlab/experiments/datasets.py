@@ -232,7 +232,7 @@ def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: 
     the 250 Hz blocks whose input samples all share one truth class: "rest" (not moving, no
     impact) or texture ``t`` (moving over material ``t``, no impact). NaN when a class has
     no whole block."""
-    from contactlab.signals import WINDOW, codes_at, condition_array
+    from contactlab.signals import codes_at, condition_array, window_of
 
     hf = condition_array(strain, "hf", fs=rate_hz)
     yh = hf.y.mean(axis=1)
@@ -241,7 +241,7 @@ def hf_class_means(strain, rate_hz: float, moving, impact, texture, n_textures: 
     texture = np.asarray(texture, int)
     cls = np.where(moving, np.where(texture >= 0, 1 + texture, -1), 0)
     cls = np.where(impact, -1, cls)
-    codes = codes_at(cls, hf.index, window=WINDOW["hf"])   # -1 where a block mixes classes
+    codes = codes_at(cls, hf.index, window=window_of("hf", rate_hz))   # -1 where a block mixes classes
     out = {}
     for c in range(1 + n_textures):
         sel = codes == c

@@ -49,7 +49,7 @@ from contactlab.errors import DataError
 from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, load_graph
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
-from contactlab.signals import REDUCE, WINDOW, trial_signals, truth_codes
+from contactlab.signals import REDUCE, trial_signals, truth_codes, window_of
 from contactlab.temporal.blocks import mask_runs
 
 __all__ = ["GraphModels", "ImpactPrior", "train_graph", "load_graph_models"]
@@ -247,7 +247,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
             ids_used.append(tid)
             for s in all_signals:
-                codes = truth_codes(trial, index, labels, window=WINDOW[s])
+                codes = truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
                 y = data[s]
                 for k, lab in enumerate(labels):
                     if lab in temporal_specs and s == signal:

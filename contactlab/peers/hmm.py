@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.signals import WINDOW, trial_signals, truth_codes
+from contactlab.signals import trial_signals, truth_codes, window_of
 
 __all__ = ["labelled_points", "fit_hmm"]
 
@@ -29,7 +29,7 @@ def labelled_points(archive, states, *, reduce: str = "mean") -> list[dict]:
             data, index, _ = trial_signals(trial, ["hf"], reduce=reduce)
             out.append({"id": trial.id, "y": data["hf"],
                         "truth": truth_codes(trial, index, states),
-                        "pure": truth_codes(trial, index, states, window=WINDOW["hf"])})
+                        "pure": truth_codes(trial, index, states, window=window_of("hf", trial.rate_hz))})
     return out
 
 

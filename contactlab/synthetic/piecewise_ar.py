@@ -78,9 +78,10 @@ class PiecewiseAR:
 
     def lowpassed(self) -> tuple[np.ndarray, float]:
         """The 7.1 lowpass and decimation of ``y`` (:func:`contactlab.signals.lowpass`):
-        ``(y_l, fs / FACTOR)``; boundaries scale by ``1/FACTOR``."""
-        from contactlab.signals import FACTOR, lowpass
-        return lowpass(self.y, fs=self.fs), self.fs / FACTOR
+        ``(y_l, fs / factor)``; boundaries scale by ``1/factor``
+        (:func:`contactlab.signals.factor_for`)."""
+        from contactlab.signals import factor_for, lowpass
+        return lowpass(self.y, fs=self.fs), self.fs / factor_for(self.fs)
 
     def archive_fields(self) -> dict:
         """Measurements and truth for :func:`contactlab.synthetic.write_archive`: the

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactlab.errors import DataError
-from contactlab.signals import WINDOW, Signal, condition, source_of, truth_codes
+from contactlab.signals import Signal, window_of, condition, source_of, truth_codes
 
 __all__ = ["TrialSignal", "load_signal", "runs_from_codes", "mask_runs", "runs_from_stage",
            "cut_blocks", "code_blocks", "label_runs", "truth_blocks"]
@@ -128,11 +128,11 @@ def truth_blocks(trial, *, signal: str | None, block: int, classes=None, path=No
     """The conditioned ``signal`` of ``trial`` and its pure-truth blocks.
 
     ``y`` (K, C) conditioned signal; ``codes`` (K,) the trial's label code of each
-    conditioned sample, -1 unless its whole input window (:data:`contactlab.signals.WINDOW`)
+    conditioned sample, -1 unless its whole input window (:func:`contactlab.signals.window_of`)
     has that label; ``starts``, ``labels``: the blocks of :func:`code_blocks`.
     """
     sig = load_signal(trial, signal, path=path)
-    codes = truth_codes(trial, sig.index, window=WINDOW[sig.name], path=path)
+    codes = truth_codes(trial, sig.index, window=window_of(sig.name, trial.rate_hz), path=path)
     if codes is None:
         raise DataError("trial has no ground-truth labels", file=str(path) if path else None,
                         field=f"/trials/{trial.id}/ground_truth/labels")
