@@ -227,7 +227,7 @@ def _estimate_trial(trial, est, segments, block):
             row.update(status="too short", degree=None, normals=[], log_likelihoods=None)
             rows.append(row)
             continue
-        fit = est.fit(position[idx], force[idx], None if velocity is None else velocity[idx])
+        fit = est.estimate(position[idx], force[idx], None if velocity is None else velocity[idx])
         row.update(status=fit.status_, reason=fit.reason_, degree=fit.degree_,
                    normals=fit.normals_.T.tolist(),
                    log_likelihoods=fit.log_likelihoods_.tolist(),

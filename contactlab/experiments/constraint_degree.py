@@ -78,14 +78,14 @@ def noise_blocks(*, n_blocks: int, block: int, rng):
 # -- tests -----------------------------------------------------------------------------------
 def likelihood_test(position, force, velocity) -> dict:
     """Highest log-likelihood over 0..3 (thesis) and the library's gated decision."""
-    fits = CartesianConstraint(friction=FRICTION).fit_blocks(position, force, velocity)
+    fits = CartesianConstraint(friction=FRICTION).estimate_blocks(position, force, velocity)
     return {"thesis_rule": decide_degree(fits.log_likelihoods), "gated": fits.degree,
             "log_likelihoods": fits.log_likelihoods}
 
 
 def alignment_statistics(position, force, velocity) -> np.ndarray:
     """(B, 2) alignment statistic of the stiffness form's P."""
-    P, _ = CartesianStiffness(friction=FRICTION).fit_blocks(position, force, velocity)
+    P, _ = CartesianStiffness(friction=FRICTION).estimate_blocks(position, force, velocity)
     return alignment_statistic(P)
 
 
