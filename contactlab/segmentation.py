@@ -1,5 +1,10 @@
 """Change-detector segmentation of strains and forces (section 7.2.1, fig 7.6).
 
+(One module of about 770 lines: both segmenters -- the thesis's Page-Hinkley
+test and the AR GLR -- return one :class:`Segmentation`, share its parameter
+checks, sweeps, boundary metrics and the ``segment`` stage; split, each part
+would import the others.)
+
 The pipeline of figure 7.6, one box per existing module:
 
 1. conditioning (7.1): strains lowpassed and decimated to 250 Hz
