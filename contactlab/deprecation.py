@@ -16,28 +16,18 @@ def _warn(old: str, new: str) -> None:
     warnings.warn(f"{old} is now {new}", DeprecationWarning, stacklevel=3)
 
 
-def renamed_method(old: str, new: str):
-    """A method ``old`` that warns and calls the method ``new``."""
+def renamed_method(old: str, new: str, *, on_class: bool = False):
+    """A method ``old`` that warns and calls the method ``new`` (a classmethod when
+    ``on_class``)."""
 
-    def method(self, *args, **kwargs):
-        _warn(f"{type(self).__name__}.{old}", new)
-        return getattr(self, new)(*args, **kwargs)
-
-    method.__name__ = old
-    method.__doc__ = f"Former name of :meth:`{new}` (deprecated)."
-    return method
-
-
-def renamed_classmethod(old: str, new: str):
-    """A classmethod ``old`` that warns and calls the classmethod ``new``."""
-
-    def method(cls, *args, **kwargs):
-        _warn(f"{cls.__name__}.{old}", new)
-        return getattr(cls, new)(*args, **kwargs)
+    def method(obj, *args, **kwargs):
+        owner = obj if isinstance(obj, type) else type(obj)
+        _warn(f"{owner.__name__}.{old}", new)
+        return getattr(obj, new)(*args, **kwargs)
 
     method.__name__ = old
     method.__doc__ = f"Former name of :meth:`{new}` (deprecated)."
-    return classmethod(method)
+    return classmethod(method) if on_class else method
 
 
 def renamed_function(old: str, fn):

@@ -208,6 +208,20 @@ def _loglik(start, end, rss) -> np.ndarray:
     return -0.5 * m * np.sum(np.log(rss, out=rss), axis=-1)
 
 
+@njit(cache=True, inline="always")
+def _add_row(a, p, r, acc, z):  # pragma: no cover - compiled
+    """``acc += z(r) z(r)^T`` per channel, ``z(r) = [a(r+p-1) .. a(r), 1, a(r+p)]``."""
+    k = p + 2
+    for ch in range(a.shape[1]):
+        for i in range(p):
+            z[i] = a[r + p - 1 - i, ch]
+        z[p] = 1.0
+        z[p + 1] = a[r + p, ch]
+        for i in range(k):
+            for j in range(k):
+                acc[ch, i, j] = acc[ch, i, j] + z[i] * z[j]
+
+
 @njit(cache=True)
 def _checkpoint_kernel(a, p, step):
     """Every ``step``-th prefix sum over rows of ``z z^T``, ``z = [a(n-1) .. a(n-p), 1,
@@ -222,14 +236,7 @@ def _checkpoint_kernel(a, p, step):
     for r in range(rows):
         if r % step == 0:
             out[r // step] = acc
-        for ch in range(c):
-            for i in range(p):
-                z[i] = a[r + p - 1 - i, ch]
-            z[p] = 1.0
-            z[p + 1] = a[r + p, ch]
-            for i in range(k):
-                for j in range(k):
-                    acc[ch, i, j] = acc[ch, i, j] + z[i] * z[j]
+        _add_row(a, p, r, acc, z)
     if rows % step == 0:
         out[rows // step] = acc
     return out
@@ -247,14 +254,8 @@ def _prefix_span_kernel(a, p, acc0, r0, r1, kept, step, fill):
     for r in range(r0, r1):
         if fill and r % step == 0:
             kept[r // step] = out[r - r0]
-        for ch in range(c):
-            for i in range(p):
-                z[i] = a[r + p - 1 - i, ch]
-            z[p] = 1.0
-            z[p + 1] = a[r + p, ch]
-            for i in range(k):
-                for j in range(k):
-                    out[r + 1 - r0, ch, i, j] = out[r - r0, ch, i, j] + z[i] * z[j]
+        out[r + 1 - r0] = out[r - r0]
+        _add_row(a, p, r, out[r + 1 - r0], z)
     if fill and r1 % step == 0:
         kept[r1 // step] = out[r1 - r0]
     return out
@@ -277,14 +278,7 @@ def _prefix_rows_kernel(a, p, kept, step, rows):
             acc[:] = kept[target // step]
             cur = base
         while cur < target:
-            for ch in range(c):
-                for i in range(p):
-                    z[i] = a[cur + p - 1 - i, ch]
-                z[p] = 1.0
-                z[p + 1] = a[cur + p, ch]
-                for i in range(k):
-                    for j in range(k):
-                        acc[ch, i, j] = acc[ch, i, j] + z[i] * z[j]
+            _add_row(a, p, cur, acc, z)
             cur += 1
         out[q] = acc
     return out

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.deprecation import renamed_classmethod
+from contactlab.deprecation import renamed_method
 from contactlab.estimators.models import LinearDecayModel, estimate
 from contactlab.observer.models._kalman import MODE_PLAIN, as_channel_prior, prior_state, run_kalman
 from contactlab.observer.models.base import FeatureModel
@@ -36,7 +36,7 @@ class ImpactFeature(FeatureModel):
         self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
             theta_mean, theta_sqrt, noise_var, 2, name)
 
-    fit = renamed_classmethod("fit", "from_segments")
+    fit = renamed_method("fit", "from_segments", on_class=True)
 
     @classmethod
     def from_segments(cls, segments, *, name: str = "impact", signal: str = "hf",
