@@ -164,22 +164,34 @@ class ARPrefix:
     def logliks(self, segments: list[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
         """:meth:`loglik` of several sets of segments in one pass over the rows.
 
-        Each set is a pair of 1-D ``start``, ``end`` arrays with ``start``
-        non-decreasing.  The rows are swept once in blocks of
-        :data:`_BLOCK_ROWS` (plus the longest segment): memory for one block's
-        prefix sums, not the signal's; the kept prefix sums are filled on the way.
+        Each set is a pair of 1-D ``start``, ``end`` arrays (``start``
+        non-decreasing for signals of :data:`_BLOCK_ROWS` rows or more).  The rows
+        are swept once in blocks of :data:`_BLOCK_ROWS` (plus the longest
+        segment): memory for one block's prefix sums, not the signal's; the kept
+        prefix sums are filled on the way (a shorter signal keeps all of its own).
         """
         segs = [(np.asarray(s, dtype=np.int64), np.asarray(e, dtype=np.int64))
                 for s, e in segments]
-        longest = max((int(np.max(e - s)) for s, e in segs if s.size), default=0)
-        if any(np.any(np.diff(s) < 0) for s, _ in segs) or any(
-                s.size and (s.min() < 0 or e.max() > self.rows or np.any(e < s))
-                for s, e in segs):
-            raise UsageError(f"segments must lie in [0, {self.rows}] with sorted starts")
+        k = self.order + 2
+        if any(s.size and (s.min() < 0 or e.max() > self.rows or np.any(e < s))
+               for s, e in segs):
+            raise UsageError(f"segments must lie in [0, {self.rows}]")
         rss = [np.empty((s.size, self.channels)) for s, _ in segs]
+        if self.rows < _BLOCK_ROWS:        # a short signal: every prefix sum, one block
+            sums = _prefix_span_kernel(self._signal, self.order,
+                                       np.zeros((self.channels, k, k)), 0, self.rows,
+                                       np.empty((0, self.channels, k, k)), 1, False)
+            for (s, e), out in zip(segs, rss):
+                _rss_kernel(sums, s, e, out)
+            if self._checkpoints is None:
+                self._checkpoints, self.step = sums, 1
+            return [_loglik(s, e, r) for (s, e), r in zip(segs, rss)]
+        if any(np.any(np.diff(s) < 0) for s, _ in segs):
+            raise UsageError("segments must come with sorted starts")
+        longest = max((int(np.max(e - s)) for s, e in segs if s.size), default=0)
         fill = self._checkpoints is None
-        kept = np.zeros((self.rows // self.step + 1, self.channels) + (self.order + 2,) * 2) \
-            if fill else self._checkpoints
+        kept = np.zeros((self.rows // self.step + 1, self.channels, k, k)) if fill \
+            else self._checkpoints
         acc = kept[0].copy()                              # the prefix sum at row 0
         for r0 in range(0, self.rows + 1, _BLOCK_ROWS):
             r1 = min(r0 + _BLOCK_ROWS + longest, self.rows)
@@ -209,8 +221,9 @@ def _loglik(start, end, rss) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def _add_row(a, p, r, acc, z):  # pragma: no cover - compiled
-    """``acc += z(r) z(r)^T`` per channel, ``z(r) = [a(r+p-1) .. a(r), 1, a(r+p)]``."""
+def _add_row(a, p, r, sums, src, dst, z):  # pragma: no cover - compiled
+    """``sums[dst] = sums[src] + z(r) z(r)^T`` per channel, ``z(r) = [a(r+p-1) .. a(r),
+    1, a(r+p)]`` (``dst`` may be ``src``)."""
     k = p + 2
     for ch in range(a.shape[1]):
         for i in range(p):
@@ -219,7 +232,7 @@ def _add_row(a, p, r, acc, z):  # pragma: no cover - compiled
         z[p + 1] = a[r + p, ch]
         for i in range(k):
             for j in range(k):
-                acc[ch, i, j] = acc[ch, i, j] + z[i] * z[j]
+                sums[dst, ch, i, j] = sums[src, ch, i, j] + z[i] * z[j]
 
 
 @njit(cache=True)
@@ -231,14 +244,14 @@ def _checkpoint_kernel(a, p, step):
     k = p + 2
     rows = n - p
     out = np.zeros((rows // step + 1, c, k, k))
-    acc = np.zeros((c, k, k))
+    acc = np.zeros((1, c, k, k))
     z = np.empty(k)
     for r in range(rows):
         if r % step == 0:
-            out[r // step] = acc
-        _add_row(a, p, r, acc, z)
+            out[r // step] = acc[0]
+        _add_row(a, p, r, acc, 0, 0, z)
     if rows % step == 0:
-        out[rows // step] = acc
+        out[rows // step] = acc[0]
     return out
 
 
@@ -254,8 +267,7 @@ def _prefix_span_kernel(a, p, acc0, r0, r1, kept, step, fill):
     for r in range(r0, r1):
         if fill and r % step == 0:
             kept[r // step] = out[r - r0]
-        out[r + 1 - r0] = out[r - r0]
-        _add_row(a, p, r, out[r + 1 - r0], z)
+        _add_row(a, p, r, out, r - r0, r + 1 - r0, z)
     if fill and r1 % step == 0:
         kept[r1 // step] = out[r1 - r0]
     return out
@@ -268,19 +280,19 @@ def _prefix_rows_kernel(a, p, kept, step, rows):
     n, c = a.shape
     k = p + 2
     out = np.empty((rows.shape[0], c, k, k))
-    acc = np.zeros((c, k, k))
+    acc = np.zeros((1, c, k, k))
     z = np.empty(k)
     cur = -1
     for q in range(rows.shape[0]):
         target = rows[q]
         base = (target // step) * step
         if cur < base or cur > target:
-            acc[:] = kept[target // step]
+            acc[0] = kept[target // step]
             cur = base
         while cur < target:
-            _add_row(a, p, cur, acc, z)
+            _add_row(a, p, cur, acc, 0, 0, z)
             cur += 1
-        out[q] = acc
+        out[q] = acc[0]
     return out
 
 
