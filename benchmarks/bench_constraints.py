@@ -1,7 +1,7 @@
 """Cartesian constraint estimation speed: estimate with degree decision
 for 25-sample blocks, target >= 5,000 blocks per second on one core.
 
-Ours: :meth:`CartesianConstraint.fit_blocks` -- all blocks at once (numpy
+Ours: :meth:`CartesianConstraint.estimate_blocks` -- all blocks at once (numpy
 batched Newton on the log-det criterion for degrees 1 and 2, closed forms for
 0 and 3, the exploration diagnostic and the decision).  Peer: the naive loop
 the thesis describes, per block the scipy Powell search over Euler angles from
@@ -40,11 +40,11 @@ def _blocks(count: int, *, seed: int = 0):
 def run() -> list[dict]:
     x, w, m = _blocks(N_BLOCKS)
     est = CartesianConstraint()
-    t_ours = best_time(lambda: est.fit_blocks(x, w))
-    fits = est.fit_blocks(x, w)
+    t_ours = best_time(lambda: est.estimate_blocks(x, w))
+    fits = est.estimate_blocks(x, w)
     correct = float(np.mean(fits.degree == m))
     peer = CartesianConstraint(solver="powell")
-    t_peer = best_time(lambda: peer.fit_blocks(x[:N_PEER], w[:N_PEER]), repeats=1)
+    t_peer = best_time(lambda: peer.estimate_blocks(x[:N_PEER], w[:N_PEER]), repeats=1)
     t_peer_all = t_peer / N_PEER * N_BLOCKS
     rows = [{"name": f"constraint form + degree, {N_BLOCKS} blocks of {N}", "ours_s": t_ours,
              "peer": "per-block scipy Powell (8.28)", "peer_s": t_peer_all,
@@ -52,8 +52,8 @@ def run() -> list[dict]:
              "notes": f"{N_BLOCKS / t_ours:.0f} blocks/s (target >= 5000); degree correct "
                       f"{correct:.3f}; peer timed on {N_PEER} blocks, scaled"}]
     one = CartesianConstraint()
-    t_one = best_time(lambda: [one.fit(x[i], w[i]) for i in range(200)], repeats=1) / 200
-    rows.append({"name": "single-block fit() with uncertainty", "ours_s": t_one, "peer": None,
+    t_one = best_time(lambda: [one.estimate(x[i], w[i]) for i in range(200)], repeats=1) / 200
+    rows.append({"name": "single-block estimate() with uncertainty", "ours_s": t_one, "peer": None,
                  "peer_s": None, "ratio": None, "notes": f"{1 / t_one:.0f} blocks/s"})
     return rows
 

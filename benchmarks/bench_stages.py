@@ -1,11 +1,12 @@
 """Stage cost over whole archives: linear in the trials, and the speed-up of workers.
 
-``contactlab segment`` (strain, the defaults: the two-model AR GLR) over archives
+``contactlab segment`` (run through the CLI in this process, so the up-front
+archive check is included; strain, the defaults: the two-model AR GLR) over archives
 imported from CSV (``contactlab import``) of 20 and of 200 ten-second 8-strain
 trials at 1000 Hz: AR(2) strains whose noise level steps every 2.5 s. The goal: the 200-trial run within 1.3x of ten times the 20-trial
 run (the row's ratio is 10 x t20 / t200, so >= 0.77 meets it) and >= 1000x
 real time overall; and the 200-trial run on 2 local worker processes against
-1 (ratio: the speed-up). Every run includes reading the archive, all trials'
+1 (ratio: the speed-up). Every run includes checking and reading the archive, all trials'
 segmentation and the one atomic write of all trials' results. Last, the
 results write alone: one ``write_stage`` for 20 trials against a
 ``write_results`` per trial, each rebuilding the archive (how stages wrote
@@ -23,8 +24,8 @@ import numpy as np
 from scipy.signal import lfilter
 
 from contactlab.archive import TrialResults, import_csv, write_results, write_stage
-from contactlab.segmentation import run_archive
 
+from benchmarks.bench_suite import cli
 from benchmarks.timing import best_time
 
 FS = 1000.0
@@ -75,10 +76,10 @@ def run() -> list[dict]:
         columns = {"time": "t", "strain": "s*"}
         a20 = import_csv(csvs[:20], out=tmp / "a20.h5", columns=columns, quiet=True)
         a200 = import_csv(csvs, out=tmp / "a200.h5", columns=columns, quiet=True)
-        run_archive(a20, quiet=True)                          # load the numba kernels
-        t20 = best_time(lambda: run_archive(a20, quiet=True), repeats=3)
-        t200, cpu200 = _timed(lambda: run_archive(a200, quiet=True))
-        t200w, cpu200w = _timed(lambda: run_archive(a200, quiet=True, workers=2))
+        cli("segment", a20)                                   # load the numba kernels
+        t20 = best_time(lambda: cli("segment", a20), repeats=3)
+        t200, cpu200 = _timed(lambda: cli("segment", a200))
+        t200w, cpu200w = _timed(lambda: cli("segment", a200, "--workers", 2))
         results = {f"trial-{k:03d}": TrialResults({"statistic": np.zeros(2500),
                                                    "boundaries_s": np.arange(4.0)})
                    for k in range(20)}

@@ -81,7 +81,8 @@ class ARLikelihoodCost(_base_cost()):
         from contactlab.detection.ar_glr import ARPrefix
         s = np.asarray(signal, float).reshape(len(signal), -1)
         self.signal = s
-        self.prefix_ = ARPrefix(np.concatenate([s[:self.order], s]), order=self.order)
+        self.prefix_ = ARPrefix(np.concatenate([s[:self.order], s]), order=self.order,
+                               checkpoint_rows=1)    # every sum kept: O(1) per segment
         return self
 
     def error(self, start, end):

@@ -4,6 +4,14 @@
 (the checks behind ``contactlab validate``, with its words) on the archive a
 command reads, limited to the trials it selects, before any work starts; it
 also removes temporary files that a killed run left beside the archive.
+
+Commands that run a :class:`contactlab.stages.Stage` and read nothing else
+first (segment, estimate) check the layout up front (``values=False``) and
+leave the value checks of the measurements to the stage, which runs them on
+the arrays it reads (:func:`contactlab.stages.run_stage`): the measurements
+are decompressed once.  Commands that read another input before the stage
+runs (models, graphs) check everything up front, so a bad archive is named
+before anything else is read.
 """
 
 from __future__ import annotations
@@ -14,24 +22,28 @@ from contactlab.archive.validate import check_archive
 from contactlab.fileio import remove_stale_temp_files
 
 
-def check_inputs(archives, trials=None) -> None:
+def check_inputs(archives, trials=None, *, values: bool = True) -> None:
     """Check each archive (the trials ``trials`` of it, or all): a DataError naming
-    the file and the first offending field, or None when everything conforms."""
+    the file and the first offending field, or None when everything conforms.
+    ``values=False``: the layout only (see the module notes)."""
     for path in archives:
         remove_stale_temp_files(path)
-        check_archive(path, trials=list(trials) if trials else None)
+        check_archive(path, trials=list(trials) if trials else None, values=values)
 
 
-def checks_archive(command):
+def checks_archive(command=None, *, values: bool = True):
     """Decorate a command callback taking ``archive`` (or ``archives``) and optionally
-    ``trials`` so that those are checked before the command runs."""
+    ``trials`` so that those are checked before the command runs (``values`` as
+    for :func:`check_inputs`; ``@checks_archive`` or ``@checks_archive(values=False)``)."""
+    if command is None:
+        return functools.partial(checks_archive, values=values)
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
         archives = kwargs.get("archives")
         if archives is None:
             archives = [kwargs["archive"]] if kwargs.get("archive") is not None else []
-        check_inputs(archives, kwargs.get("trials"))
+        check_inputs(archives, kwargs.get("trials"), values=values)
         return command(*args, **kwargs)
 
     return wrapper

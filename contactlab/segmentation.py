@@ -1,5 +1,10 @@
 """Change-detector segmentation of strains and forces (section 7.2.1, fig 7.6).
 
+(One module of about 770 lines: both segmenters -- the thesis's Page-Hinkley
+test and the AR GLR -- return one :class:`Segmentation`, share its parameter
+checks, sweeps, boundary metrics and the ``segment`` stage; split, each part
+would import the others.)
+
 The pipeline of figure 7.6, one box per existing module:
 
 1. conditioning (7.1): strains lowpassed and decimated to 250 Hz
@@ -95,7 +100,7 @@ import numpy as np
 from contactlab import defaults as D
 from contactlab.archive.results import TrialResults
 from contactlab.detection import PageHinkley, VarianceChangeDetector
-from contactlab.detection.ar_glr import GLR_DEFAULTS, glr_segment
+from contactlab.detection.ar_glr import GLR_DEFAULTS, glr_sweep
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
 from contactlab.errors import DataError, UsageError
 from contactlab.estimators import ARModel, SquareRootRLS
@@ -105,7 +110,7 @@ from contactlab.stages import Stage, TrialOutcome, run_stage
 __all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
            "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
            "min_samples", "run_archive", "pooled_metrics", "COMBINE", "METHODS",
-           "DEFAULT_METHOD", "segment_glr", "default_threshold"]
+           "DEFAULT_METHOD", "segment_glr", "segment_glr_sweep", "default_threshold"]
 
 #: side codes of :attr:`Segmentation.sides`: 0 increase, 1 decrease of the covariance
 SIDES = VARIANCE_SIDES
@@ -430,30 +435,49 @@ def segment_glr(y, *, fs: float, order: int = GLR_DEFAULTS["order"],
     or fell (1) across it.  ``statistic`` is the window statistic per degree of
     freedom.  Constant channels are left out as in :func:`segment_signal`.
     """
-    _check_params(order, threshold, 2.0, 0, 1)
+    return segment_glr_sweep(y, [threshold], fs=fs, order=order, window_s=window_s, t0=t0,
+                             times=times)[float(threshold)]
+
+
+def segment_glr_sweep(y, thresholds, *, fs: float, order: int = GLR_DEFAULTS["order"],
+                      window_s: float = GLR_DEFAULTS["window_s"], t0: float = 0.0,
+                      times=None) -> dict[float, Segmentation]:
+    """:func:`segment_glr` at each of ``thresholds``: ``{threshold: Segmentation}``.
+
+    The window statistic is computed once and thresholded many times
+    (:func:`contactlab.detection.ar_glr.glr_sweep`); each entry equals
+    :func:`segment_glr` at that threshold.
+    """
+    levels = [float(t) if isinstance(t, (int, float, np.number)) else t for t in thresholds]
+    for t in levels:
+        _check_params(order, t, 2.0, 0, 1)
     a = _as_signal(y)
     n = a.shape[0]
     times = _sample_times(n, fs=fs, t0=t0, times=times)
     channels = np.flatnonzero(np.ptp(a, axis=0) > 0)
-    parameters = dict(method="glr", order=int(order), threshold=float(threshold),
-                      window_s=float(window_s), fs=float(fs),
-                      boundary="first sample of the new segment (maximum-likelihood split)")
     empty = np.empty(0, dtype=np.int64)
     need = 4 * (int(order) + 2) + int(order)
     if n < need:
         raise DataError(f"signal has {n} samples; the AR({order}) GLR needs at least {need}",
                         field="signal")
+
+    def parameters(threshold):
+        return dict(method="glr", order=int(order), threshold=threshold,
+                    window_s=float(window_s), fs=float(fs),
+                    boundary="first sample of the new segment (maximum-likelihood split)")
+
     if channels.size == 0:
-        return Segmentation(empty, empty.copy(), empty.copy(), times, np.full(n, np.nan),
-                            channels, parameters)
-    found = glr_segment(a[:, channels], fs=fs, order=int(order), window_s=float(window_s),
-                        threshold=float(threshold))
-    bounds = found["boundaries"]
-    sides = found["sides"]
-    alarms = np.minimum(bounds + found["window"], n - 1)
-    parameters["window"] = int(found["window"])
-    return Segmentation(bounds.astype(np.int64), alarms.astype(np.int64), sides, times,
-                        found["statistic"], channels, parameters)
+        return {t: Segmentation(empty, empty.copy(), empty.copy(), times, np.full(n, np.nan),
+                                channels, parameters(t)) for t in levels}
+    out = {}
+    for t, found in glr_sweep(a[:, channels], levels, fs=fs, order=int(order),
+                              window_s=float(window_s)).items():
+        bounds = found["boundaries"]
+        alarms = np.minimum(bounds + found["window"], n - 1)
+        out[t] = Segmentation(bounds.astype(np.int64), alarms.astype(np.int64),
+                              found["sides"], times, found["statistic"], channels,
+                              {**parameters(t), "window": int(found["window"])})
+    return out
 
 
 def _segment_any(y, *, fs, method, threshold, order, change_size, warmup, combine,
@@ -515,19 +539,24 @@ def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str | None
     thresholds = [float(t) for t in thresholds]
     if not thresholds:
         raise UsageError("sweep needs at least one threshold")
-    run = segment_glr if method == "glr" else segment_signal
     window_s = kwargs.pop("window_s", None)
     if method == "glr":
         kwargs = {k: v for k, v in kwargs.items() if k == "order"}
         if window_s is not None:
             kwargs["window_s"] = window_s
+
+    def run(y, **kw):              # glr: one window statistic for every threshold
+        if method == "glr":
+            return segment_glr_sweep(y, thresholds, **kw, **kwargs)
+        return {t: segment_signal(y, threshold=t, **kw, **kwargs) for t in thresholds}
+
     if isinstance(y_or_trial, np.ndarray) or np.ndim(y_or_trial) > 0:
         if fs is None:
             raise UsageError("sweep over an array needs fs")
-        return {t: run(y_or_trial, fs=fs, threshold=t, **kwargs) for t in thresholds}
+        return run(y_or_trial, fs=fs)
     signal = resolve_signal(y_or_trial, signal)
     y, times, fs_out = conditioned_signal(y_or_trial, signal)
-    out = {t: run(y, fs=fs_out, times=times, threshold=t, **kwargs) for t in thresholds}
+    out = run(y, fs=fs_out, times=times)
     for seg in out.values():
         seg.parameters["signal"] = signal
     return out

@@ -16,6 +16,15 @@ trials fail, the other trials' results are written and the run ends with one
 DataError line naming the archive and the first failed trial, its reason, and
 how many others failed.
 
+Bad input.  Before a trial runs, the schema's value checks of its
+measurements (:func:`contactlab.archive.validate.measurement_problems`: finite
+values, an increasing time base at the trial's rate, ...) run on the arrays
+the trial caches, which the stage then reads without decompressing them
+again; the commands check everything else up front
+(``check_archive(values=False)``).  A trial that fails them stops the whole
+run before anything is written, with the error ``contactlab validate``
+would give (file, field and what is wrong).
+
 Parallel work: ``workers=1`` (the default) runs in this process -- a stage
 over a few trials is faster without starting processes that each load the
 numba kernels again; ``workers=N`` runs trials in a local pool of N
@@ -28,6 +37,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Sequence
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -59,6 +69,8 @@ class TrialFailure:
     trial: str
     message: str
     field: str = ""
+    #: the trial's measurements failed the archive's value checks (Problems)
+    problems: list = dataclasses.field(default_factory=list)
 
 
 class Stage:
@@ -105,16 +117,19 @@ def check_workers(workers: int, scheduler: str | None) -> None:
 
 def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
               trials: Sequence[str] | None = None, workers: int = 1,
-              scheduler: str | None = None, quiet: bool = True) -> dict[Path, dict]:
+              scheduler: str | None = None, quiet: bool = True,
+              check_values: bool = True) -> dict[Path, dict]:
     """Run ``stage`` over the archives ``paths``; return ``{path: summary}``.
 
     ``trials``: ids to run in every archive (default all). Results of each
     archive are written in one atomic step once all its trials have run; a
     failed trial is left out of the write and reported in the DataError
-    raised at the end.
+    raised at the end.  ``check_values``: check each trial's measurement
+    values first (see the module notes; False when the caller did).
     """
     from contactlab.archive import open_archive
     from contactlab.archive.results import check_archive_writable, write_stage
+    from contactlab.archive.validate import raise_problems
 
     check_workers(workers, scheduler)
     paths = list(dict.fromkeys(Path(p) for p in paths))
@@ -127,7 +142,11 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
         with open_archive(path) as archive:
             ids = stage.select(archive, trials)
         tasks += [(path, tuple(ids))] if stage.per_archive else [(path, tid) for tid in ids]
-    done = _map(stage, tasks, workers=workers, scheduler=scheduler, quiet=quiet)
+    done = _map(stage, tasks, workers=workers, scheduler=scheduler, quiet=quiet,
+                check_values=check_values)
+    for path in paths:                        # bad input: nothing is written
+        raise_problems(path, [p for task, got in done.items() if task[0] == path and
+                              isinstance(got, TrialFailure) for p in got.problems])
     failures: list[TrialFailure] = []
     summaries: dict[Path, dict] = {}
     written = 0
@@ -168,11 +187,22 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
     return summaries
 
 
-def _run_one(stage: Stage, path: Path, tid, archive) -> TrialOutcome | TrialFailure:
+def _run_one(stage: Stage, path: Path, tid, archive,
+             check_values: bool = True) -> TrialOutcome | TrialFailure:
     """Run one trial (``tid`` a tuple of ids: a per-archive stage's trials) of the open
     ``archive`` at ``path``; errors come back as values."""
     try:
-        return _run_one_open(stage, archive, tid)
+        if isinstance(tid, tuple):
+            problems = _value_problems([archive.trial(t) for t in tid], check_values)
+            if problems:
+                return TrialFailure(str(path), "*", problems[0].message, problems[0].path,
+                                    problems)
+            return stage.run_archive(archive, list(tid))
+        trial = archive.trial(tid)
+        problems = _value_problems([trial], check_values)
+        if problems:
+            return TrialFailure(str(path), tid, problems[0].message, problems[0].path, problems)
+        return stage.run_trial(trial)         # the arrays checked are cached on ``trial``
     except DataError as err:
         if isinstance(tid, tuple):
             return TrialFailure(str(path), "*", err.message, err.field or "")
@@ -188,14 +218,16 @@ def _run_one(stage: Stage, path: Path, tid, archive) -> TrialOutcome | TrialFail
                             f"failed: {type(err).__name__}: {err}")
 
 
-def _run_one_open(stage: Stage, archive, tid) -> TrialOutcome:
-    if isinstance(tid, tuple):
-        return stage.run_archive(archive, list(tid))
-    return stage.run_trial(archive.trial(tid))
+def _value_problems(trials: list, check_values: bool) -> list:
+    if not check_values:
+        return []
+    from contactlab.archive.validate import measurement_problems
+
+    return [p for trial in trials for p in measurement_problems(trial)]
 
 
 def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
-         scheduler: str | None, quiet: bool) -> dict:
+         scheduler: str | None, quiet: bool, check_values: bool = True) -> dict:
     """Run every task; ``{(path, tid): outcome or TrialFailure}``.
 
     In parallel, tasks go out in chunks of consecutive trials of one archive
@@ -210,8 +242,9 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
             mine = [task for task in tasks if task[0] == path]
             chunks += [mine[i:i + n] for i in range(0, len(mine), n)]
     if len(chunks) == 1:
-        return dict(zip(tasks, _run_chunk(stage, tasks, quiet=quiet)))
-    got = parallel_map(_run_chunk, [(stage, chunk) for chunk in chunks], workers=workers,
+        return dict(zip(tasks, _run_chunk(stage, tasks, check_values, quiet=quiet)))
+    got = parallel_map(_run_chunk, [(stage, chunk, check_values) for chunk in chunks],
+                       workers=workers,
                        scheduler=scheduler, quiet=quiet, desc=stage.name or "stage")
     done: dict = {}
     for chunk, outcomes in zip(chunks, got):
@@ -223,7 +256,8 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
     return done
 
 
-def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], *, quiet: bool = True) -> list:
+def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], check_values: bool = True, *,
+               quiet: bool = True) -> list:
     """Run ``tasks`` in order, each archive opened once; outcomes or TrialFailures."""
     from contactlab.archive import open_archive
     from contactlab.progress import bar
@@ -235,7 +269,7 @@ def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], *, quiet: bool = Tru
             with open_archive(path) as archive:
                 for p, t in tasks:
                     if p == path:
-                        done[(p, t)] = _run_one(stage, p, t, archive)
+                        done[(p, t)] = _run_one(stage, p, t, archive, check_values)
                         progress.update(1)
     finally:
         progress.close()

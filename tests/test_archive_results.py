@@ -19,7 +19,8 @@ def _snapshot(path, prefix):
     compressed bytes of every stored chunk."""
     out = {}
     with h5py.File(path, "r") as f:
-        out["/"] = {k: str(v) for k, v in f.attrs.items()}
+        out["/"] = {k: str(v) for k, v in f.attrs.items()
+                    if k != results_module.COMPACTED_ATTR}   # the writer's bookkeeping
 
         def visit(name, obj):
             attrs = {k: repr(to_plain(v)) for k, v in obj.attrs.items()}

@@ -36,7 +36,7 @@ def contact_block(m, *, n=100, seed=0, amp=2e-3, press=1.0, force_var=0.2, mu=0.
 def test_constraint_form_recovers_random_frames(m):
     for seed in range(4):
         x, w, _, N = contact_block(m, seed=seed)
-        fit = CartesianConstraint().fit(x, w)
+        fit = CartesianConstraint().estimate(x, w)
         assert fit.status_ == "ok" and fit.degree_ == m
         assert fit.normals_.shape == (3, m) and fit.free_.shape == (3, 3 - m)
         assert angular_error_deg(fit.normals_, N) < 0.5
@@ -49,7 +49,7 @@ def test_constraint_form_recovers_random_frames(m):
 def test_logdet_newton_matches_powell_and_a_grid(m):
     x, w, _, _ = contact_block(m, n=40, seed=11, amp=2e-4, force_var=0.02)
     est = CartesianConstraint(degree=m)
-    fit = est.fit(x, w)
+    fit = est.estimate(x, w)
     I = fit.information_[None]
     R_new = np.concatenate([fit.scaling.normals_to_scaled(fit.normals_),
                             fit.scaling.free_to_scaled(fit.free_)], axis=1)
@@ -73,7 +73,7 @@ def test_trace_criterion_newton_equals_closed_form(m):
     rng = np.random.default_rng(3)
     for seed in range(3):
         x, w, _, _ = contact_block(m, seed=seed)
-        fit = CartesianConstraint(degree=m, criterion="trace", solver="newton").fit(x, w)
+        fit = CartesianConstraint(degree=m, criterion="trace", solver="newton").estimate(x, w)
         I = fit.information_
         k = 3
         D = I[:k, :k] - I[k:, k:]
@@ -89,7 +89,7 @@ def test_trace_criterion_newton_equals_closed_form(m):
 
 def test_loglik_is_8_15_at_the_ml_covariance():
     x, w, _, _ = contact_block(1, n=60, seed=5)
-    fit = CartesianConstraint(degree=1, noise_floor=0.0).fit(x, w)
+    fit = CartesianConstraint(degree=1, noise_floor=0.0).estimate(x, w)
     nu = fit.residuals_
     V = nu.T @ nu / len(nu)                                # 8.17 from the residuals
     np.testing.assert_allclose(V, fit.V_, rtol=1e-9, atol=1e-9)
@@ -100,7 +100,7 @@ def test_loglik_is_8_15_at_the_ml_covariance():
 
 def test_stiffness_form_is_the_eigh_subspace():
     x, w, _, N = contact_block(1, n=80, seed=2)
-    fit = CartesianStiffness(noise_floor=0.0).fit(x, w)
+    fit = CartesianStiffness(noise_floor=0.0).estimate(x, w)
     y = np.hstack([x / POSITION_SD, w / FORCE_SD])
     C = np.cov(y.T, bias=True)                             # 8.19 with the mean removed
     lam, vec = np.linalg.eigh(C)
@@ -113,7 +113,7 @@ def test_stiffness_form_is_the_eigh_subspace():
 def test_anisotropic_accuracies_keep_reciprocity():
     x, w, _, N = contact_block(2, seed=4)
     est = CartesianConstraint(position_sd=[5e-6, 9e-6, 2e-5], force_sd=[0.01, 0.02, 0.005])
-    fit = est.fit(x, w)
+    fit = est.estimate(x, w)
     assert fit.degree_ == 2
     np.testing.assert_allclose(fit.normals_.T @ fit.free_, 0.0, atol=1e-10)
     assert angular_error_deg(fit.normals_, N) < 1.0
@@ -121,9 +121,9 @@ def test_anisotropic_accuracies_keep_reciprocity():
 
 def test_friction_filter_rescues_the_stiffness_form():
     x, w, v, N = contact_block(1, n=200, seed=6, mu=0.6, force_var=0.05)
-    raw = CartesianStiffness(degree=1).fit(x, w)
-    filt = CartesianStiffness(degree=1, friction=True).fit(x, w, velocity=v)
-    cons = CartesianConstraint(friction=True).fit(x, w, velocity=v)
+    raw = CartesianStiffness(degree=1).estimate(x, w)
+    filt = CartesianStiffness(degree=1, friction=True).estimate(x, w, velocity=v)
+    cons = CartesianConstraint(friction=True).estimate(x, w, velocity=v)
     assert angular_error_deg(filt.normals_, N) < angular_error_deg(raw.normals_, N)
     assert cons.degree_ == 1 and angular_error_deg(cons.normals_, N) < 1.0
 
@@ -131,21 +131,21 @@ def test_friction_filter_rescues_the_stiffness_form():
 def test_velocity_variant():
     x, w, v, N = contact_block(1, n=100, seed=8)
     v = v + np.random.default_rng(0).normal(size=v.shape) * 1e-3
-    fit = CartesianConstraint(motion="velocity").fit(x, w, velocity=v)
+    fit = CartesianConstraint(motion="velocity").estimate(x, w, velocity=v)
     assert fit.degree_ == 1 and angular_error_deg(fit.normals_, N) < 1.0
     with pytest.raises(UsageError):
-        CartesianConstraint(motion="velocity").fit(x, w)
+        CartesianConstraint(motion="velocity").estimate(x, w)
 
 
-def test_fit_blocks_equals_fit():
+def test_estimate_blocks_equals_estimate():
     xs, ws = [], []
     for seed in range(6):
         x, w, _, _ = contact_block(seed % 4, n=25, seed=seed)
         xs.append(x), ws.append(w)
     est = CartesianConstraint()
-    blocks = est.fit_blocks(np.array(xs), np.array(ws))
+    blocks = est.estimate_blocks(np.array(xs), np.array(ws))
     for b in range(6):
-        one = est.fit(xs[b], ws[b])
+        one = est.estimate(xs[b], ws[b])
         np.testing.assert_allclose(blocks.log_likelihoods[b], one.log_likelihoods_, rtol=1e-9)
         assert blocks.degree[b] == (one.degree_ if one.degree_ is not None else -1)
 
@@ -156,7 +156,7 @@ def test_angle_sd_is_calibrated():
     errs, sds = [], []
     for seed in range(120):
         x, w, _, N = contact_block(1, n=50, seed=seed, amp=1e-4, force_var=0.02, frame=frame)
-        fit = CartesianConstraint(degree=1).fit(x, w)
+        fit = CartesianConstraint(degree=1).estimate(x, w)
         errs.append(math.radians(angular_error_deg(fit.normals_, N)))
         sds.append(math.sqrt(np.trace(fit.cov_)))
     ratio = math.sqrt(np.mean(np.square(errs))) / np.mean(sds)
@@ -166,28 +166,28 @@ def test_angle_sd_is_calibrated():
 def test_too_few_samples_is_an_error():
     x, w, _, _ = contact_block(1, n=6)
     with pytest.raises(DataError, match="needs at least 7"):
-        CartesianConstraint().fit(x, w)
+        CartesianConstraint().estimate(x, w)
     with pytest.raises(DataError):
-        CartesianStiffness().fit(x, w)
+        CartesianStiffness().estimate(x, w)
 
 
 def test_non_finite_is_an_error():
     x, w, _, _ = contact_block(1, n=20)
     w[3, 1] = np.nan
     with pytest.raises(DataError):
-        CartesianConstraint().fit(x, w)
+        CartesianConstraint().estimate(x, w)
 
 
 def test_identical_samples_are_undetermined():
     x = np.tile([0.01, 0.02, 0.03], (30, 1))
     w = np.tile([0.0, 0.0, 1.0], (30, 1))
-    fit = CartesianConstraint().fit(x, w)
+    fit = CartesianConstraint().estimate(x, w)
     assert fit.status_ == "undetermined" and fit.degree_ is None
     assert np.isnan(fit.normals_).all() and "exploration" in fit.reason_
-    st = CartesianStiffness().fit(x, w)
+    st = CartesianStiffness().estimate(x, w)
     assert st.status_ == "undetermined" and np.isnan(st.normals_).all()
     # a two-constraint frame is not determined by one constant force
-    fit2 = CartesianConstraint(degree=2).fit(x, w)
+    fit2 = CartesianConstraint(degree=2).estimate(x, w)
     assert fit2.status_ == "undetermined" and np.isnan(fit2.normals_).all()
 
 
@@ -196,7 +196,7 @@ def test_no_motion_no_force_is_undetermined():
     x = rng.normal(size=(50, 3)) * POSITION_SD
     w = rng.normal(size=(50, 3)) * FORCE_SD
     for degree in (None, 1, 2):
-        fit = CartesianConstraint(degree=degree).fit(x, w)
+        fit = CartesianConstraint(degree=degree).estimate(x, w)
         assert fit.status_ == "undetermined", degree
         assert np.isnan(fit.normals_).all()
 
@@ -205,7 +205,7 @@ def test_motion_along_one_line_is_undetermined_for_the_degree():
     """Moving along x with no force cannot tell whether y and z are free (9.1.1)."""
     x, w, _, _ = contact_block(0, n=60, seed=3, frame=np.eye(3))
     x[:, 1:] = np.random.default_rng(0).normal(size=(60, 2)) * POSITION_SD
-    fit = CartesianConstraint().fit(x, w)
+    fit = CartesianConstraint().estimate(x, w)
     assert fit.status_ == "undetermined" and fit.unexplored_.shape[1] == 2
 
 
@@ -214,11 +214,11 @@ def test_bad_parameters():
     for kw in ({"degree": 4}, {"criterion": "nope"}, {"solver": "eigh"}, {"motion": "x"},
                {"noise_floor": -1.0}, {"position_sd": 0.0}):
         with pytest.raises(UsageError):
-            CartesianConstraint(**kw).fit(x, w)
+            CartesianConstraint(**kw).estimate(x, w)
 
 
 def test_fit_from_running_information_equals_the_block_fit():
-    """fit_information_blocks on the running information of RecursiveConstraint after
+    """estimate_information_blocks on the running information of RecursiveConstraint after
     n samples is fit_blocks on those n samples (frames, 8.18, decision)."""
     from contactlab.constraints import CartesianConstraint, RecursiveConstraint
     from contactlab.synthetic import contact_trial
@@ -229,7 +229,7 @@ def test_fit_from_running_information_equals_the_block_fit():
     rec = RecursiveConstraint(est)
     path = rec.update(pos, frc, return_path=True)
     ends = np.array([30, 60, 99])
-    got = est.fit_information_blocks(path[ends - 1], ends, scaling=rec.scaling)
+    got = est.estimate_information_blocks(path[ends - 1], ends, scaling=rec.scaling)
     for i, n in enumerate(ends):
         want = est.fit_blocks(pos[:n], frc[:n])
         np.testing.assert_allclose(got.log_likelihoods[i], want.log_likelihoods[0], rtol=1e-9)

@@ -103,7 +103,7 @@ def test_likelihood_degree_test_on_rich_blocks():
         for seed in range(12):
             x, w, _, _ = contact_block(m, n=25, seed=100 * m + seed)
             true.append(m)
-            chosen.append(CartesianConstraint().fit(x, w).degree_)
+            chosen.append(CartesianConstraint().estimate(x, w).degree_)
     assert np.mean(np.array(true) == np.array(chosen)) >= 0.95
 
 
@@ -112,12 +112,12 @@ def test_alignment_degree_test_and_its_overconfidence_on_noise():
     for m in range(4):
         for seed in range(30):
             x, w, _, _ = contact_block(m, n=25, seed=1000 + 50 * m + seed)
-            stats.append(alignment_statistic(CartesianStiffness().fit(x, w).P_))
+            stats.append(alignment_statistic(CartesianStiffness().estimate(x, w).P_))
             classes.append(m)
     test = AlignmentDegreeTest().fit(np.array(stats), np.array(classes))
     assert np.mean(test.predict(np.array(stats)) == np.array(classes)) > 0.95
     rng = np.random.default_rng(5)
-    noise = np.array([alignment_statistic(CartesianStiffness(max_tilt_sd_deg=1e9).fit(
+    noise = np.array([alignment_statistic(CartesianStiffness(max_tilt_sd_deg=1e9).estimate(
         rng.normal(size=(25, 3)) * POSITION_SD, rng.normal(size=(25, 3)) * 0.01).P_)
         for _ in range(60)])
     ll = test.log_likelihoods(noise)
@@ -144,7 +144,7 @@ def test_direction_decision_picks_the_true_frame():
     for seed in range(20):
         x, w, _, _ = contact_block(1, n=25, seed=seed, frame=frame)
         xs.append(x), ws.append(w)
-    fits = CartesianConstraint().fit_blocks(np.array(xs), np.array(ws))
+    fits = CartesianConstraint().estimate_blocks(np.array(xs), np.array(ws))
     hyps = [np.array([[0.0], [0.0], [1.0]]), rot_x(20) @ np.array([[0.0], [0.0], [1.0]])]
     choice, scores = decide_direction(fits, hyps)
     assert (choice == 0).all() and scores.shape == (20, 2)
@@ -173,11 +173,11 @@ def test_recursive_information_equals_batch():
     rec = RecursiveConstraint()
     path1 = rec.update(x[:30], w[:30], return_path=True)
     path2 = rec.update(x[30:], w[30:], return_path=True)
-    batch = CartesianConstraint().fit(x, w)
+    batch = CartesianConstraint().estimate(x, w)
     np.testing.assert_allclose(rec.information_, batch.information_, rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(path2[-1], batch.information_, rtol=1e-9, atol=1e-6)
-    first = CartesianConstraint().fit(x[:30], w[:30])
+    first = CartesianConstraint().estimate(x[:30], w[:30])
     np.testing.assert_allclose(path1[-1], first.information_, rtol=1e-9, atol=1e-6)
-    fit = rec.fit()
+    fit = rec.estimate()
     assert fit.degree_ == 1 and angular_error_deg(fit.normals_, batch.normals_) < 1e-6
     assert fit.loglik_ == pytest.approx(batch.loglik_, rel=1e-9)

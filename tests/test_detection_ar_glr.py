@@ -117,3 +117,105 @@ def test_defaults_and_bad_parameters():
     # a constant channel does not break the fit (flat windows are solvable)
     y[:, 1] = 2.0
     assert np.isfinite(glr_segment(y[:, :], fs=250.0)["statistic"][50:250]).all()
+
+
+# -- memory: kept prefix sums and blocks give the numbers of all prefix sums ------------
+
+class _AllPrefixes:
+    """Every prefix sum held at once, (rows + 1, C, p + 2, p + 2), summed by numpy's
+    sequential cumsum; segments solved by the same elimination kernel: the layout
+    ARPrefix kept before it held only every 16th sum and swept the rows in blocks."""
+
+    def __init__(self, y, *, order=2):
+        from contactlab.detection import ar_glr
+
+        a = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
+        a = a - a.mean(axis=0)
+        p = order
+        z = np.stack([a[p - 1 - i:len(a) - 1 - i] for i in range(p)]
+                     + [np.ones((len(a) - p, a.shape[1])), a[p:]], axis=-1)
+        outer = z[..., :, None] * z[..., None, :]
+        self.prefix = np.concatenate([np.zeros((1,) + outer.shape[1:]),
+                                      np.cumsum(outer, axis=0)])
+        self.order, self.rows, self.channels = p, len(a) - p, a.shape[1]
+        self.dof = self.channels * (p + 2)
+        self._kernel = ar_glr._rss_kernel
+
+    def rss(self, start, end):
+        start, end = np.broadcast_arrays(np.asarray(start, np.int64), np.asarray(end, np.int64))
+        out = np.empty(start.shape + (self.channels,))
+        self._kernel(self.prefix, start.reshape(-1), end.reshape(-1),
+                     out.reshape(-1, self.channels))
+        return out
+
+    def loglik(self, start, end):
+        start, end = np.broadcast_arrays(np.asarray(start), np.asarray(end))
+        m = (end - start).astype(np.float64)
+        return -0.5 * m * np.sum(np.log(self.rss(start, end) / m[..., None]), axis=-1)
+
+    def logliks(self, segments):
+        return [self.loglik(s, e) for s, e in segments]
+
+    def glr(self, start, split, end):
+        return 2.0 * (self.loglik(start, split) + self.loglik(split, end)
+                      - self.loglik(start, end))
+
+    def _rss_sets(self, segments):
+        return [self.rss(s, e) for s, e in segments]
+
+
+def _changing(n, c, seed):
+    y = _ar(n, c, seed)
+    y[n // 3:] *= 2.5
+    y[2 * n // 3:] = _ar(n - 2 * n // 3, c, seed + 1, a=(0.3, -0.4))
+    return y
+
+
+@pytest.mark.parametrize("n, c, p", [(9000, 8, 2), (700, 3, 1), (5000, 1, 3)])
+def test_kept_prefix_sums_give_every_number_of_all_prefix_sums(n, c, p, monkeypatch):
+    """Bit for bit: rss of random segments, the window statistic and the segmentation
+    (blocks of 4096 rows cross the 9000-row signal twice)."""
+    from contactlab.detection import ar_glr
+
+    y = _changing(n, c, 11)
+    rng = np.random.default_rng(3)
+    start = rng.integers(0, n - p - 40, 300)
+    end = start + rng.integers(2 * (p + 2), 40, 300)
+    full = _AllPrefixes(y, order=p)
+    for step in (1, 7, ar_glr.CHECKPOINT_ROWS):
+        assert np.array_equal(ARPrefix(y, order=p, checkpoint_rows=step).rss(start, end),
+                              full.rss(start, end))
+    kept = ARPrefix(y, order=p)
+    assert np.array_equal(glr_window_statistic(kept, 60), glr_window_statistic(full, 60),
+                          equal_nan=True)
+    block = ar_glr._BLOCK_ROWS * c * (p + 2) ** 2 * 8      # a short signal keeps its own
+    assert kept._checkpoints.nbytes <= max(full.prefix.nbytes / ar_glr.CHECKPOINT_ROWS + 1024,
+                                           block)
+    new = ar_glr.glr_sweep(y, [1.5, 3.0], fs=250.0, order=p)
+    monkeypatch.setattr(ar_glr, "ARPrefix", _AllPrefixes)
+    old = ar_glr.glr_sweep(y, [1.5, 3.0], fs=250.0, order=p)
+    for t in (1.5, 3.0):
+        for key in old[t]:
+            assert np.array_equal(np.asarray(new[t][key]), np.asarray(old[t][key]),
+                                  equal_nan=True), (t, key)
+
+
+def test_a_sweep_computes_the_statistic_once_and_equals_single_runs(monkeypatch):
+    from contactlab.detection import ar_glr
+    from contactlab.segmentation import segment_glr, sweep
+
+    y = _changing(3000, 4, 21)
+    calls = []
+    original = ar_glr.glr_window_statistic
+    monkeypatch.setattr(ar_glr, "glr_window_statistic",
+                        lambda *a, **k: calls.append(1) or original(*a, **k))
+    levels = [1.5, 2.0, 3.0, 6.0]
+    many = sweep(y, levels, fs=250.0, method="glr")
+    assert len(calls) == 1
+    for t in levels:
+        one = segment_glr(y, fs=250.0, threshold=t)
+        assert np.array_equal(many[t].boundaries, one.boundaries)
+        assert np.array_equal(many[t].statistic, one.statistic, equal_nan=True)
+        assert many[t].parameters == one.parameters
+        single = glr_segment(y, fs=250.0, threshold=t)
+        assert np.array_equal(single["score"], ar_glr.glr_sweep(y, [t], fs=250.0)[t]["score"])

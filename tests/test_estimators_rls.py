@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from contactlab.estimators import (ARModel, LinearDecayModel, SquareRootRLS, exact_sequence_loglik,
-                                   fit, fit_ar)
+from contactlab.estimators import (ARModel, LinearDecayModel, SquareRootRLS, estimate,
+                                   estimate_ar, exact_sequence_loglik)
 from contactlab.estimators.householder import tri_append
 
 
@@ -164,7 +164,7 @@ def test_ar_residuals_are_white_and_coefficients_recovered(a):
     model = ARModel(order=p)
     psi, target = model.design(y)
     res = SquareRootRLS().run(psi, target)
-    fitted = fit_ar(y, order=p)
+    fitted = estimate_ar(y, order=p)
     for b in range(2):
         innov = res.innovations[50:, b]
         assert _ljung_box_p(innov) > 1e-3
@@ -228,7 +228,7 @@ def test_streaming_update_chunks_and_reset_equal_fresh_runs():
 def test_ar_with_mean_and_linear_decay_models_against_lstsq():
     rng = np.random.default_rng(12)
     y = _simulate_ar([0.6, -0.2], 800, rng, channels=3, mean=2.0)
-    got = fit_ar(y, order=2, mean=True)
+    got = estimate_ar(y, order=2, mean=True)
     assert ARModel(order=2, mean=True).param_names == ("mu", "a1", "a2")
     for b in range(3):
         X = np.column_stack([np.ones(798), y[1:-1, b], y[:-2, b]])
@@ -242,7 +242,7 @@ def test_ar_with_mean_and_linear_decay_models_against_lstsq():
     # impact envelope: log-energy = mu + a n
     n = np.arange(60)
     logs = 1.5 - 0.04 * n[:, None] + 0.1 * rng.normal(size=(60, 2))
-    dec = fit(LinearDecayModel(), logs)
+    dec = estimate(LinearDecayModel(), logs)
     for b in range(2):
         np.testing.assert_allclose(dec.coef[b],
                                    _lstsq(np.column_stack([np.ones(60), n]), logs[:, b]), rtol=1e-9)

@@ -61,7 +61,7 @@ def test_constraint_form_recovers_true_normals_and_is_exact_for_free_and_fixed(g
 
 
 def test_true_projection_matches_joint_projection_oracle(groups):
-    fit = CartesianConstraint(degree=1).fit(groups["plane"].position[:50],
+    fit = CartesianConstraint(degree=1).estimate(groups["plane"].position[:50],
                                              groups["plane"].force[:50])
     P = ce.true_projection(groups["plane"].normals, fit.scaling)
     expect = np.zeros((6, 3))
@@ -119,7 +119,7 @@ def test_direction_cannot_tell_top_from_bottom_but_tells_20_degrees(groups):
     gd = groups["plane"]
     rng = np.random.default_rng(2)
     idx = cd.random_blocks(gd, n_blocks=40, block=25, rng=rng)
-    fits = CartesianConstraint(degree=1, friction=True).fit_blocks(
+    fits = CartesianConstraint(degree=1, friction=True).estimate_blocks(
         gd.position[idx], gd.force[idx], gd.velocity[idx])
     N = gd.normals
     _, s = decide_direction(fits, [N, -N])

@@ -172,6 +172,11 @@ class Trial:
 
     # -- metadata ---------------------------------------------------------------
     @property
+    def h5_group(self) -> h5py.Group:
+        """The trial's HDF5 group (read-only; valid while the archive is open)."""
+        return self._group
+
+    @property
     def rate_hz(self) -> float:
         if "rate_hz" not in self.attrs:
             raise self._error("missing attribute 'rate_hz'", self._group.name)

@@ -1,22 +1,34 @@
 """Analysis stages store their output under ``/trials/<id>/results/<stage>``.
 
 :func:`write_stage` writes one stage's results for many trials in one atomic
-step: under an exclusive lock it rebuilds the archive into a temporary file
-beside it -- copying every HDF5 object unchanged (HDF5's object copy moves
-the raw chunks) except the stage groups it replaces -- and renames that over
-the original. :func:`write_results` is the one-trial form of the same call.
+step: under an exclusive lock it copies the archive byte for byte into a
+temporary file beside it (the measurements are never decoded or re-encoded),
+replaces the stage groups in the copy, and renames it over the original.
+:func:`write_results` is the one-trial form of the same call.
 
-Why a rebuild per call rather than in-place writes: HDF5 updates in place are
+Why a copy per call rather than in-place writes: HDF5 updates in place are
 not crash-safe (a killed writer can leave a file whose superblock and object
-headers disagree), and deleting a group in place leaves dead space that is
-only reclaimed by a rewrite. A rebuild once per stage run costs one pass over
-the archive -- the same order as the stage reading the trials it analyses --
-so a stage's cost stays linear in the archive, and the archive stays one file.
+headers disagree).  The copy costs one sequential pass over the file (the
+kernel's ``copy_file_range``), so a stage's cost stays linear in the archive,
+and the archive stays one file.
+
+Dead space.  Replacing a group frees its space inside the file; HDF5 reuses
+it for the new results of the same write (a rerun of a stage lands in the
+space of the results it replaces) but forgets what is left when the file is
+closed.  So once the file has grown by a quarter past its size at the last
+rewrite (root attribute ``compacted_bytes``), the write rebuilds the archive
+instead -- an HDF5 object copy of everything but the replaced groups, which
+moves raw chunks and leaves no dead space -- and the cost of rebuilds stays
+in proportion to the growth.
+
+Small results datasets (below :data:`CONTIGUOUS_BYTES`) are stored
+contiguous and uncompressed; larger ones chunked and compressed like the
+measurements.
 
 Guarantees:
 
 - a crash or kill at any moment leaves the old results or the new, never a
-  broken file; measurements are copied chunk for chunk (bit-identical);
+  broken file; measurements are copied byte for byte;
 - concurrent writers of one archive serialise on an ``flock`` of the
   archive's directory and each re-reads the latest file under it, so two
   stages run at once both land (the second waits for the first's rename);
@@ -33,6 +45,7 @@ import contextlib
 import fcntl
 import json
 import os
+import shutil
 import stat
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -44,12 +57,19 @@ import numpy as np
 from contactlab import __version__
 from contactlab.archive import spec
 from contactlab.archive.reader import open_archive
-from contactlab.archive.writer import check_name, create_dataset, utc_now
+from contactlab.archive import writer
+from contactlab.archive.writer import check_name, utc_now
 from contactlab.errors import DataError, UsageError
 from contactlab.fileio import atomic_path, check_writable, read_only_reason
 
 #: Attributes write_stage sets itself on every stage group.
 RESERVED_ATTRS = ("created", "software_version", "parameters")
+#: Results datasets smaller than this are stored contiguous and uncompressed.
+CONTIGUOUS_BYTES = 1 << 20
+#: Root attribute: the file's size in bytes when a results write last rebuilt it.
+COMPACTED_ATTR = "compacted_bytes"
+#: A results write rebuilds the archive once it is this much larger than then.
+REBUILD_GROWTH = 1.25
 
 
 @dataclass
@@ -96,11 +116,27 @@ def write_stage(path: str | os.PathLike, stage: str,
             raise DataError("no such trial", file=str(name), field=f"/trials/{missing}")
         mode = stat.S_IMODE(os.stat(path).st_mode)
         with atomic_path(path, force=True) as tmp:
-            with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
-                copy_tree(src, dst, skip=targets)
-                for tid, (arrays, attrs, params_json) in prepared.items():
-                    results_group = dst.require_group(f"/trials/{tid}/{spec.RESULTS}")
-                    _write_group(results_group.create_group(stage), arrays, attrs, params_json)
+            with h5py.File(path, "r") as src:
+                compacted = spec.to_plain(src.attrs.get(COMPACTED_ATTR))
+            size = os.path.getsize(path)
+            rebuild = isinstance(compacted, int) and size > REBUILD_GROWTH * compacted
+            if rebuild:
+                with h5py.File(path, "r") as src, h5py.File(tmp, "w") as dst:
+                    copy_tree(src, dst, skip=targets)
+                    _write_stage_groups(dst, stage, prepared)
+            else:
+                shutil.copyfile(path, tmp)       # raw bytes: measurements never decoded
+                with h5py.File(tmp, "r+") as dst:
+                    for tid in prepared:     # freed space is reused by the new results
+                        old = f"/trials/{tid}/{spec.RESULTS}/{stage}"
+                        if old in dst:
+                            del dst[old]
+                    _write_stage_groups(dst, stage, prepared)
+                    if not isinstance(compacted, int):
+                        dst.attrs[COMPACTED_ATTR] = size
+            if rebuild:
+                with h5py.File(tmp, "r+") as dst:
+                    dst.attrs[COMPACTED_ATTR] = os.path.getsize(tmp)
             os.chmod(tmp, mode)
             with open(tmp, "rb") as f:
                 os.fsync(f.fileno())
@@ -173,16 +209,29 @@ def _prepare(result: TrialResults):
     return arrays, {k: _attr_value(k, v) for k, v in attrs.items()}, params_json
 
 
+def _write_stage_groups(dst: h5py.File, stage: str, prepared: dict) -> None:
+    for tid, (arrays, attrs, params_json) in prepared.items():
+        results_group = dst.require_group(f"/trials/{tid}/{spec.RESULTS}")
+        _write_group(results_group.create_group(stage), arrays, attrs, params_json)
+
+
 def _write_group(group: h5py.Group, arrays: dict, attrs: dict, params_json: str) -> None:
     for name, arr in arrays.items():
         parent, _, leaf = name.rpartition("/")
-        create_dataset(group.require_group(parent) if parent else group, leaf, arr,
-                       chunk_rows=None)
+        create_dataset(group.require_group(parent) if parent else group, leaf, arr)
     for key, value in attrs.items():
         group.attrs[key] = value
     group.attrs["created"] = utc_now()
     group.attrs["software_version"] = __version__
     group.attrs["parameters"] = params_json
+
+
+def create_dataset(group: h5py.Group, name: str, arr: np.ndarray) -> h5py.Dataset:
+    """One results dataset: contiguous and uncompressed below :data:`CONTIGUOUS_BYTES`,
+    else chunked and compressed like the measurements."""
+    if arr.nbytes < CONTIGUOUS_BYTES:
+        return group.create_dataset(name, data=arr)
+    return writer.create_dataset(group, name, arr, chunk_rows=None)
 
 
 def _as_array(name: str, value) -> np.ndarray:

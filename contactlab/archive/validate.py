@@ -4,6 +4,13 @@
 :class:`Problem` (empty when the file conforms). The walk is driven by the
 schema (see ``datasets_spec/ARCHIVE.md``); the value checks the schema names
 (``finite``, ``matches_rate``, ...) are the functions in :data:`CHECKS`.
+
+Measurements are the bulk of an archive.  ``values=False`` checks their
+layout only (dtypes, shapes, attributes, declared against stored sizes): the
+analysis stages check their values with :func:`measurement_problems` on the
+arrays they read anyway (:func:`contactlab.stages.run_stage`), so a stage
+decompresses every measurement once, and bad values are reported in the same
+words, naming the same file and field.
 """
 
 from __future__ import annotations
@@ -44,11 +51,13 @@ class Problem:
         return f"{self.path}: {self.message}"
 
 
-def validate_archive(path: str | os.PathLike, *, trials=None) -> list[Problem]:
+def validate_archive(path: str | os.PathLike, *, trials=None,
+                     values: bool = True) -> list[Problem]:
     """Every way the file at ``path`` departs from the archive format ([] = conforms).
 
     ``trials`` (ids) limits the walk under ``/trials`` to those trials; an id
-    the archive does not hold is a problem.
+    the archive does not hold is a problem.  ``values=False`` leaves out the
+    value checks of the trials' measurements (see the module notes).
     """
     name = str(path)
     path = Path(path)
@@ -69,7 +78,7 @@ def validate_archive(path: str | os.PathLike, *, trials=None) -> list[Problem]:
             return [Problem(name, h5_reason(err))]
         if problem:
             return [Problem(name, problem)]
-        walker = _Walker(trials=trials)
+        walker = _Walker(trials=trials, values=values)
         try:
             walker.group(h5, spec.schema()["root"], scope=None)
         except _READ_ERRORS as err:  # a corrupt header the walk could not step past
@@ -77,15 +86,19 @@ def validate_archive(path: str | os.PathLike, *, trials=None) -> list[Problem]:
         return walker.problems
 
 
-def check_archive(path: str | os.PathLike, *, trials=None) -> None:
+def check_archive(path: str | os.PathLike, *, trials=None, values: bool = True) -> None:
     """The up-front check every command runs on an archive it reads.
 
     Raises a :class:`DataError` naming the file, the first offending HDF5 path
     and what is wrong (the same words as ``contactlab validate``), with the
     number of further problems; returns None when the archive (or the trials
-    ``trials`` of it) conforms.
+    ``trials`` of it) conforms.  ``values`` as for :func:`validate_archive`.
     """
-    problems = validate_archive(path, trials=trials or None)
+    raise_problems(path, validate_archive(path, trials=trials or None, values=values))
+
+
+def raise_problems(path: str | os.PathLike, problems: list[Problem]) -> None:
+    """The DataError of :func:`check_archive` for ``problems`` (none: return)."""
     if not problems:
         return
     first = problems[0]
@@ -124,12 +137,17 @@ class _Scope:
     group: h5py.Group
     time_path: str
     n: int | None = None
+    #: the time base's values are checked later (``values=False``): do not use them
+    deferred: bool = False
 
-    def time(self) -> np.ndarray | None:
+    def time_span(self) -> tuple[float, float] | None:
+        """First and last sample time (reads two values, not the time base)."""
+        if self.deferred:
+            return None
         ds = self.group.get(self.time_path)
         if isinstance(ds, h5py.Dataset) and ds.ndim == 1 and ds.dtype.kind == "f" and \
-                dataset_size_problem(ds, _file_size(ds)) is None:
-            return ds[()]
+                len(ds) and dataset_size_problem(ds, _file_size(ds)) is None:
+            return float(ds[0]), float(ds[-1])
         return None
 
     def rate_hz(self) -> float | None:
@@ -217,17 +235,9 @@ def _check_segments(ds, data, scope) -> list[str]:
         i = _first(backwards)
         out.append(f"{int(backwards.sum())} segments end before they start (first: row {i}, "
                    f"start_s {start[i]:.9g}, end_s {end[i]:.9g})")
-    time = scope.time() if scope else None
-    if time is not None and len(time):
-        rate = scope.rate_hz()
-        period = 1.0 / rate if rate else 0.0
-        lo, hi = time[0] - 1e-9, time[-1] + period * (1 + 1e-6) + 1e-9
-        outside = (start < lo) | (end > hi) | (start > hi) | (end < lo)
-        if outside.any():
-            i = _first(outside)
-            out.append(f"{int(outside.sum())} segments outside the time base "
-                       f"[{time[0]:g}, {time[-1] + period:g}] s (first: row {i}, "
-                       f"{start[i]:g}-{end[i]:g} s)")
+    span = scope.time_span() if scope else None
+    if span is not None:
+        out += _segments_outside(start, end, span, scope.rate_hz())
     names = _names(ds)
     if names is not None:
         unknown = (label < -1) | (label >= len(names))
@@ -236,6 +246,18 @@ def _check_segments(ds, data, scope) -> list[str]:
             out.append(f"{int(unknown.sum())} segments with an unknown label code (first: row "
                        f"{i}, code {int(label[i])}; names has {len(names)} entries)")
     return out
+
+
+def _segments_outside(start, end, span: tuple[float, float], rate: float | None) -> list[str]:
+    first, last = span
+    period = 1.0 / rate if rate else 0.0
+    lo, hi = first - 1e-9, last + period * (1 + 1e-6) + 1e-9
+    outside = (start < lo) | (end > hi) | (start > hi) | (end < lo)
+    if not outside.any():
+        return []
+    i = _first(outside)
+    return [f"{int(outside.sum())} segments outside the time base "
+            f"[{first:g}, {last + period:g}] s (first: row {i}, {start[i]:g}-{end[i]:g} s)"]
 
 
 #: check name (as used in the schema) -> function(dataset, data, scope) -> messages.
@@ -269,14 +291,55 @@ ATTRIBUTE_CHECKS: dict[str, Callable] = {"json": _check_json_attr,
                                          "finite": _check_finite_attr}
 
 
+def measurement_problems(trial) -> list[Problem]:
+    """The value checks of the schema on the measurements of an open archive trial
+    (:class:`contactlab.archive.reader.Trial`), run on the arrays the trial reads
+    and caches: a stage that checks them first reads each dataset once."""
+    nodes = _trial_node()["members"][spec.MEASUREMENTS]["members"]
+    group = trial.h5_group
+    scope = _Scope(group, _trial_node()["symbols"]["n"])
+    out = []
+    for name, node in nodes.items():
+        ds = group.get(f"{spec.MEASUREMENTS}/{name}")
+        if not node.get("checks") or not isinstance(ds, h5py.Dataset):
+            continue
+        data = getattr(trial, name)         # Trial reads and caches each measurement
+        for check in node["checks"]:
+            out += [Problem(ds.name, m) for m in CHECKS[check](ds, data, scope)]
+    segments = group.get(f"{spec.GROUND_TRUTH}/segments")
+    if not out and isinstance(segments, h5py.Dataset) and len(trial.time):
+        # the part of the segments check that needs the time base's values
+        table = segments[()]
+        out += [Problem(segments.name, m) for m in _segments_outside(
+            table["start_s"], table["end_s"], (float(trial.time[0]), float(trial.time[-1])),
+            scope.rate_hz())]
+    return out
+
+
+def _trial_node() -> dict:
+    return spec.schema()["root"]["members"]["trials"]["each"]
+
+
 # -- the schema walk ------------------------------------------------------------------
+
+_VALIDATORS: dict[int, tuple[dict, jsonschema.Draft202012Validator]] = {}
+
+
+def _validator(aspec: dict) -> jsonschema.Draft202012Validator:
+    """The JSON Schema validator of one attribute's spec (made once per spec)."""
+    got = _VALIDATORS.get(id(aspec))
+    if got is None or got[0] is not aspec:
+        got = _VALIDATORS[id(aspec)] = (aspec, jsonschema.Draft202012Validator(aspec["schema"]))
+    return got[1]
+
 
 class _Walker:
     """Walks an HDF5 tree beside the schema, collecting problems."""
 
-    def __init__(self, trials=None):
+    def __init__(self, trials=None, values: bool = True):
         self.problems: list[Problem] = []
         self.trials = None if trials is None else list(trials)
+        self.values = values
 
     def report(self, path: str, message: str) -> None:
         self.problems.append(Problem(path, message))
@@ -334,7 +397,7 @@ class _Walker:
 
     def _bind(self, group: h5py.Group, symbols: dict) -> _Scope:
         time_path = symbols["n"]
-        scope = _Scope(group, time_path)
+        scope = _Scope(group, time_path, deferred=not self.values)
         try:
             ds = group.get(time_path)
         except (OSError, RuntimeError, KeyError, ValueError, TypeError):
@@ -354,7 +417,8 @@ class _Walker:
             if too_big:
                 self.report(path, too_big)
                 ok = False
-        if ok and node.get("checks"):
+        if ok and node.get("checks") and (
+                self.values or ds.parent.name.rsplit("/", 1)[-1] != spec.MEASUREMENTS):
             data = ds[()]
             for check in node["checks"]:
                 for message in CHECKS[check](ds, data, scope):
@@ -426,8 +490,9 @@ class _Walker:
         raw = obj.attrs[name]
         value = spec.to_plain(raw)
         if "schema" in aspec:
-            err = jsonschema.exceptions.best_match(
-                jsonschema.Draft202012Validator(aspec["schema"]).iter_errors(value))
+            validator = _validator(aspec)
+            err = None if validator.is_valid(value) else \
+                jsonschema.exceptions.best_match(validator.iter_errors(value))
             if err is not None:
                 message = (f"{err.instance!r}, expected {err.validator_value!r}"
                            if err.validator == "const" else err.message)

@@ -17,7 +17,7 @@ diagnostic and the recursive form.
 Example::
 
     from contactlab.constraints import CartesianConstraint
-    fit = CartesianConstraint(friction=True).fit(position, force)   # (n, 3) SI
+    fit = CartesianConstraint(friction=True).estimate(position, force)   # (n, 3) SI
     fit.degree_, fit.normals_, fit.angle_sd_deg_, fit.log_likelihoods_
 """
 

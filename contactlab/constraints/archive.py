@@ -247,7 +247,7 @@ def _estimate_trial(trial, est, segments, block, *, sequential=True):
             row.update(status="too short", degree=None, normals=[], log_likelihoods=None)
             rows.append(row)
             continue
-        fit = est.fit(position[used], force[used], None if velocity is None else velocity[used])
+        fit = est.estimate(position[used], force[used], None if velocity is None else velocity[used])
         row.update(status=fit.status_, reason=fit.reason_, degree=fit.degree_,
                    normals=fit.normals_.T.tolist(),
                    log_likelihoods=fit.log_likelihoods_.tolist(),

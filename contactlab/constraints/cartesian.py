@@ -55,6 +55,7 @@ from contactlab.constraints import frames as F
 from contactlab.constraints.exploration import DEFAULT_THRESHOLD, exploration
 from contactlab.constraints.friction import friction_filter
 from contactlab.constraints.scaling import Scaling, canonical_signs, reciprocal_scaling
+from contactlab.deprecation import renamed_method
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["POSITION_SD", "FORCE_SD", "VELOCITY_SD", "CartesianConstraint",
@@ -305,7 +306,7 @@ class StiffnessFit:
 
 @dataclass(frozen=True, eq=False)
 class BlockFits:
-    """Constraint-form fits of many blocks at once (:meth:`CartesianConstraint.fit_blocks`).
+    """Constraint-form fits of many blocks at once (:meth:`CartesianConstraint.estimate_blocks`).
 
     Attributes
     ----------
@@ -383,7 +384,7 @@ class CartesianConstraint:
 
     Example
     -------
-    >>> fit = CartesianConstraint().fit(position, force)   # (n, 3) each, SI units
+    >>> fit = CartesianConstraint().estimate(position, force)   # (n, 3) each, SI units
     >>> fit.degree_, fit.normals_, fit.angle_sd_deg_, fit.loglik_
     """
 
@@ -462,7 +463,7 @@ class CartesianConstraint:
                 iters = iters + it
         return best_R, iters
 
-    def _fit_information(self, I: np.ndarray, n: int, degrees: list[int]):
+    def _estimate_information(self, I: np.ndarray, n: int, degrees: list[int]):
         B, k = I.shape[0], I.shape[-1] // 2
         frames = np.full((B, k + 1, k, k), np.nan)
         ll = np.full((B, k + 1), np.nan)
@@ -476,16 +477,20 @@ class CartesianConstraint:
             iters += it
         return frames, ll, iters
 
-    def fit_blocks(self, position, force, velocity=None) -> BlockFits:
+    fit = renamed_method("fit", "estimate")
+    fit_blocks = renamed_method("fit_blocks", "estimate_blocks")
+    fit_information = renamed_method("fit_information", "estimate_information")
+
+    def estimate_blocks(self, position, force, velocity=None) -> BlockFits:
         """Fit every block of (B, n, k) arrays at once (no uncertainty, no residuals).
 
         The fast path for many short blocks (the 8.2 degree test, benchmarks).
         """
         y, scaling = _prepare(self, position, force, velocity)
-        return self.fit_information_blocks(_information(y), y.shape[1], scaling=scaling)
+        return self.estimate_information_blocks(_information(y), y.shape[1], scaling=scaling)
 
-    def fit_information_blocks(self, information, n, *, scaling: Scaling) -> BlockFits:
-        """:meth:`fit_blocks` from joint information matrices (B, 2k, 2k) of ``n`` samples
+    def estimate_information_blocks(self, information, n, *, scaling: Scaling) -> BlockFits:
+        """:meth:`estimate_blocks` from joint information matrices (B, 2k, 2k) of ``n`` samples
         each (an int, or (B,) counts: e.g. the running information of
         :class:`~contactlab.constraints.RecursiveConstraint` at several times) in the
         normalised units of ``scaling``.  The frames depend on ``I`` alone; 8.18 scales
@@ -498,7 +503,7 @@ class CartesianConstraint:
             raise DataError(f"a block of {int(counts.min())} samples; the {2 * k}-dimensional "
                             f"joint covariance needs at least {min_samples(k)}", field="position")
         degrees = self._check(k)
-        frames, ll, _ = self._fit_information(I, 1, degrees)
+        frames, ll, _ = self._estimate_information(I, 1, degrees)
         ll = ll * counts[:, None]
         expl = exploration(I, threshold=self.exploration_threshold).explored
         if self.degree is None:
@@ -510,7 +515,7 @@ class CartesianConstraint:
         n_out = int(counts[0]) if np.all(counts == counts[0]) else counts.astype(np.int64)
         return BlockFits(deg.astype(np.int64), ll, frames, expl, I, n_out, scaling)
 
-    def fit(self, position, force, velocity=None) -> ConstraintFit:
+    def estimate(self, position, force, velocity=None) -> ConstraintFit:
         """Fit one block: ``position``, ``force`` (and ``velocity``), each (n, k).
 
         Raises DataError for fewer than 2k+1 samples or non-finite data;
@@ -518,10 +523,10 @@ class CartesianConstraint:
         ``undetermined`` fit, never a frame.
         """
         y, scaling = _prepare(self, position, force, velocity)
-        return self.fit_information(_information(y)[0], y.shape[1], scaling=scaling,
+        return self.estimate_information(_information(y)[0], y.shape[1], scaling=scaling,
                                     samples=y[0])
 
-    def fit_information(self, information, n: int, *, scaling: Scaling,
+    def estimate_information(self, information, n: int, *, scaling: Scaling,
                         samples=None) -> ConstraintFit:
         """Fit from a joint information matrix (2k, 2k) of ``n`` samples in the
         normalised units of ``scaling`` (the recursive form's entry point).
@@ -535,7 +540,7 @@ class CartesianConstraint:
             raise DataError(f"{n} samples; the {2 * k}-dimensional joint covariance needs "
                             f"at least {min_samples(k)}", field="position")
         degrees = self._check(k)
-        frames, ll, iters = self._fit_information(I, n, degrees)
+        frames, ll, iters = self._estimate_information(I, n, degrees)
         expl = exploration(I, threshold=self.exploration_threshold)
         ll0 = ll[0]
         reason = ""
@@ -632,15 +637,18 @@ class CartesianStiffness:
         c = self.center or "both"
         return c in ("motion", "both"), c == "both"
 
-    def fit_blocks(self, position, force, velocity=None) -> tuple[np.ndarray, np.ndarray]:
+    fit = renamed_method("fit", "estimate")
+    fit_blocks = renamed_method("fit_blocks", "estimate_blocks")
+
+    def estimate_blocks(self, position, force, velocity=None) -> tuple[np.ndarray, np.ndarray]:
         """Joint projections P (B, 2k, k) and eigenvalues (B, 2k) of (B, n, k) blocks."""
         _check_common(self)
         y, _ = _prepare(self, position, force, velocity)
         lam, vec = np.linalg.eigh(_information(y))
         return vec[:, :, :y.shape[2] // 2], lam
 
-    def fit(self, position, force, velocity=None) -> StiffnessFit:
-        """Fit one block (n, k) arrays; see :class:`CartesianConstraint.fit`."""
+    def estimate(self, position, force, velocity=None) -> StiffnessFit:
+        """Fit one block (n, k) arrays; see :class:`CartesianConstraint.estimate`."""
         _check_common(self)
         y, scaling = _prepare(self, position, force, velocity)
         _, n, kk = y.shape

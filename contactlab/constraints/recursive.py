@@ -19,6 +19,7 @@ import numpy as np
 from contactlab.constraints.cartesian import CartesianConstraint, ConstraintFit, min_samples
 from contactlab.constraints.friction import friction_filter
 from contactlab.constraints.scaling import reciprocal_scaling
+from contactlab.deprecation import renamed_method
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["RecursiveConstraint"]
@@ -98,9 +99,11 @@ class RecursiveConstraint:
             return np.full((2 * self.k, 2 * self.k), math.nan)
         return self._centred(np.array(float(self.n_)), self.sum_, self.sum2_)
 
-    def fit(self) -> ConstraintFit:
+    fit = renamed_method("fit", "estimate")
+
+    def estimate(self) -> ConstraintFit:
         """The estimator's fit of everything absorbed (no per-sample residuals)."""
         if self.n_ < min_samples(self.k):
             raise DataError(f"{self.n_} samples absorbed; need at least "
                             f"{min_samples(self.k)}", field="position")
-        return self.estimator.fit_information(self.information_, self.n_, scaling=self.scaling)
+        return self.estimator.estimate_information(self.information_, self.n_, scaling=self.scaling)

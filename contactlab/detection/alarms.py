@@ -114,9 +114,8 @@ def empty_alarms(*, sides: tuple[str, ...], with_change_time: bool) -> Alarms:
 def alarms_from_table(table: np.ndarray, *, sides: tuple[str, ...], with_change_time: bool,
                       trace: np.ndarray | None = None) -> Alarms:
     """Alarms from an (N, 4) int64 table of (time, detector, side, change_time)."""
-    table = np.asarray(table, dtype=np.int64).reshape(-1, 4)
-    return Alarms(table[:, 0].copy(), table[:, 1].copy(), table[:, 2].copy(),
-                  table[:, 3].copy() if with_change_time else None, sides, trace)
+    cols = np.array(np.asarray(table, dtype=np.int64).reshape(-1, 4).T, order="C")  # one copy
+    return Alarms(cols[0], cols[1], cols[2], cols[3] if with_change_time else None, sides, trace)
 
 
 @njit(cache=True)

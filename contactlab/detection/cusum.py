@@ -31,6 +31,16 @@ def cusum_step(df, x):
 
 
 @njit(cache=True)
+def all_finite(x) -> bool:  # pragma: no cover - compiled
+    """Whether every value of the 1-D array ``x`` is finite (stops at the first that
+    is not; one compiled pass, cheaper than numpy's on the short blocks of a stream)."""
+    for i in range(x.shape[0]):
+        if not np.isfinite(x[i]):
+            return False
+    return True
+
+
+@njit(cache=True)
 def _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out, d0, i0
                   ):  # pragma: no cover
     """(6.18) over x (n, D, K) from detector ``d0``, sample ``i0``; updates df and
@@ -156,14 +166,18 @@ def _cusum_run(x, thr, df, last_zero, t0, trace, keep_trace, stat) -> np.ndarray
     rows in (time, detector) order."""
     n, n_det, _ = x.shape
     cap = max(64, min(n * n_det, 4096))
-    parts = []
-    d, i = 0, 0
-    while d < n_det:
-        out = np.empty((cap, 4), dtype=np.int64)
-        m, d, i = _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out, d, i)
-        parts.append(out[:m])
-        cap *= 2
-    table = parts[0] if len(parts) == 1 else np.concatenate(parts)
+    out = np.empty((cap, 4), dtype=np.int64)
+    m, d, i = _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out, 0, 0)
+    table = out[:m]
+    if d < n_det:                                   # the table filled up: continue
+        parts = [table]
+        while d < n_det:
+            cap *= 2
+            out = np.empty((cap, 4), dtype=np.int64)
+            m, d, i = _cusum_kernel(x, thr, df, last_zero, t0, trace, keep_trace, stat, out,
+                                    d, i)
+            parts.append(out[:m])
+        table = np.concatenate(parts)
     if n_det > 1 and len(table) > 1:
         table = table[np.lexsort((table[:, 1], table[:, 0]))]
     return table

@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from contactlab.detection.alarms import Alarms, alarms_from_table, empty_alarms
-from contactlab.detection.cusum import _cusum_numpy, _cusum_run
+from contactlab.detection.cusum import _cusum_numpy, _cusum_run, all_finite
 from contactlab.detection.increments import (
     MEAN_SIDES,
     VARIANCE_SIDES,
@@ -50,6 +50,9 @@ from contactlab.detection.increments import (
 ENGINES = ("numba", "numpy")
 _NUMPY_BLOCK_ELEMENTS = 1 << 20  # samples x detectors x sides per block of the numpy engine
 _NUMPY_BLOCK_ROWS = 1024
+
+
+_NO_TRACE = np.empty((0, 0, 0))
 
 
 class PageHinkley:
@@ -117,6 +120,10 @@ class PageHinkley:
     def _as3d(self, x, *, step: bool) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         k = len(self.sides)
+        if not step and x.ndim == 3 and x.shape[2] == k and x.flags.c_contiguous:
+            if not all_finite(x.reshape(-1)):
+                raise ValueError("increments must be finite (found NaN or inf)")
+            return x                                  # a block in the kernel's layout
         if step:  # one sample: (), (D,), (K,) or (D, K)
             if k == 1:
                 if x.ndim > 2 or (x.ndim == 2 and x.shape[1] != 1):
@@ -231,16 +238,22 @@ class PageHinkley:
         any reset: an alarm sample shows the value that crossed), shape
         ``(n, D, K)``.
         """
-        x = self._as3d(increments, step=False)
+        return self._run(self._as3d(increments, step=False), trace)
+
+    def _run(self, x: np.ndarray, trace: bool = False) -> Alarms:
+        """:meth:`run` on increments already checked: finite, C-contiguous (n, D, K)."""
         n, d, k = x.shape
-        self._ensure_state(d)
+        if "df_" not in self.__dict__ or self.df_.shape[0] != d:
+            self._ensure_state(d)
         t0 = self.n_seen_
         if n == 0:
             out = empty_alarms(sides=self.sides, with_change_time=True)
             return out if not trace else Alarms(out.time, out.detector, out.side,
                                                 out.change_time, self.sides, np.zeros((0, d, k)))
         if self.engine == "numba":
-            tr = np.empty((n, d, k) if trace else (0, 0, 0))
+            # a stream of blocks: the per-call work is kept to the kernel's (no trace and
+            # no statistics buffer allocated, the alarm table reused)
+            tr = np.empty((n, d, k)) if trace else _NO_TRACE
             stat = np.empty((d, k))
             table = _cusum_run(x, self.threshold_, self.df_, self.last_zero_, t0, tr, trace,
                                stat)
@@ -323,7 +336,10 @@ class MeanChangeDetector:
         y = np.asarray(y, dtype=float)
         if y.ndim == 1:
             y = y[:, None]
-        return self._ph().run(self.increments(y), trace=trace)
+        inc = self.increments(y)
+        if y.ndim != 2 or not inc.flags.c_contiguous or not all_finite(inc.reshape(-1)):
+            return self._ph().run(inc, trace=trace)   # the checks and their messages
+        return self._ph()._run(inc, trace)            # a stream of blocks: checked once
 
 
 class VarianceChangeDetector:

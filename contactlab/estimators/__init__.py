@@ -12,7 +12,7 @@ Modules (figure 6.1's "estimator" box):
 - :mod:`.orthogonal` -- the same filter on orthogonal regressors, A.40-A.42,
   whose parameters are the training RLS's normalised reflection coefficients.
 - :mod:`.models` -- regressor builders: AR(p) with/without mean, the
-  linear-decay impact model; :func:`fit_ar`.
+  linear-decay impact model; :func:`estimate` and :func:`estimate_ar`.
 
 Conventions: arrays are time-first with a batch axis ``B`` next (channels or
 models run together: ``psi`` (N, B, p) / (N, B, m, p)); square roots are
@@ -20,8 +20,8 @@ lower-triangular with a non-negative diagonal, ``I = R R^T``.
 """
 
 from contactlab.estimators.kalman import KalmanResult, SquareRootKalman, kalman_step
-from contactlab.estimators.models import (ARModel, LinearDecayModel, LinearFit, LinearModel, fit,
-                                          fit_ar)
+from contactlab.estimators.models import (ARModel, LinearDecayModel, LinearFit, LinearModel,
+                                          estimate, estimate_ar, fit, fit_ar)
 from contactlab.estimators.orthogonal import (OrthogonalKalman, from_orthogonal,
                                               orthogonal_prior, to_orthogonal, unit_structure)
 from contactlab.estimators.rls import RLSResult, SquareRootRLS, exact_sequence_loglik
@@ -30,5 +30,5 @@ __all__ = [
     "SquareRootRLS", "RLSResult", "exact_sequence_loglik",
     "SquareRootKalman", "KalmanResult", "kalman_step",
     "OrthogonalKalman", "unit_structure", "to_orthogonal", "from_orthogonal", "orthogonal_prior",
-    "LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "fit", "fit_ar",
+    "LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "estimate", "estimate_ar",
 ]

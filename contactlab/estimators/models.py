@@ -20,9 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from contactlab.deprecation import renamed_function
 from contactlab.estimators.rls import SquareRootRLS
 
-__all__ = ["LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "fit", "fit_ar"]
+__all__ = ["LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "estimate", "estimate_ar"]
 
 
 def _as_channels(y) -> np.ndarray:
@@ -173,8 +174,8 @@ class LinearFit:
     info_sqrt: np.ndarray
 
 
-def fit(model: LinearModel, y) -> LinearFit:
-    """Fit ``model`` to every channel of ``y`` (N, B) with the square-root RLS."""
+def estimate(model: LinearModel, y) -> LinearFit:
+    """Estimate ``model`` on every channel of ``y`` (N, B) with the square-root RLS."""
     psi, target = model.design(y)
     n = psi.shape[0]
     if n < model.n_params:
@@ -187,6 +188,10 @@ def fit(model: LinearModel, y) -> LinearFit:
                      loglik=rls.sequence_loglik(), n=n, info_sqrt=rls.info_sqrt_.copy())
 
 
-def fit_ar(y, *, order: int = 2, mean: bool = False) -> LinearFit:
-    """Fit AR(``order``) (with a mean if ``mean``) to every channel of ``y``."""
-    return fit(ARModel(order=order, mean=mean), y)
+def estimate_ar(y, *, order: int = 2, mean: bool = False) -> LinearFit:
+    """Estimate AR(``order``) (with a mean if ``mean``) on every channel of ``y``."""
+    return estimate(ARModel(order=order, mean=mean), y)
+
+
+fit = renamed_function("fit", estimate)
+fit_ar = renamed_function("fit_ar", estimate_ar)

@@ -6,7 +6,7 @@ the residuals are white and AR(4) fits.  We take the strain of trial 0 of
 dataset spec ``stroke-a`` (1000 Hz) while the finger slides over the sanded
 (80 grit) half of sample A, fit the thesis's AR model with a forcing mean
 (7.1: ``y(n) = sum_i a_i y(n-i) + mu + nu(n)``) by the square-root RLS
-(:func:`contactlab.estimators.fit_ar`, A.10-A.13), and check the whiteness
+(:func:`contactlab.estimators.estimate_ar`, A.10-A.13), and check the whiteness
 claim three ways: the residual autocorrelation against its 95 % band
 ``+-1.96/sqrt(n)``, the Ljung-Box portmanteau test, and an order-selection
 table (AIC, BIC over p = 1..8) that says whether four is the order the data ask for.
@@ -29,7 +29,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal, stats  # noqa: E402
 
-from contactlab.estimators import ARModel, SquareRootRLS, fit_ar  # noqa: E402
+from contactlab.estimators import ARModel, SquareRootRLS, estimate_ar  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -115,7 +115,7 @@ def ar_spectrum(coef, variance: float, *, fs: float, freqs) -> np.ndarray:
 def analyse(y, *, fs: float, order: int = ORDER, max_order: int = MAX_ORDER) -> dict:
     """AR(``order``) with a mean fitted to ``y``; residual whiteness; order table."""
     y = np.asarray(y, float)
-    fit = fit_ar(y, order=order, mean=True)
+    fit = estimate_ar(y, order=order, mean=True)
     coef = fit.coef[0]
     res = ar_residuals(y, coef, order=order)
     n = len(res)
@@ -125,11 +125,11 @@ def analyse(y, *, fs: float, order: int = ORDER, max_order: int = MAX_ORDER) -> 
     table = order_selection(y, max_order=max_order)
     for row in table:
         p = row["order"]
-        rp = ar_residuals(y, fit_ar(y, order=p, mean=True).coef[0], order=p)
+        rp = ar_residuals(y, estimate_ar(y, order=p, mean=True).coef[0], order=p)
         row["ljung_box_p"] = ljung_box(rp, lags=LB_LAGS, n_params=p)["p_value"]
     half = len(y) // 2
-    halves = [fit_ar(y[:half], order=order, mean=True).coef[0],
-              fit_ar(y[half:], order=order, mean=True).coef[0]]
+    halves = [estimate_ar(y[:half], order=order, mean=True).coef[0],
+              estimate_ar(y[half:], order=order, mean=True).coef[0]]
     var_halves = [float(np.var(y[:half])), float(np.var(y[half:]))]
     a = coef[1:]
     roots = np.roots(np.concatenate([[1.0], -a]))

@@ -134,7 +134,7 @@ def draw_errors(groups: dict[str, GroupData], *, seed: int, sizes=SAMPLE_SIZES,
         for i in range(len(sizes)):
             for j in range(draws):
                 s = idx[g][i][j]
-                fit = est.fit(gd.position[s], gd.force[s], gd.velocity[s])
+                fit = est.estimate(gd.position[s], gd.force[s], gd.velocity[s])
                 P = true_projection(gd.normals, fit.scaling)
                 res["deviation"][i, j] = float(alignment_deviation(fit.P_, P))
                 res["angle_deg"][i, j] = float(angular_error_deg(fit.P_, P))

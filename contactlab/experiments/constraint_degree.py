@@ -97,7 +97,7 @@ def sequential_test(groups: dict[str, GroupData], index: dict[str, np.ndarray]) 
             sel = runs == r
             end = idx[sel, -1] - samples[0]
             info[sel], count[sel] = path[end], end + 1
-        fits = est.fit_information_blocks(info, count, scaling=rec.scaling)
+        fits = est.estimate_information_blocks(info, count, scaling=rec.scaling)
         rule.append(decide_degree(fits.log_likelihoods))
         gated.append(fits.degree)
     return {"thesis_rule": np.concatenate(rule), "gated": np.concatenate(gated)}
@@ -113,14 +113,14 @@ def noise_blocks(*, n_blocks: int, block: int, rng):
 # -- tests -----------------------------------------------------------------------------------
 def likelihood_test(position, force, velocity) -> dict:
     """Highest log-likelihood over 0..3 (thesis) and the library's gated decision."""
-    fits = CartesianConstraint(friction=FRICTION).fit_blocks(position, force, velocity)
+    fits = CartesianConstraint(friction=FRICTION).estimate_blocks(position, force, velocity)
     return {"thesis_rule": decide_degree(fits.log_likelihoods), "gated": fits.degree,
             "log_likelihoods": fits.log_likelihoods}
 
 
 def alignment_statistics(position, force, velocity) -> np.ndarray:
     """(B, 2) alignment statistic of the stiffness form's P."""
-    P, _ = CartesianStiffness(friction=FRICTION).fit_blocks(position, force, velocity)
+    P, _ = CartesianStiffness(friction=FRICTION).estimate_blocks(position, force, velocity)
     return alignment_statistic(P)
 
 

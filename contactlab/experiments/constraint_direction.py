@@ -71,7 +71,7 @@ def rotation(axis: str, angle_deg: float) -> np.ndarray:
 def nominal_normals(gd: GroupData, *, rng, n: int = ESTIMATION_N) -> np.ndarray:
     """The constraint-form estimate (3, m) from ``n`` random samples of ``gd``."""
     s = rng.choice(len(gd), size=n, replace=False)
-    fit = CartesianConstraint(degree=gd.degree, friction=FRICTION).fit(
+    fit = CartesianConstraint(degree=gd.degree, friction=FRICTION).estimate(
         gd.position[s], gd.force[s], gd.velocity[s])
     return fit.normals_
 
@@ -91,7 +91,7 @@ def decisions(test: GroupData, train: GroupData, *, axis: str, angle_deg: float,
         N = nominal_normals(train, rng=rng)
         alt = -N if flip else rotation(axis, angle_deg) @ N
         idx = make(test, n_blocks=blocks, block=DECISION_N, rng=rng)
-        fits = est.fit_blocks(test.position[idx], test.force[idx], test.velocity[idx])
+        fits = est.estimate_blocks(test.position[idx], test.force[idx], test.velocity[idx])
         _, scores = decide_direction(fits, [N, alt], prior_sd_deg=PRIOR_SD_DEG)
         out.append(scores[:, 0] - scores[:, 1])
     return np.concatenate(out)

@@ -34,7 +34,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive, validate_archive  # noqa: E402
-from contactlab.estimators import LinearDecayModel, fit  # noqa: E402
+from contactlab.estimators import LinearDecayModel, estimate  # noqa: E402
 from contactlab.acquire.simulated import record_spec  # noqa: E402
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.temporal import block_features  # noqa: E402
@@ -91,7 +91,7 @@ def impact_fits(archive, *, code: int = 3) -> list[dict]:
             for s, e in runs:
                 if e - s < 3:
                     continue
-                f = fit(LinearDecayModel(), y[s:e])
+                f = estimate(LinearDecayModel(), y[s:e])
                 rows.append({"trial": trial.id, "group": str(trial.attrs.get("group", "")),
                              "start": int(s), "length": int(e - s),
                              "mu": float(f.coef[0, 0]), "slope": float(f.coef[0, 1]),

@@ -34,7 +34,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.conditioning import difference, log_energy  # noqa: E402
-from contactlab.estimators import LinearDecayModel, fit  # noqa: E402
+from contactlab.estimators import LinearDecayModel, estimate  # noqa: E402
 from contactlab.signals import loudest_channel  # noqa: E402
 from contactlab.sim.sensor_modes import mode_prediction  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
@@ -108,7 +108,7 @@ def falling_edges(yh, *, start: int, noise_level: float, rise: float = RISE_NATS
 def fit_edge(yh, edge: tuple[int, int]) -> dict:
     """``y(n) = mu + a n + nu`` on ``yh[peak:end]`` with n = 0 at the peak (LinearDecayModel)."""
     a, b = edge
-    f = fit(LinearDecayModel(start=0), np.asarray(yh, float)[a:b])
+    f = estimate(LinearDecayModel(start=0), np.asarray(yh, float)[a:b])
     mu, slope = (float(v) for v in f.coef[0])
     n = b - a
     k = np.arange(n, dtype=float)

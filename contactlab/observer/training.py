@@ -11,7 +11,7 @@ For each ``[models.NAME]`` of a graph:
 * ``impact`` without inline parameters -- an
   :class:`~contactlab.observer.models.ImpactFeature` prior on the linear decay
   ``(mu, a)`` of the log energy fitted to every labelled run of ``trained``
-  (7.1, :meth:`ImpactFeature.fit`), each run starting at its first sample;
+  (7.1, :meth:`ImpactFeature.from_segments`), each run starting at its first sample;
 * ``velocity-*`` and inline impacts carry their parameters in the graph file
   (nothing to train); ``constraint`` is not available yet (an error).
 
@@ -283,7 +283,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
                             f"{', '.join(sorted(seen_labels))})", file=str(path),
                             field=f"ground_truth/labels (graph models.{spec.name}.trained)")
         try:
-            m = ImpactFeature.fit(ss, name=lab, signal=spec.signal)
+            m = ImpactFeature.from_segments(ss, name=lab, signal=spec.signal)
         except ValueError as exc:
             raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
         m.n_segments_ = len(ss)

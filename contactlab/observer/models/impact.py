@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.estimators.models import LinearDecayModel, fit
+from contactlab.deprecation import renamed_method
+from contactlab.estimators.models import LinearDecayModel, estimate
 from contactlab.observer.models._kalman import MODE_PLAIN, as_channel_prior, prior_state, run_kalman
 from contactlab.observer.models.base import FeatureModel
 
@@ -35,8 +36,10 @@ class ImpactFeature(FeatureModel):
         self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
             theta_mean, theta_sqrt, noise_var, 2, name)
 
+    fit = renamed_method("fit", "from_segments", on_class=True)
+
     @classmethod
-    def fit(cls, segments, *, name: str = "impact", signal: str = "hf",
+    def from_segments(cls, segments, *, name: str = "impact", signal: str = "hf",
             change_size: float | None = None) -> "ImpactFeature":
         """Prior from labelled impact segments (each (N_i, C) or (N_i,), starting at the impact).
 
@@ -46,7 +49,7 @@ class ImpactFeature(FeatureModel):
         """
         coefs, var = [], []
         for seg in segments:
-            f = fit(LinearDecayModel(), np.asarray(seg, dtype=np.float64))
+            f = estimate(LinearDecayModel(), np.asarray(seg, dtype=np.float64))
             coefs.append(f.coef)
             var.append(f.variance)
         if len(coefs) < 3:
