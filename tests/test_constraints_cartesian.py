@@ -217,9 +217,9 @@ def test_bad_parameters():
             CartesianConstraint(**kw).estimate(x, w)
 
 
-def test_fit_from_running_information_equals_the_block_fit():
+def test_estimate_from_running_information_equals_the_block_estimate():
     """estimate_information_blocks on the running information of RecursiveConstraint after
-    n samples is fit_blocks on those n samples (frames, 8.18, decision)."""
+    n samples is estimate_blocks on those n samples (frames, 8.18, decision)."""
     from contactlab.constraints import CartesianConstraint, RecursiveConstraint
     from contactlab.synthetic import contact_trial
 
@@ -231,7 +231,7 @@ def test_fit_from_running_information_equals_the_block_fit():
     ends = np.array([30, 60, 99])
     got = est.estimate_information_blocks(path[ends - 1], ends, scaling=rec.scaling)
     for i, n in enumerate(ends):
-        want = est.fit_blocks(pos[:n], frc[:n])
+        want = est.estimate_blocks(pos[:n], frc[:n])
         np.testing.assert_allclose(got.log_likelihoods[i], want.log_likelihoods[0], rtol=1e-9)
         assert got.degree[i] == want.degree[0] == 1
     assert got.n.tolist() == ends.tolist()
