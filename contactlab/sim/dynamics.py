@@ -50,13 +50,21 @@ The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
 that mode), and a resting finger would ring on control noise forever.  The robot
 mass carries (a) the Coulomb backdrive friction of its motors, brushes, bearings
-and capstan cables (``constants.ROBOT_BACKDRIVE_FRICTION``), integrated as the
-exact set-valued law: a step whose friction impulse can stop the robot leaves it
-stuck (v_r = 0, no creep, no regularisation constant), else the impulse is taken
-off along its velocity; and (b) a small viscous term from the back-EMF left over
+and capstan cables (``constants.ROBOT_BACKDRIVE_FRICTION``) with its pre-sliding
+compliance: an elasto-plastic law (Dupont et al. 2002; the bristle of the LuGre model), a
+deflection z_b that follows the robot and pulls it back with -k_b z_b - c_b v_r while that
+stays inside the static limit (stuck: the robot moves only by micrometres,
+``constants.ROBOT_PRESLIDING_DISPLACEMENT``), clipped to the kinetic value while it slides,
+stuck again once the trial force falls back inside the kinetic limit (the same state machine
+as a contact's tangential spring); with ``robot_presliding = 0`` the exact set-valued law of
+a rigid stick instead; and (b) a small viscous term from the back-EMF left over
 by the current amplifiers (``constants.ROBOT_VISCOUS_DAMPING``).  Friction
 decays a ringing amplitude linearly, by 4 F_c of spring force per cycle, and holds
 a robot whose net drive is below F_c: that is what makes a resting contact quiet.
+Held by the compliant stick, the motors' random force (``constants.AMPLIFIER_FORCE_NOISE``)
+still moves the robot by a fraction of a micrometre: in free space robot and shell move
+together and the sensor feels only the shell's inertia, pressed against an object the
+sensor is the stiffest path to ground and carries that force (7.3.3: pressed is louder).
 A stuck robot breaks free only above the static value
 (``constants.ROBOT_BACKDRIVE_STATIC_FRICTION``), so a motion starts with a jerk (the
 start-of-motion burst of 7.2); while it slides the kinetic value ripples with the
@@ -64,7 +72,10 @@ motor shaft angle (``constants.BRUSH_FRICTION_VARIATION``: brushes over the
 commutator, capstan cable strands), a tabulated pattern over one revolution of the
 path travelled (:func:`brush_ripple_table`): the vibration of a moving drive.
 
-Motors.  The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
+Motors.  The servo's force command leaves the DAC in steps of ``force_resolution``
+(``constants.FORCE_RESOLUTION``, its error a function of the command, CONTROL_ERROR_STD) and
+the current amplifiers add a random force per tick (the random control wrench w of 4.12).
+The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
 deliver the commanded force times a commutation ripple that depends on the shaft angle
 (:func:`commutation_gain`; ``constants.COMMUTATOR_SEGMENTS``, ``COMMUTATION_RIPPLE_PP``):
 each Cartesian axis is taken as one motor turning ``constants.MOTOR_RAD_PER_TIP_M`` rad per
@@ -106,7 +117,8 @@ class Apparatus:
     radius: float = C.FINGERTIP_RADIUS
     origin_offset: float = C.SENSOR_ORIGIN_OFFSET
     gravity: float = C.GRAVITY
-    control_error_std: float = C.CONTROL_ERROR_STD
+    control_error_std: float = C.AMPLIFIER_FORCE_NOISE
+    force_resolution: float = C.FORCE_RESOLUTION
     servo_rate_hz: float = C.SERVO_RATE_HZ
     robot_friction: float = C.ROBOT_BACKDRIVE_FRICTION
     robot_static_friction: float = C.ROBOT_BACKDRIVE_STATIC_FRICTION
@@ -118,6 +130,21 @@ class Apparatus:
     # experiment's force-loop fact and the maze trials measure it)
     commutation_events: int = C.COMMUTATION_EVENTS_PER_REV
     motor_rad_per_m: float = C.MOTOR_RAD_PER_TIP_M
+    # pre-sliding displacement of the backdrive friction at breakaway, m (0: a rigid stick)
+    robot_presliding: float = C.ROBOT_PRESLIDING_DISPLACEMENT
+    presliding_damping_ratio: float = C.PRESLIDING_DAMPING_RATIO
+
+    @property
+    def presliding_stiffness(self) -> float:
+        """Stiffness of the drive friction before it breaks away, N/m (0: rigid stick)."""
+        if self.robot_presliding <= 0.0 or self.robot_static_friction <= 0.0:
+            return 0.0
+        return self.robot_static_friction / self.robot_presliding
+
+    @property
+    def presliding_damping(self) -> float:
+        """Damping of the pre-sliding deflection, N s/m."""
+        return 2.0 * self.presliding_damping_ratio * math.sqrt(self.presliding_stiffness * self.robot_mass)
 
     @property
     def total_mass(self) -> float:
@@ -241,7 +268,7 @@ def _ratchet(mu, slope):
 @numba.njit(cache=True)
 def integrate(n_out, n_sub, dt,
               # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab,
+              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
               # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
               n_comm, motor_gain, comm_phase,
               # environment
@@ -297,6 +324,8 @@ def integrate(n_out, n_sub, dt,
     xd_now = xr0.copy()
     rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
     r_path = 0.0
+    zb = np.zeros(3)             # pre-sliding (bristle) deflection of the drive's friction
+    ftr = np.zeros(3)
     active = np.zeros(npl, np.bool_)
     stick = np.ones(npl, np.bool_)
     tdisp = np.zeros((npl, 3))
@@ -352,7 +381,11 @@ def integrate(n_out, n_sub, dt,
                     for a in range(3):
                         xd_now[a] = xd_arr[k, a]
             for a in range(3):
-                wr[a] = kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a] + gcomp[a] + noise[k, a]
+                # the motor command leaves the force DAC in steps of f_res (its error is a
+                # function of the command: constant while the command is) and the current
+                # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
+                wr[a] = _quantise(kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a]
+                                  + gcomp[a], f_res) + noise[k, a]
 
         # ---------------- contacts ---------------------------------------
         fc_tot[:] = 0.0
@@ -507,25 +540,46 @@ def integrate(n_out, n_sub, dt,
                 fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
             vr[a] += dt * ((fm + fs[a]) / mr + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
-        # the PHANToM's own losses on the robot mass, implicitly (backward Euler): viscous
-        # back-EMF damping, then Coulomb backdrive friction as a set-valued law -- if the
-        # friction impulse available in the step can stop the robot, it sticks (v_r = 0);
-        # otherwise it is reduced by that impulse along its velocity
+        # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
+        # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
+        # as a rigid set-valued law (if the friction impulse available in the step can stop
+        # the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse)
         if br > 0.0:
             for a in range(3):
                 vr[a] /= 1.0 + dt * br / mr
         # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
         # shaft angle while sliding: module docstring, "Motors")
         if fr > 0.0:
+            nb = brush_tab.shape[0]
+            ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
+            ib = int(ub)
+            fb = ub - ib
+            ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
             sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-            if rstuck and sp <= dt * frs / mr:
+            if kb > 0.0:
+                # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
+                # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
+                # while inside the static limit (stuck) and is clipped to the kinetic value
+                # (with the brush ripple) while sliding; it re-sticks when the trial force
+                # falls back inside the kinetic limit
+                for a in range(3):
+                    zb[a] += dt * vr[a]
+                    ftr[a] = -kb * zb[a] - cb * vr[a]
+                mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
+                fk = fr * ripple
+                if mag > (frs if rstuck else fk):
+                    rstuck = False
+                    sc = fk / mag
+                    for a in range(3):
+                        ftr[a] *= sc
+                        zb[a] = -ftr[a] / kb
+                else:
+                    rstuck = True
+                for a in range(3):
+                    vr[a] += dt * ftr[a] / mr
+            elif rstuck and sp <= dt * frs / mr:
                 vr[:] = 0.0
             else:
-                nb = brush_tab.shape[0]
-                ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
-                ib = int(ub)
-                fb = ub - ib
-                ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
                 cap = dt * fr * ripple / mr
                 if sp <= cap:
                     vr[:] = 0.0
