@@ -172,3 +172,31 @@ def test_stick_slip_under_low_stiffness_position_control_but_not_integral_force_
     # (the drive's commutation and brush ripple may dip it under 1 mm/s for a few ms once:
     # one dip, not the repeated stick-slip of the PD loop)
     assert frac_still2 < 0.01 and transitions2 <= 2
+
+
+def test_cached_texture_phases_match_the_exact_evaluation_along_a_path():
+    # the integrator advances each texture mode's (sin, cos) by rotation between steps
+    # (dynamics._texture_cached); along a slow slide, a stop, a jump and a change of material
+    # it must give what the exact evaluation gives
+    from contactlab.sim.dynamics import TEXTURE_RESYNC_STEPS, _texture_at, _texture_cached
+    from contactlab.sim.environment import sample_b
+
+    pk = sample_b().pack(C.FINGERTIP_RADIUS)
+    keys = ("h_k1", "h_k2", "h_amp", "h_bamp", "h_phase", "m_k1", "m_k2", "m_amp", "m_phase", "e_tab", "e_par")
+    arrs = [pk[k] for k in keys]
+    nh, nm = pk["h_k1"].shape[1], pk["m_k1"].shape[1]
+    kmax = np.array([max((np.abs(pk["h_k1"][m]) + np.abs(pk["h_k2"][m])).max(),
+                         (np.abs(pk["m_k1"][m]) + np.abs(pk["m_k2"][m])).max()) for m in range(pk["h_k1"].shape[0])])
+    tcache = np.array([[-1.0, 0.0, 0.0, 0.0]])
+    tsh, tch, tsm, tcm = np.zeros((1, nh)), np.zeros((1, nh)), np.zeros((1, nm)), np.zeros((1, nm))
+    rng = np.random.default_rng(0)
+    s1 = np.cumsum(np.r_[np.full(3000, 4e-7), np.zeros(200), [2e-3], np.full(1000, -4e-7)])
+    s2 = np.cumsum(rng.normal(0.0, 5e-8, len(s1)))
+    mids = np.r_[np.zeros(2000, int), np.ones(len(s1) - 2000, int)]
+    rotated = 0
+    for a, b, m in zip(s1, s2, mids):
+        got = _texture_cached(0, m, a, b, tcache, tsh, tch, tsm, tcm, kmax, *arrs)
+        want = _texture_at(m, a, b, *arrs)
+        rotated += tcache[0, 3] > 0
+        np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-12 * np.max(np.abs(want)) + 1e-15)
+    assert rotated > len(s1) * (1 - 2.0 / TEXTURE_RESYNC_STEPS) - 10  # the rotation path ran
