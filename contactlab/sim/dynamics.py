@@ -160,39 +160,52 @@ class Apparatus:
 
 
 @numba.njit(cache=True, fastmath=_FAST)
-def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
-    # followed height h and its gradient (g1, g2), including the sphere's envelope over the
-    # lay ridges (tabulated, linearly interpolated); gradient (b1, b2) of the bridged part;
-    # relative friction variation m (materials module docstring)
+def _lay_at(mid, s1, s2, etab, epar):
+    # the sphere's envelope over the lay ridges (tabulated, linearly interpolated) and its
+    # gradient; beyond the table it is held at its end value (constants)
     c1 = epar[mid, 0]
     c2 = epar[mid, 1]
     uf = (c1 * s1 + c2 * s2 - epar[mid, 2]) / epar[mid, 3]
     iu = int(math.floor(uf))
     ne = etab.shape[1]
     if iu < 0 or iu > ne - 2:
-        # beyond the table the envelope is held at its end value (constants)
         h = etab[mid, 0] if iu < 0 else etab[mid, ne - 1]
         de = 0.0
     else:
         de = etab[mid, iu + 1] - etab[mid, iu]
         h = etab[mid, iu] + (uf - iu) * de
         de = de / epar[mid, 3]
-    g1 = de * c1
-    g2 = de * c2
+    return h, de * c1, de * c2
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _texture_sum(mid, s1, s2, sh, ch, sm, hk1, hk2, hamp, hbamp, mamp, etab, epar):
+    # the texture at (s1, s2) from the sines/cosines of its height modes' phases (sh, ch) and
+    # the sines of its friction modes' phases (sm): followed height h and its gradient
+    # (g1, g2) with the lay envelope, gradient (b1, b2) of the bridged part, relative friction
+    # variation m (materials module docstring)
+    h, g1, g2 = _lay_at(mid, s1, s2, etab, epar)
     b1 = 0.0
     b2 = 0.0
     for j in range(hk1.shape[1]):
-        a = hk1[mid, j] * s1 + hk2[mid, j] * s2 + hph[mid, j]
-        ca = math.cos(a)
-        h += hamp[mid, j] * math.sin(a)
+        ca = ch[j]
+        h += hamp[mid, j] * sh[j]
         g1 += hamp[mid, j] * hk1[mid, j] * ca
         g2 += hamp[mid, j] * hk2[mid, j] * ca
         b1 += hbamp[mid, j] * hk1[mid, j] * ca
         b2 += hbamp[mid, j] * hk2[mid, j] * ca
     m = 0.0
-    for j in range(mk1.shape[1]):
-        m += mamp[mid, j] * math.sin(mk1[mid, j] * s1 + mk2[mid, j] * s2 + mph[mid, j])
+    for j in range(sm.shape[0]):
+        m += mamp[mid, j] * sm[j]
     return h, g1, g2, b1, b2, m
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
+    # the texture at (s1, s2), every phase evaluated exactly (_texture_sum)
+    a = hk1[mid] * s1 + hk2[mid] * s2 + hph[mid]
+    return _texture_sum(mid, s1, s2, np.sin(a), np.cos(a), np.sin(mk1[mid] * s1 + mk2[mid] * s2 + mph[mid]),
+                        hk1, hk2, hamp, hbamp, mamp, etab, epar)
 
 
 TEXTURE_ROTATE_MAX = 0.3
@@ -247,33 +260,7 @@ def _texture_cached(p, mid, s1, s2, tcache, tsh, tch, tsm, tcm, kmax,
         tcache[p, 3] += 1.0
     tcache[p, 1] = s1
     tcache[p, 2] = s2
-    c1 = epar[mid, 0]
-    c2 = epar[mid, 1]
-    uf = (c1 * s1 + c2 * s2 - epar[mid, 2]) / epar[mid, 3]
-    iu = int(math.floor(uf))
-    ne = etab.shape[1]
-    if iu < 0 or iu > ne - 2:
-        h = etab[mid, 0] if iu < 0 else etab[mid, ne - 1]
-        de = 0.0
-    else:
-        de = etab[mid, iu + 1] - etab[mid, iu]
-        h = etab[mid, iu] + (uf - iu) * de
-        de = de / epar[mid, 3]
-    g1 = de * c1
-    g2 = de * c2
-    b1 = 0.0
-    b2 = 0.0
-    for j in range(hk1.shape[1]):
-        ca = tch[p, j]
-        h += hamp[mid, j] * tsh[p, j]
-        g1 += hamp[mid, j] * hk1[mid, j] * ca
-        g2 += hamp[mid, j] * hk2[mid, j] * ca
-        b1 += hbamp[mid, j] * hk1[mid, j] * ca
-        b2 += hbamp[mid, j] * hk2[mid, j] * ca
-    m = 0.0
-    for j in range(mk1.shape[1]):
-        m += mamp[mid, j] * tsm[p, j]
-    return h, g1, g2, b1, b2, m
+    return _texture_sum(mid, s1, s2, tsh[p], tch[p], tsm[p], hk1, hk2, hamp, hbamp, mamp, etab, epar)
 
 
 @numba.njit(cache=True)
