@@ -139,3 +139,20 @@ def test_a_velocity_step_command_onset_makes_a_start_burst_and_a_smooth_one_does
         out[shape] = onset.max() - rest.max()
     assert out["constant_velocity"] > 0.3
     assert out["sinusoidal"] < 0.2
+
+
+def test_a_pressed_still_finger_carries_the_motors_force_noise_through_the_contact():
+    # 7.3.3: pressed is louder than stationary.  The stuck drive is compliant before it breaks
+    # away (constants.ROBOT_PRESLIDING_DISPLACEMENT): the amplifiers' random force moves the
+    # robot by fractions of a micrometre; free, robot and shell move together, pressed, the
+    # sensor carries it.  With a rigid stick the motors' noise never reaches the sensor.
+    def hf_rms(env, app):
+        ctrl = PositionController(moves=(Move((0.0, 0.0, -0.003), 0.2, 0.0),))
+        r = simulate(environment=env, controller=ctrl, duration_s=1.0, seed=1, start=(0, 0, R + 0.0002),
+                     apparatus=app)
+        assert not r.moving[500:].any()
+        return np.sqrt(np.mean(np.diff(r.strain[500:], axis=0) ** 2))
+
+    compliant, rigid = Apparatus(), Apparatus(robot_presliding=0.0)
+    assert hf_rms(plane(material="polished_aluminium"), compliant) > 1.3 * hf_rms(free_space(), compliant)
+    assert hf_rms(plane(material="polished_aluminium"), rigid) < 1.05 * hf_rms(free_space(), rigid)
