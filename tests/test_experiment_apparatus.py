@@ -81,6 +81,8 @@ def test_a_12_bit_board_hides_the_moving_drive_that_16_bits_show():
     ("commutation_ripple = 1", "apparatus.commutation_ripple"),
     ("bits = 12", "apparatus.bits"),
     ("robot_friction_n = 0.1", "apparatus.robot_static_friction_n"),
+    ("robot_presliding_m = 0.01", "apparatus.robot_presliding_m"),
+    ("force_resolution_n = -0.01", "apparatus.force_resolution_n"),
 ])
 def test_bad_apparatus_values_are_one_line_errors_naming_file_and_field(tmp_path, line, field):
     text = load_spec("stroke-a").path.read_text()

@@ -170,13 +170,15 @@ def test_quick_run_writes_page_and_summary(tmp_path):
     assert (tmp_path / "index.html").exists() and (tmp_path / "results.json").exists()
     assert out["trials"] == ["stroke-a-000", "stroke-b-000"]
     for tid, truth in out["truth"].items():
-        # the merged truth: build-up, rough, smooth, resting (the burst rings without a contact
-        # event, the drop is merged; the constant-velocity command slides to its end); on
-        # sample B's wood the friction hold is shorter than the 0.1 s merge and joins the rest
+        # the merged truth: build-up, rough, smooth, (drop,) resting (the burst rings without a
+        # contact event; the drop at the stop lasts about the 0.1 s merge limit, so it is kept or
+        # merged by a millisecond; the constant-velocity command slides to its end); on sample
+        # B's wood the friction hold is shorter than the 0.1 s merge and joins the rest
         tail = ["rough texture", "smooth texture", "resting after stop"]
-        assert truth["phases"][-3:] == tail, tid
+        phases = [p for p in truth["phases"] if p != "drop at stop"]
+        assert phases[-3:] == tail, tid
         if tid.startswith("stroke-a"):
-            assert truth["phases"] == ["strain build-up"] + tail
+            assert phases == ["strain build-up"] + tail
             assert truth["boundaries_s"][0] == pytest.approx(0.5)      # the command start
         assert truth["boundaries_s"] == sorted(truth["boundaries_s"])
     assert out["merged_flicker_runs"]["max_s"] < 0.1

@@ -30,7 +30,9 @@ def test_backdrive_friction_is_coulomb_with_a_true_stick():
     # robot exactly at rest; above it the robot (and the shell on it) accelerates at
     # (F - F_c) / m (the viscous term and the brush ripple of the kinetic friction are
     # switched off for this oracle).
-    app = Apparatus(robot_damping=0.0, brush_friction_variation=0.0)
+    # the rigid-stick law (no pre-sliding compliance)
+    app = Apparatus(robot_damping=0.0, brush_friction_variation=0.0, robot_presliding=0.0,
+                    force_resolution=0.0)
     fc = app.robot_friction
     for push, moves in ((0.5 * fc, False), (fc + 0.02, True)):
         ctrl = PositionController(stiffness=(0.0, 0.0, 0.0), damping=(0.0, 0.0, 0.0), feedforward=(push, 0.0, 0.0))
@@ -64,8 +66,9 @@ def test_resting_contact_is_quieter_than_sliding_on_sanded_aluminium():
 def test_ringing_after_an_impact_decays_within_the_impact_interval_cap():
     # a guarded move into the block (command finished before the bounce train ends): the
     # ~250 Hz robot-on-sensor ringing after the last bounce dies out by itself, the impact
-    # interval closes well before IMPACT_MAX_DURATION_S, and the resting finger is then at
-    # the sensor's noise floor.
+    # interval closes before IMPACT_MAX_DURATION_S, and the resting finger is then close to
+    # the sensor's noise floor (above it by the amplifiers' force noise the pressed sensor
+    # carries, constants.AMPLIFIER_FORCE_NOISE: ~1 mN against the wrench noise's 2.6 mN).
     sen = StrainGaugeSensor()
     noise_diff = math.sqrt(2.0 * ((sen.noise_lsb * sen.lsb_v) ** 2 + sen.lsb_v ** 2 / 12.0))
     for seed in (0, 1):
@@ -76,10 +79,10 @@ def test_ringing_after_an_impact_decays_within_the_impact_interval_cap():
         assert len(r.impact_intervals) == 1
         a, b = r.impact_intervals[0]
         last = gains[gains < b][-1]
-        assert (b - last) / r.rate_hz < 0.5 * C.IMPACT_MAX_DURATION_S
+        assert (b - last) / r.rate_hz < 0.8 * C.IMPACT_MAX_DURATION_S
         assert c[b:].all()
         hf = np.diff(r.strain[b + 50:], axis=0)
-        assert np.sqrt(np.mean(hf ** 2)) < 1.5 * noise_diff
+        assert np.sqrt(np.mean(hf ** 2)) < 2.0 * noise_diff
 
 
 @pytest.mark.parametrize("material", ["lexan", "rough_wood", "polished_aluminium"])
@@ -94,7 +97,10 @@ def test_integral_force_controller_holds_a_steady_force_on_encoder_feedback(mate
     assert r.contact[settled, 0].all()
     fz = r.contact_force[settled, 0, 2]
     assert fz.mean() == pytest.approx(0.2, abs=0.01)
-    assert fz.std() < 0.01 and np.ptp(fz) < 0.1
+    # steady within about one step of the force DAC (constants.FORCE_RESOLUTION, 14 mN), which
+    # the integrating loop dithers across (the robot moves on its pre-sliding compliance); a
+    # limit cycle would hop off, unloading the contact
+    assert fz.std() < C.FORCE_RESOLUTION * 1.5 and fz.min() > 0.1
 
 
 def test_guarded_move_reaches_the_corner_only_outside_the_friction_cone():
@@ -133,3 +139,20 @@ def test_a_velocity_step_command_onset_makes_a_start_burst_and_a_smooth_one_does
         out[shape] = onset.max() - rest.max()
     assert out["constant_velocity"] > 0.3
     assert out["sinusoidal"] < 0.2
+
+
+def test_a_pressed_still_finger_carries_the_motors_force_noise_through_the_contact():
+    # 7.3.3: pressed is louder than stationary.  The stuck drive is compliant before it breaks
+    # away (constants.ROBOT_PRESLIDING_DISPLACEMENT): the amplifiers' random force moves the
+    # robot by fractions of a micrometre; free, robot and shell move together, pressed, the
+    # sensor carries it.  With a rigid stick the motors' noise never reaches the sensor.
+    def hf_rms(env, app):
+        ctrl = PositionController(moves=(Move((0.0, 0.0, -0.003), 0.2, 0.0),))
+        r = simulate(environment=env, controller=ctrl, duration_s=1.0, seed=1, start=(0, 0, R + 0.0002),
+                     apparatus=app)
+        assert not r.moving[500:].any()
+        return np.sqrt(np.mean(np.diff(r.strain[500:], axis=0) ** 2))
+
+    compliant, rigid = Apparatus(), Apparatus(robot_presliding=0.0)
+    assert hf_rms(plane(material="polished_aluminium"), compliant) > 1.3 * hf_rms(free_space(), compliant)
+    assert hf_rms(plane(material="polished_aluminium"), rigid) < 1.05 * hf_rms(free_space(), rigid)

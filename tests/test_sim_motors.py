@@ -46,7 +46,7 @@ def test_ripple_constants_from_segments():
 
 def _vertical_run(speed, app, duration=2.0):
     # constant-velocity lift (the motor carries gravity compensation: ~0.83 N on z), ideal
-    # feedback, no control noise: the only vibration source is the commutation ripple
+    # feedback, no control noise, exact force DAC: the only vibration source is the commutation ripple
     ctrl = PositionController(moves=(Move((0.0, 0.0, speed * duration), duration, 0.0, "constant_velocity"),),
                               stiffness=(400.0,) * 3, feedback="true")
     return simulate(environment=free_space(), controller=ctrl, duration_s=duration, seed=4,
@@ -64,7 +64,8 @@ def _ripple(r, t0=0.8):
 @pytest.mark.parametrize("speed", [0.05, 0.1])
 def test_ripple_frequency_scales_with_speed_and_amplitude_matches_mass_ratio(speed):
     # the brushes' friction ripple (a broadband vibration source of its own) is off here
-    app = Apparatus(commutation_events=C.COMMUTATION_EVENTS_PER_REV, brush_friction_variation=0.0)
+    app = Apparatus(commutation_events=C.COMMUTATION_EVENTS_PER_REV, brush_friction_variation=0.0,
+                    force_resolution=0.0)
     t, fz, f_motor = _ripple(_vertical_run(speed, app))
     spec = np.abs(np.fft.rfft(fz * np.hanning(len(fz))))
     freqs = np.fft.rfftfreq(len(fz), t[1] - t[0])
@@ -88,7 +89,8 @@ def test_ripple_frequency_scales_with_speed_and_amplitude_matches_mass_ratio(spe
     coef = np.linalg.lstsq(basis, fz, rcond=None)[0]
     assert np.hypot(*coef) == pytest.approx(expect, rel=0.15)
     # and without ripple the same run is silent at that frequency
-    _, fz0, _ = _ripple(_vertical_run(speed, Apparatus(commutation_events=0, brush_friction_variation=0.0)))
+    _, fz0, _ = _ripple(_vertical_run(speed, Apparatus(commutation_events=0, brush_friction_variation=0.0,
+                                                                 force_resolution=0.0)))
     assert np.std(fz0) < 0.1 * np.std(fz)
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from contactlab.sim import StrokeController, plane, sample_a, sample_b, simulate
+from contactlab.sim import Apparatus, StrokeController, plane, sample_a, sample_b, simulate
 from contactlab.sim import constants as C
 from contactlab.sim.materials import MATERIALS, get_material
 
@@ -60,7 +60,10 @@ def test_stroke_shows_the_physical_phases_of_fig_7_5(make):
     # 6-7 the command freezes the robot: the strain drops, and the finger rests again
     end = t > stop + 0.5
     assert r.contact[end, 0].all() and not r.moving[end].any()
-    assert abs(r.wrench_true[end, 0].mean()) < 0.5 * abs(r.wrench_true[slide, 0].mean())
+    # what is left is what the drive's static friction and the force DAC's constant error
+    # (half a step) can hold against the loaded sensor
+    held = Apparatus().robot_static_friction + 0.5 * C.FORCE_RESOLUTION
+    assert abs(r.wrench_true[end, 0].mean()) < min(held + 0.005, 0.8 * abs(r.wrench_true[slide, 0].mean()))
 
 
 @pytest.mark.parametrize("material", sorted(MATERIALS))

@@ -114,8 +114,10 @@ FACTS: tuple[Fact, ...] = (
     Fact("loss-impact", "4.3.2",
          "If contact is lost abruptly, a contact loss impact occurs because of the sudden "
          "release of this energy.",
-         "peak y_h within 0.1 s of losing a 0.5 N contact by a fast lift, minus the median "
-         "y_h while pressed", "nats", 1.0, math.inf),
+         "peak y_h within 0.1 s of losing a 0.5 N contact by sliding over an edge (4.3.2: "
+         "'When the orientation of the surface discontinuously changes (i.e. we cross an "
+         "edge) ... a loss impact results'), minus the median y_h while pressed", "nats",
+         1.0, math.inf),
     Fact("texture-speed", "4.3.1 (4.40)",
          "The magnitude of the variance will depend upon both the direction of travel and "
          "the square of the travel speed.",

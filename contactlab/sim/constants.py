@@ -69,6 +69,27 @@ Measured: at 0.06 N (1.5x) the encoder-feedback integral force controller hunts 
 breakaways (contact-force std 13 mN on a 0.2 N command, 5 mN without the gap), and the
 start-of-motion burst of 7.2 does not need it (the command's velocity step makes it)."""
 
+ROBOT_PRESLIDING_DISPLACEMENT = 12e-6
+"""physics: displacement at the PHANToM's tip before its backdrive friction breaks away, m.
+Dry friction is not a rigid lock below breakaway: junctions deform elastically first
+(pre-sliding displacement; Dahl 1968, Armstrong-Helouvry et al. 1994, the bristles of the
+LuGre model), a few micrometres in metal and graphite-on-copper contacts.  The PHANToM's
+friction sits at the motors (brushes on a 3.5 mm commutator track, preloaded bearings):
+3-5 um there is ~1 mrad of shaft rotation, 1 mrad / MOTOR_RAD_PER_TIP_M = 12 um at the tip.
+So the stuck drive is a spring of ROBOT_BACKDRIVE_STATIC_FRICTION / 12 um (~3.3 N/mm) to
+ground, not a rigid support: the motors' force noise (CONTROL_ERROR_STD) and commutation
+ripple move the robot by fractions of a micrometre.  In free space that moves robot and
+shell together (the sensor feels only the shell's inertia); pressed against an object the
+sensor is the stiffest path to ground and carries most of that force noise, which is why a
+pressed, still finger is louder than a free one (7.3.3's "extra vibration sensed when the
+robot is touching an object", the apparatus experiment's pressed-louder fact)."""
+
+PRESLIDING_DAMPING_RATIO = 0.5
+"""physics: damping of the pre-sliding deflection as a ratio of critical on the robot mass,
+the value of the LuGre model's reference parameter set (Canudas de Wit et al. 1995:
+sigma_1 = sqrt(sigma_0) on a unit mass): micro-slip at the junctions' edges dissipates
+(pre-sliding hysteresis)."""
+
 BRUSH_FRICTION_VARIATION = 0.25
 """datasheet-level: relative rms fluctuation of the kinetic backdrive friction with the motor
 shaft angle while the drive turns: brushes bouncing over the 11 commutator bars and riding
@@ -143,13 +164,24 @@ FORCE_RESOLUTION = PHANTOM_CONTINUOUS_FORCE / FORCE_DYNAMIC_RANGE
 continuous force over the 100:1 dynamic range (= 14 mN)."""
 
 CONTROL_ERROR_STD = FORCE_RESOLUTION / math.sqrt(12.0)
-"""thesis 3.4 + physics: the random control wrench w of (4.12), N per axis, one
-independent draw per servo tick.  An actuator that resolves force in steps of
-FORCE_RESOLUTION makes an error spread uniformly over one step, whose standard
-deviation is step / sqrt(12) (= 4.0 mN).  (Using the whole step as the standard
-deviation, as an earlier version did, overstates the error 3.5x; driven by it
-the robot mass ringing on the sensor spring at ~250 Hz unloaded a resting
-200 mN contact.)"""
+"""thesis 3.4 + physics: the spread of the force DAC's error, N per axis.  An actuator that
+resolves force in steps of FORCE_RESOLUTION makes an error spread uniformly over one step,
+whose standard deviation is step / sqrt(12) (= 4.0 mN).  The simulator applies the step
+itself (the servo's force command is rounded to FORCE_RESOLUTION at every tick,
+``Apparatus.force_resolution``): while the command changes by more than a step between ticks
+(moving, a force loop integrating) the error behaves as a random control wrench w of (4.12)
+of this size; while it is constant (the robot at rest, its encoders still) the error is a
+constant force, and only AMPLIFIER_FORCE_NOISE stays random."""
+
+AMPLIFIER_FORCE_NOISE = 1.0e-3
+"""datasheet-level: random force at the tip from the motors' current amplifiers, N rms per axis,
+one independent draw per servo tick (the random part of the control wrench w of 4.12).
+Linear current amplifiers of the period hold the motor current to ~0.5 mA rms of noise
+(sense-resistor and op-amp noise over their few-kHz loop bandwidth; 0.05 % of a 1 A range,
+0.02-0.1 % is the usual spread); with a torque constant of ~23 mN m/A (RE 25 class) and
+MOTOR_RAD_PER_TIP_M = 80 /m that is 0.5e-3 x 0.023 x 80 ~ 1 mN at the tip.  It is what a
+still robot's motors shake it with (the DAC's error is then constant, CONTROL_ERROR_STD), and
+through a pressed contact it reaches the sensor (ROBOT_PRESLIDING_DISPLACEMENT)."""
 
 ENCODER_RESOLUTION = 0.03e-3
 """datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,

@@ -50,13 +50,21 @@ The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
 that mode), and a resting finger would ring on control noise forever.  The robot
 mass carries (a) the Coulomb backdrive friction of its motors, brushes, bearings
-and capstan cables (``constants.ROBOT_BACKDRIVE_FRICTION``), integrated as the
-exact set-valued law: a step whose friction impulse can stop the robot leaves it
-stuck (v_r = 0, no creep, no regularisation constant), else the impulse is taken
-off along its velocity; and (b) a small viscous term from the back-EMF left over
+and capstan cables (``constants.ROBOT_BACKDRIVE_FRICTION``) with its pre-sliding
+compliance: an elasto-plastic law (Dupont et al. 2002; the bristle of the LuGre model), a
+deflection z_b that follows the robot and pulls it back with -k_b z_b - c_b v_r while that
+stays inside the static limit (stuck: the robot moves only by micrometres,
+``constants.ROBOT_PRESLIDING_DISPLACEMENT``), clipped to the kinetic value while it slides,
+stuck again once the trial force falls back inside the kinetic limit (the same state machine
+as a contact's tangential spring); with ``robot_presliding = 0`` the exact set-valued law of
+a rigid stick instead; and (b) a small viscous term from the back-EMF left over
 by the current amplifiers (``constants.ROBOT_VISCOUS_DAMPING``).  Friction
 decays a ringing amplitude linearly, by 4 F_c of spring force per cycle, and holds
 a robot whose net drive is below F_c: that is what makes a resting contact quiet.
+Held by the compliant stick, the motors' random force (``constants.AMPLIFIER_FORCE_NOISE``)
+still moves the robot by a fraction of a micrometre: in free space robot and shell move
+together and the sensor feels only the shell's inertia, pressed against an object the
+sensor is the stiffest path to ground and carries that force (7.3.3: pressed is louder).
 A stuck robot breaks free only above the static value
 (``constants.ROBOT_BACKDRIVE_STATIC_FRICTION``), so a motion starts with a jerk (the
 start-of-motion burst of 7.2); while it slides the kinetic value ripples with the
@@ -64,7 +72,10 @@ motor shaft angle (``constants.BRUSH_FRICTION_VARIATION``: brushes over the
 commutator, capstan cable strands), a tabulated pattern over one revolution of the
 path travelled (:func:`brush_ripple_table`): the vibration of a moving drive.
 
-Motors.  The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
+Motors.  The servo's force command leaves the DAC in steps of ``force_resolution``
+(``constants.FORCE_RESOLUTION``, its error a function of the command, CONTROL_ERROR_STD) and
+the current amplifiers add a random force per tick (the random control wrench w of 4.12).
+The PHANToM's brushed DC motors (Maxon RE 25 class, ironless rotor: no cogging)
 deliver the commanded force times a commutation ripple that depends on the shaft angle
 (:func:`commutation_gain`; ``constants.COMMUTATOR_SEGMENTS``, ``COMMUTATION_RIPPLE_PP``):
 each Cartesian axis is taken as one motor turning ``constants.MOTOR_RAD_PER_TIP_M`` rad per
@@ -92,6 +103,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+# floating-point contraction, reassociation and fast reciprocals in the integrator's kernels
+# (no assumptions about NaN or infinity): ~20-30 % faster, results equal to rounding
+_FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
 from contactlab.sim import constants as C
 
 
@@ -106,7 +121,8 @@ class Apparatus:
     radius: float = C.FINGERTIP_RADIUS
     origin_offset: float = C.SENSOR_ORIGIN_OFFSET
     gravity: float = C.GRAVITY
-    control_error_std: float = C.CONTROL_ERROR_STD
+    control_error_std: float = C.AMPLIFIER_FORCE_NOISE
+    force_resolution: float = C.FORCE_RESOLUTION
     servo_rate_hz: float = C.SERVO_RATE_HZ
     robot_friction: float = C.ROBOT_BACKDRIVE_FRICTION
     robot_static_friction: float = C.ROBOT_BACKDRIVE_STATIC_FRICTION
@@ -118,6 +134,21 @@ class Apparatus:
     # experiment's force-loop fact and the maze trials measure it)
     commutation_events: int = C.COMMUTATION_EVENTS_PER_REV
     motor_rad_per_m: float = C.MOTOR_RAD_PER_TIP_M
+    # pre-sliding displacement of the backdrive friction at breakaway, m (0: a rigid stick)
+    robot_presliding: float = C.ROBOT_PRESLIDING_DISPLACEMENT
+    presliding_damping_ratio: float = C.PRESLIDING_DAMPING_RATIO
+
+    @property
+    def presliding_stiffness(self) -> float:
+        """Stiffness of the drive friction before it breaks away, N/m (0: rigid stick)."""
+        if self.robot_presliding <= 0.0 or self.robot_static_friction <= 0.0:
+            return 0.0
+        return self.robot_static_friction / self.robot_presliding
+
+    @property
+    def presliding_damping(self) -> float:
+        """Damping of the pre-sliding deflection, N s/m."""
+        return 2.0 * self.presliding_damping_ratio * math.sqrt(self.presliding_stiffness * self.robot_mass)
 
     @property
     def total_mass(self) -> float:
@@ -128,40 +159,108 @@ class Apparatus:
         return math.sqrt(self.sensor_stiffness / self.shell_mass) / (2.0 * math.pi)
 
 
-@numba.njit(cache=True)
-def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
-    # followed height h and its gradient (g1, g2), including the sphere's envelope over the
-    # lay ridges (tabulated, linearly interpolated); gradient (b1, b2) of the bridged part;
-    # relative friction variation m (materials module docstring)
+@numba.njit(cache=True, fastmath=_FAST)
+def _lay_at(mid, s1, s2, etab, epar):
+    # the sphere's envelope over the lay ridges (tabulated, linearly interpolated) and its
+    # gradient; beyond the table it is held at its end value (constants)
     c1 = epar[mid, 0]
     c2 = epar[mid, 1]
     uf = (c1 * s1 + c2 * s2 - epar[mid, 2]) / epar[mid, 3]
     iu = int(math.floor(uf))
     ne = etab.shape[1]
     if iu < 0 or iu > ne - 2:
-        # beyond the table the envelope is held at its end value (constants)
         h = etab[mid, 0] if iu < 0 else etab[mid, ne - 1]
         de = 0.0
     else:
         de = etab[mid, iu + 1] - etab[mid, iu]
         h = etab[mid, iu] + (uf - iu) * de
         de = de / epar[mid, 3]
-    g1 = de * c1
-    g2 = de * c2
+    return h, de * c1, de * c2
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _texture_sum(mid, s1, s2, sh, ch, sm, hk1, hk2, hamp, hbamp, mamp, etab, epar):
+    # the texture at (s1, s2) from the sines/cosines of its height modes' phases (sh, ch) and
+    # the sines of its friction modes' phases (sm): followed height h and its gradient
+    # (g1, g2) with the lay envelope, gradient (b1, b2) of the bridged part, relative friction
+    # variation m (materials module docstring)
+    h, g1, g2 = _lay_at(mid, s1, s2, etab, epar)
     b1 = 0.0
     b2 = 0.0
     for j in range(hk1.shape[1]):
-        a = hk1[mid, j] * s1 + hk2[mid, j] * s2 + hph[mid, j]
-        ca = math.cos(a)
-        h += hamp[mid, j] * math.sin(a)
+        ca = ch[j]
+        h += hamp[mid, j] * sh[j]
         g1 += hamp[mid, j] * hk1[mid, j] * ca
         g2 += hamp[mid, j] * hk2[mid, j] * ca
         b1 += hbamp[mid, j] * hk1[mid, j] * ca
         b2 += hbamp[mid, j] * hk2[mid, j] * ca
     m = 0.0
-    for j in range(mk1.shape[1]):
-        m += mamp[mid, j] * math.sin(mk1[mid, j] * s1 + mk2[mid, j] * s2 + mph[mid, j])
+    for j in range(sm.shape[0]):
+        m += mamp[mid, j] * sm[j]
     return h, g1, g2, b1, b2, m
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
+    # the texture at (s1, s2), every phase evaluated exactly (_texture_sum)
+    a = hk1[mid] * s1 + hk2[mid] * s2 + hph[mid]
+    return _texture_sum(mid, s1, s2, np.sin(a), np.cos(a), np.sin(mk1[mid] * s1 + mk2[mid] * s2 + mph[mid]),
+                        hk1, hk2, hamp, hbamp, mamp, etab, epar)
+
+
+TEXTURE_ROTATE_MAX = 0.3
+"""numerics: a texture mode's phase is advanced by rotating its stored (sin, cos) while the
+step's phase change k . ds stays below this (rad; 0.3 rad is 0.4 um of travel on the shortest,
+20 um, texture wavelength, i.e. 8 mm/s at 20 kHz); the series used for the rotation (to d^10)
+is then exact to ~1e-13 per step, and the pair is recomputed exactly every
+TEXTURE_RESYNC_STEPS steps (:func:`_texture_cached`)."""
+
+TEXTURE_RESYNC_STEPS = 256
+"""numerics: steps between exact recomputations of the rotated texture phases."""
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _rot(sa, ca, d):
+    # (sin, cos) of a + d from those of a, d small: Taylor series of sin d (to d^9) and
+    # cos d (to d^10), Horner form
+    d2 = d * d
+    sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0))))
+    cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0 * (1.0 - d2 / 90.0))))
+    return sa * cd + ca * sd, ca * cd - sa * sd
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _texture_cached(p, mid, s1, s2, tcache, tsh, tch, tsm, tcm, kmax,
+                    hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar):
+    """:func:`_texture_at` for plane ``p``, keeping each mode's (sin, cos) of its phase between
+    calls: while the contact point moves little (k . ds below TEXTURE_ROTATE_MAX for the
+    material's largest wavenumber ``kmax``) the pairs are rotated by the phase change instead
+    of recomputed (a sliding or resting contact moves well under a micrometre per step).
+    ``tcache[p]`` = (material id, s1, s2, steps since the exact evaluation)."""
+    d1 = s1 - tcache[p, 1]
+    d2 = s2 - tcache[p, 2]
+    exact = (int(tcache[p, 0]) != mid or tcache[p, 3] >= TEXTURE_RESYNC_STEPS
+             or kmax[mid] * (abs(d1) + abs(d2)) > TEXTURE_ROTATE_MAX)
+    if exact:
+        for j in range(hk1.shape[1]):
+            a = hk1[mid, j] * s1 + hk2[mid, j] * s2 + hph[mid, j]
+            tsh[p, j] = math.sin(a)
+            tch[p, j] = math.cos(a)
+        for j in range(mk1.shape[1]):
+            a = mk1[mid, j] * s1 + mk2[mid, j] * s2 + mph[mid, j]
+            tsm[p, j] = math.sin(a)
+            tcm[p, j] = math.cos(a)
+        tcache[p, 0] = mid
+        tcache[p, 3] = 0.0
+    else:
+        for j in range(hk1.shape[1]):
+            tsh[p, j], tch[p, j] = _rot(tsh[p, j], tch[p, j], hk1[mid, j] * d1 + hk2[mid, j] * d2)
+        for j in range(mk1.shape[1]):
+            tsm[p, j], tcm[p, j] = _rot(tsm[p, j], tcm[p, j], mk1[mid, j] * d1 + mk2[mid, j] * d2)
+        tcache[p, 3] += 1.0
+    tcache[p, 1] = s1
+    tcache[p, 2] = s2
+    return _texture_sum(mid, s1, s2, tsh[p], tch[p], tsm[p], hk1, hk2, hamp, hbamp, mamp, etab, epar)
 
 
 @numba.njit(cache=True)
@@ -238,10 +337,10 @@ def _ratchet(mu, slope):
     return r if r > 0.0 else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=_FAST)
 def integrate(n_out, n_sub, dt,
               # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab,
+              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
               # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
               n_comm, motor_gain, comm_phase,
               # environment
@@ -297,6 +396,10 @@ def integrate(n_out, n_sub, dt,
     xd_now = xr0.copy()
     rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
     r_path = 0.0
+    zb = np.zeros(3)             # pre-sliding (bristle) deflection of the drive's friction
+    ftr = np.zeros(3)
+    vn_old = np.zeros(npl)
+    vt_old = np.zeros((npl, 3))
     active = np.zeros(npl, np.bool_)
     stick = np.ones(npl, np.bool_)
     tdisp = np.zeros((npl, 3))
@@ -309,6 +412,17 @@ def integrate(n_out, n_sub, dt,
     fc_tot = np.zeros(3)
     ft_torque = np.zeros(3)
     r_os = np.array([0.0, 0.0, -offset])
+    # per-plane texture phase cache (_texture_cached): material -1 forces an exact first call
+    tcache = np.zeros((npl, 4))
+    tcache[:, 0] = -1.0
+    tsh = np.zeros((npl, hk1.shape[1])); tch = np.zeros((npl, hk1.shape[1]))
+    tsm = np.zeros((npl, mk1.shape[1])); tcm = np.zeros((npl, mk1.shape[1]))
+    kmax = np.zeros(hk1.shape[0])
+    for mm in range(hk1.shape[0]):
+        for jj in range(hk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(hk1[mm, jj]) + abs(hk2[mm, jj]))
+        for jj in range(mk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
 
     n_steps = n_out * n_sub
     for i in range(n_steps):
@@ -352,7 +466,11 @@ def integrate(n_out, n_sub, dt,
                     for a in range(3):
                         xd_now[a] = xd_arr[k, a]
             for a in range(3):
-                wr[a] = kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a] + gcomp[a] + noise[k, a]
+                # the motor command leaves the force DAC in steps of f_res (its error is a
+                # function of the command: constant while the command is) and the current
+                # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
+                wr[a] = _quantise(kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a]
+                                  + gcomp[a], f_res) + noise[k, a]
 
         # ---------------- contacts ---------------------------------------
         fc_tot[:] = 0.0
@@ -375,7 +493,8 @@ def integrate(n_out, n_sub, dt,
                 s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
                 s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
                 mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-                h, g1, g2, b1, b2, mu_f = _texture_at(mid, s1, s2, hk1, hk2, hamp, hbamp, hph,
+                h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tcache, tsh, tch, tsm, tcm, kmax,
+                                                          hk1, hk2, hamp, hbamp, hph,
                                                       mk1, mk2, mamp, mph, etab, epar)
                 edge_width = geo[p, 17]
                 xs = (s1 - geo[p, 16]) / edge_width
@@ -491,8 +610,6 @@ def integrate(n_out, n_sub, dt,
                 o_slip[j, p] = active[p] and not stick[p]
         # material under the finger, per plane (recorded for the whole interval's first step)
         # ---------------- integrate --------------------------------------
-        vn_old = np.empty(npl)
-        vt_old = np.empty((npl, 3))
         for p in range(n_planes):
             if active[p]:
                 d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
@@ -507,25 +624,46 @@ def integrate(n_out, n_sub, dt,
                 fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
             vr[a] += dt * ((fm + fs[a]) / mr + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
-        # the PHANToM's own losses on the robot mass, implicitly (backward Euler): viscous
-        # back-EMF damping, then Coulomb backdrive friction as a set-valued law -- if the
-        # friction impulse available in the step can stop the robot, it sticks (v_r = 0);
-        # otherwise it is reduced by that impulse along its velocity
+        # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
+        # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
+        # as a rigid set-valued law (if the friction impulse available in the step can stop
+        # the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse)
         if br > 0.0:
             for a in range(3):
                 vr[a] /= 1.0 + dt * br / mr
         # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
         # shaft angle while sliding: module docstring, "Motors")
         if fr > 0.0:
+            nb = brush_tab.shape[0]
+            ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
+            ib = int(ub)
+            fb = ub - ib
+            ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
             sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-            if rstuck and sp <= dt * frs / mr:
+            if kb > 0.0:
+                # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
+                # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
+                # while inside the static limit (stuck) and is clipped to the kinetic value
+                # (with the brush ripple) while sliding; it re-sticks when the trial force
+                # falls back inside the kinetic limit
+                for a in range(3):
+                    zb[a] += dt * vr[a]
+                    ftr[a] = -kb * zb[a] - cb * vr[a]
+                mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
+                fk = fr * ripple
+                if mag > (frs if rstuck else fk):
+                    rstuck = False
+                    sc = fk / mag
+                    for a in range(3):
+                        ftr[a] *= sc
+                        zb[a] = -ftr[a] / kb
+                else:
+                    rstuck = True
+                for a in range(3):
+                    vr[a] += dt * ftr[a] / mr
+            elif rstuck and sp <= dt * frs / mr:
                 vr[:] = 0.0
             else:
-                nb = brush_tab.shape[0]
-                ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
-                ib = int(ub)
-                fb = ub - ib
-                ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
                 cap = dt * fr * ripple / mr
                 if sp <= cap:
                     vr[:] = 0.0

@@ -68,7 +68,11 @@ FIELDS: dict[str, Field] = {
     "brush_friction_variation": Field("apparatus", "brush_friction_variation", float, 1.0, 0.0,
                                       1.0, doc="relative rms ripple of the kinetic friction"),
     "control_error_n": Field("apparatus", "control_error_std", float, 1.0, 0.0, 1.0,
-                             doc="random control force per servo tick, N rms"),
+                             doc="random (amplifier) control force per servo tick, N rms"),
+    "force_resolution_n": Field("apparatus", "force_resolution", float, 1.0, 0.0, 1.0,
+                                doc="force DAC step at the tip, N (0: exact)"),
+    "robot_presliding_m": Field("apparatus", "robot_presliding", float, 1.0, 0.0, 1e-3,
+                                doc="pre-sliding displacement of the drive friction, m (0: rigid stick)"),
     "commutation_ripple": Field("apparatus", "commutation_events", bool,
                                 doc="motors' commutation torque ripple on/off"),
 }

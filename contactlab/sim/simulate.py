@@ -165,6 +165,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
                     app.origin_offset, app.gravity, app.servo_rate_hz,
                     app.robot_friction, app.robot_damping, app.robot_static_friction,
                     brush_ripple_table(app.brush_friction_variation),
+                    app.presliding_stiffness, app.presliding_damping, float(app.force_resolution),
                     int(app.commutation_events), float(app.motor_rad_per_m), comm_phase,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
