@@ -34,6 +34,9 @@ from contactlab.cli.inputs import checks_archive
               help="Drop paths this far below the best log-likelihood (9.1.1).")
 @click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
               show_default=True, help="Detect covariance increases only (the thesis) or both.")
+@click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
+              help="Map the archive's labels onto node names for the accuracy "
+                   "[default: the map the models were trained with].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
 @parallel_options("trials")
@@ -41,7 +44,7 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, trials, no_write, workers, scheduler, as_json, quiet):
+              sides, label_map, trials, no_write, workers, scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -59,6 +62,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
           --models graph-models.h5
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
           --models graph-models.h5 --json
+      contactlab recognize recording2.h5 --graph free-contact --models m.h5 --json
 
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context
@@ -87,9 +91,13 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
             g.action_index(act)
         except KeyError as exc:
             raise click.BadParameter(str(exc.args[0]), param_hint="'--action'") from None
+    from contactlab.observer.kinematics import check_label_map, parse_label_map
+
+    lmap = parse_label_map(label_map)
+    check_label_map(lmap, g)
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           write=not no_write)
+                           write=not no_write, label_map=lmap)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
     if as_json:

@@ -34,7 +34,8 @@ MODEL_KINDS: dict[str, dict[str, bool]] = {
     "velocity-fixed": {"sigma": False, "trained": False},
     "velocity-moving": {"low": False, "high": False, "sigma": False, "trained": False},
     "constraint": {"constraint": True, "trained": False, "mode": False, "rotate_deg": False,
-                   "noise_scale": False, "offset_sd": False, "prior_samples": False},
+                   "noise_scale": False, "offset_sd": False, "prior_samples": False,
+                   "change_size": False},
 }
 #: kinds a graph may name that the observer cannot run, with the reason
 UNAVAILABLE_KINDS: dict[str, str] = {}
@@ -355,12 +356,14 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                 raise err(f"{where}.{k}", f"missing (required by kind {kind!r})")
         for k, v in params.items():
             if k in ("sigma", "low", "high", "noise_var", "noise_scale", "offset_sd",
-                     "prior_samples"):
+                     "prior_samples", "change_size"):
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                     raise err(f"{where}.{k}", f"must be a finite number; got {v!r}")
-        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples"):
+        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size"):
             if k in params and params[k] <= 0:
                 raise err(f"{where}.{k}", f"must be > 0; got {params[k]!r}")
+        if params.get("change_size") == 1:
+            raise err(f"{where}.change_size", "must not be 1 (no change to detect)")
         if kind == "velocity-moving":
             _check_moving(params, where, err)
         if kind == "impact":

@@ -27,7 +27,7 @@ from contactlab.observer.models.constraint import K, ConstraintFeature, parse_co
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
-           "read_kinematic_models", "parse_label_map", "KINEMATIC_SIGNALS"]
+           "read_kinematic_models", "parse_label_map", "check_label_map", "KINEMATIC_SIGNALS"]
 
 KINEMATIC_SIGNALS = ("contact", "velocity")
 _VELOCITY = {"velocity-fixed": FixedVelocity, "velocity-moving": MovingVelocity}
@@ -59,6 +59,20 @@ def parse_label_map(text: str | None, *, field: str = "--label-map") -> dict | N
             raise DataError(f"label {src!r} mapped twice ({out[src]!r}, {dst!r})", field=field)
         out[src] = dst
     return out
+
+
+def check_label_map(label_map: dict | None, graph: FeatureGraph,
+                    field: str = "--label-map") -> None:
+    """DataError (file = the graph) when a map's target is neither a node nor a
+    trained label of ``graph``."""
+    if not label_map:
+        return
+    known = set(graph.node_names) | {s.trained for s in graph.models.values()}
+    for src, dst in label_map.items():
+        if dst not in known:
+            raise DataError(f"{src}={dst}: {dst!r} is not a node or trained label of graph "
+                            f"{graph.name!r} (known: {', '.join(sorted(known))})",
+                            file=graph.source or graph.name, field=field)
 
 
 def _noise_level(segments, columns) -> float:

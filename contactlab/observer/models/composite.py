@@ -145,7 +145,7 @@ def _constraint(spec: ModelSpec, obj, graph: FeatureGraph, source) -> Constraint
                              position_sd=obj.position_sd, force_sd=obj.force_sd,
                              offset_sd=float(p.get("offset_sd", obj.offset_sd)),
                              prior_samples=float(p.get("prior_samples", obj.prior_samples)),
-                             signal=spec.signal)
+                             signal=spec.signal, change_size=p.get("change_size"))
 
 
 def _renamed(model: FeatureModel, spec: ModelSpec) -> FeatureModel:
