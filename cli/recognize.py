@@ -32,8 +32,9 @@ from contactlab.cli.inputs import checks_archive
               help="Probability mass P_prune kept when pruning paths (6.4).")
 @click.option("--gap", type=float, default=D.OBSERVER_GAP, show_default=True,
               help="Drop paths this far below the best log-likelihood (9.1.1).")
-@click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
-              show_default=True, help="Detect covariance increases only (the thesis) or both.")
+@click.option("--sides", type=click.Choice(["increase", "both"]), default=None,
+              help="Detect covariance increases only (the thesis) or both.  [default: the "
+                   "graph's 'sides', else increase]")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
@@ -62,7 +63,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
           --models graph-models.h5
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
           --models graph-models.h5 --json
-      contactlab recognize recording2.h5 --graph free-contact --models m.h5 --json
+      contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 --json
 
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context

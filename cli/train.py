@@ -64,8 +64,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
       contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --force --json
       contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
           --order 1 --mean --reduce mean --out hf-models.h5
-      contactlab train recording.h5 --graph free-contact \\
-          --label-map "1=free,2=contact,3=free" --out m.h5
+      contactlab train wrist.h5 --graph free-contact --out fc-models.h5
 
     --classes takes label names as the archive spells them ('contactlab info'
     lists them), e.g. sanded_aluminium_80,polished_aluminium for stroke-a.
@@ -77,7 +76,9 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     labelled run; velocity: the F and M models of 9.1.1) and stored with
     provenance in one models file.  Graph names resolve like spec names
     (free-contact, guarded-move, ...).  --label-map maps a recording's own
-    labels onto the graph's (free-contact's: free, contact).
+    labels onto the graph's (free-contact's: free, contact), e.g. integer
+    labels with --label-map "1=free,2=contact,3=free"; unmapped labels are
+    ignored.
     """
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal

@@ -48,7 +48,7 @@ KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "contact")
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "contact"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
-             "edges", "edge_sets"}
+             "edges", "edge_sets", "sides"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}
 _PROB_TOL = 1e-6
 
@@ -102,6 +102,7 @@ class FeatureGraph:
     actions: tuple[str, ...] = ()
     thesis: str = ""
     source: str | None = None
+    sides: str | None = None      # the detectors' sides this graph is meant for (None: default)
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -173,7 +174,8 @@ class FeatureGraph:
         nodes = tuple(Node(n.name, n.label, n.models, float(q), n.transient, n.self_transition)
                       for n, q in zip(self.nodes, p))
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
-                            self.action_edges, self.actions, self.thesis, self.source)
+                            self.action_edges, self.actions, self.thesis, self.source,
+                            self.sides)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -315,8 +317,11 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
 
     node_objs = tuple(Node(n["name"], n["label"], n["models"], float(p), n["transient"],
                            n["self_transition"]) for n, p in zip(nodes, init))
+    sides = doc.get("sides")
+    if sides is not None and sides not in ("increase", "both"):
+        raise err("sides", f"must be \"increase\" or \"both\"; got {sides!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
-                         thesis, source)
+                         thesis, source, sides)
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph

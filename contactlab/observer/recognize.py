@@ -197,9 +197,10 @@ class RecognizeStage(Stage):
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE,
                  p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                 sides: str = "increase", delay_window: int = 50, write: bool = True,
+                 sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None):
         self.graph, self.models, self.built = _load(graph, models)
+        sides = sides or self.graph.sides or "increase"
         self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
                                 p_prune=p_prune, gap=gap, sides=sides)
@@ -286,7 +287,7 @@ def recognize_archive(archive, *, graph, models, action=None,
                       threshold: float = D.OBSERVER_THRESHOLD,
                       change_size: float = D.OBSERVER_CHANGE_SIZE,
                       p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                      sides: str = "increase", trials=None, delay_window: int = 50,
+                      sides: str | None = None, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
