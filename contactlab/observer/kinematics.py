@@ -146,40 +146,47 @@ def write_kinematic_models(h5: h5py.File, models: dict) -> None:
             sub.attrs[key] = float(v)
 
 
+def read_groups(h5: h5py.File, name: str, path, what: str, read) -> dict:
+    """``{label: model}`` from the numbered groups ``/name/<i>`` of a models file;
+    ``read(group) -> (label, model)``; DataError naming the group when one is bad."""
+    out = {}
+    g = h5.get(name)
+    for key in (sorted(g, key=int) if isinstance(g, h5py.Group) else []):
+        try:
+            label, model = read(g[key])
+        except (KeyError, ValueError, TypeError) as exc:
+            raise DataError(f"bad {what} ({exc})", file=str(path),
+                            field=f"/{name}/{key}") from None
+        out[label] = model
+    return out
+
+
+def _read_constraint(sub):
+    label = _text(sub.attrs["label"])
+    N = np.asarray(sub["normals"][()], np.float64).reshape(K, -1)
+    if N.shape[1] != int(sub.attrs["degree"]):
+        raise ValueError(f"normals have {N.shape[1]} columns for degree "
+                         f"{int(sub.attrs['degree'])}")
+    m = ConstraintFeature(name=label, normals=N, V=np.asarray(sub["V"][()], np.float64),
+                          mode=_text(sub.attrs["mode"]),
+                          **{k: float(sub.attrs[k]) for k in (
+                              "position_sd", "force_sd", "offset_sd", "prior_samples")})
+    m.n_segments_ = int(sub.attrs.get("n_segments", 0))
+    return label, m
+
+
+def _read_velocity(sub):
+    label = _text(sub.attrs["label"])
+    cls = _VELOCITY[_text(sub.attrs["kind"])]
+    keys = ("sigma",) if cls is FixedVelocity else ("low", "high", "sigma")
+    return label, cls(name=label, **{k: float(sub.attrs[k]) for k in keys})
+
+
 def read_kinematic_models(h5: h5py.File, path) -> dict:
     """The models :func:`write_kinematic_models` stored (empty when absent)."""
-    out: dict = {"constraint": {}, "velocity": {}}
-    g = h5.get("constraints")
-    for key in (sorted(g, key=int) if isinstance(g, h5py.Group) else []):
-        where = f"/constraints/{key}"
-        sub = g[key]
-        try:
-            label = _text(sub.attrs["label"])
-            N = np.asarray(sub["normals"][()], np.float64).reshape(K, -1)
-            if N.shape[1] != int(sub.attrs["degree"]):
-                raise ValueError(f"normals have {N.shape[1]} columns for degree "
-                                 f"{int(sub.attrs['degree'])}")
-            m = ConstraintFeature(name=label, normals=N, V=np.asarray(sub["V"][()], np.float64),
-                                  mode=_text(sub.attrs["mode"]),
-                                  **{k: float(sub.attrs[k]) for k in (
-                                      "position_sd", "force_sd", "offset_sd", "prior_samples")})
-        except (KeyError, ValueError, TypeError) as exc:
-            raise DataError(f"bad constraint model ({exc})", file=str(path), field=where) from None
-        m.n_segments_ = int(sub.attrs.get("n_segments", 0))
-        out["constraint"][label] = m
-    g = h5.get("velocity")
-    for key in (sorted(g, key=int) if isinstance(g, h5py.Group) else []):
-        where = f"/velocity/{key}"
-        sub = g[key]
-        try:
-            label = _text(sub.attrs["label"])
-            cls = _VELOCITY[_text(sub.attrs["kind"])]
-            kw = {k: float(sub.attrs[k]) for k in
-                  (("sigma",) if cls is FixedVelocity else ("low", "high", "sigma"))}
-            out["velocity"][label] = cls(name=label, **kw)
-        except (KeyError, ValueError, TypeError) as exc:
-            raise DataError(f"bad velocity model ({exc})", file=str(path), field=where) from None
-    return out
+    return {"constraint": read_groups(h5, "constraints", path, "constraint model",
+                                      _read_constraint),
+            "velocity": read_groups(h5, "velocity", path, "velocity model", _read_velocity)}
 
 
 def _text(v) -> str:
