@@ -83,3 +83,15 @@ def test_bad_graph_constraint_is_one_line(tmp_path):
     assert r.exit_code != 0
     assert "g.toml" in r.output and "models.C.constraint" in r.output
     assert len(r.output.strip().splitlines()) == 1
+
+
+def test_graph_sides_is_validated_and_used_by_default():
+    from contactlab.errors import DataError
+    from contactlab.observer import parse_graph
+
+    doc = {"models": {"C": {"kind": "constraint", "constraint": "0"}},
+           "nodes": [{"name": "a", "models": "C", "initial": 1.0}]}
+    assert parse_graph(doc).sides is None
+    assert parse_graph({**doc, "sides": "both"}).sides == "both"
+    with pytest.raises(DataError, match="sides"):
+        parse_graph({**doc, "sides": "sideways"})
