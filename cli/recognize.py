@@ -32,8 +32,12 @@ from contactlab.cli.inputs import checks_archive
               help="Probability mass P_prune kept when pruning paths (6.4).")
 @click.option("--gap", type=float, default=D.OBSERVER_GAP, show_default=True,
               help="Drop paths this far below the best log-likelihood (9.1.1).")
-@click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
-              show_default=True, help="Detect covariance increases only (the thesis) or both.")
+@click.option("--sides", type=click.Choice(["increase", "both"]), default=None,
+              help="Detect covariance increases only (the thesis) or both.  [default: the "
+                   "graph's 'sides', else increase]")
+@click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
+              help="Map the archive's labels onto node names for the accuracy "
+                   "[default: the map the models were trained with].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
 @parallel_options("trials")
@@ -41,7 +45,7 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, trials, no_write, workers, scheduler, as_json, quiet):
+              sides, label_map, trials, no_write, workers, scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -59,6 +63,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
           --models graph-models.h5
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
           --models graph-models.h5 --json
+      contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 --json
 
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context
@@ -87,9 +92,13 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
             g.action_index(act)
         except KeyError as exc:
             raise click.BadParameter(str(exc.args[0]), param_hint="'--action'") from None
+    from contactlab.observer.kinematics import check_label_map, parse_label_map
+
+    lmap = parse_label_map(label_map)
+    check_label_map(lmap, g)
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           write=not no_write)
+                           write=not no_write, label_map=lmap)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet, check_values=False)  # checked
     if as_json:

@@ -35,6 +35,10 @@ from contactlab.cli.inputs import checks_archive
               type=click.Path(dir_okay=False, path_type=Path),
               help="Train every model this feature graph names (temporal models, impact-decay "
                    "priors) from the ground truth; the graph's models give the signal.")
+@click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
+              help="With --graph: map the archive's labels (names or integer codes) onto the "
+                   "graph's labels, e.g. '1=free,2=contact,3=free'; unmapped labels are "
+                   "ignored.")
 @click.option("--reduce", type=click.Choice(["none", "mean"]), default="none",
               show_default=True,
               help="With --graph: model every channel of the signal (none) or their mean.")
@@ -42,8 +46,8 @@ from contactlab.cli.inputs import checks_archive
 @json_option
 @quiet_option
 @checks_archive
-def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file, reduce,
-          force, as_json, quiet):
+def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file,
+          label_map, reduce, force, as_json, quiet):
     """Train one temporal model per class of ARCHIVE and write them to --out.
 
     Every labelled run of the conditioned signal is cut into blocks; per
@@ -60,6 +64,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
       contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --force --json
       contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
           --order 1 --mean --reduce mean --out hf-models.h5
+      contactlab train wrist.h5 --graph free-contact --out fc-models.h5
 
     --classes takes label names as the archive spells them ('contactlab info'
     lists them), e.g. sanded_aluminium_80,polished_aluminium for stroke-a.
@@ -67,7 +72,13 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     With --graph GRAPH every model the graph names is trained from the
     ground-truth labels its declarations name (temporal: the prior above on
     the model's signal; impact: the linear-decay prior of 7.1 over every
-    labelled impact) and stored with provenance in one models file.
+    labelled impact; constraint: the frame and noise of chapter 8 over every
+    labelled run; velocity: the F and M models of 9.1.1) and stored with
+    provenance in one models file.  Graph names resolve like spec names
+    (free-contact, guarded-move, ...).  --label-map maps a recording's own
+    labels onto the graph's (free-contact's: free, contact), e.g. integer
+    labels with --label-map "1=free,2=contact,3=free"; unmapped labels are
+    ignored.
     """
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal
@@ -80,8 +91,10 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     if graph_file is not None:
         _train_graph(archive, graph_file, out=out, labels=labels, signal=signal, order=order,
                      mean=mean, block=block, classes=classes, trials=trials, reduce=reduce,
-                     force=force, as_json=as_json, quiet=quiet)
+                     force=force, as_json=as_json, quiet=quiet, label_map=label_map)
         return
+    if label_map is not None:
+        raise click.UsageError("--label-map needs --graph")
     if click.get_current_context().get_parameter_source("reduce") \
             is not click.core.ParameterSource.DEFAULT:
         raise click.UsageError("--reduce needs --graph")
@@ -109,8 +122,10 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
 
 
 def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block, classes,
-                 trials, reduce, force, as_json, quiet):
+                 trials, reduce, force, as_json, quiet, label_map=None):
     """``train --graph``: every model the graph names, one models file."""
+    from contactlab.observer.graph import load_graph
+    from contactlab.observer.kinematics import check_label_map, parse_label_map
     from contactlab.observer.training import train_graph
 
     ctx = click.get_current_context()
@@ -120,15 +135,23 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                                    "name their signals and labels)")
     if labels != "truth":
         raise click.UsageError("--graph trains from the ground truth (--labels truth)")
-    gm = train_graph(archive, graph_file, order=order, mean=mean, block=block, reduce=reduce,
+    graph = load_graph(graph_file)
+    lmap = parse_label_map(label_map)
+    check_label_map(lmap, graph)
+    gm = train_graph(archive, graph, order=order, mean=mean, block=block, reduce=reduce,
                      trials=list(trials) or None, quiet=quiet,
-                     command=" ".join(["contactlab"] + sys.argv[1:]))
+                     command=" ".join(["contactlab"] + sys.argv[1:]), label_map=lmap)
     gm.save(out, force=force)
     summary = {"out": str(out), "graph": str(graph_file), "signal": gm.signal, "fs": gm.fs,
                "reduce": gm.reduce, "labels": gm.labels,
                "blocks": {k: m.n_blocks for k, m in gm.temporal.items()},
                "impact_segments": {k: getattr(m, "n_segments_", None)
                                    for k, m in gm.impacts.items()},
+               "constraints": {k: {"degree": m.degree, "normals": m.normals.T.tolist(),
+                                   "segments": getattr(m, "n_segments_", None)}
+                               for k, m in gm.kinematic.get("constraint", {}).items()},
+               "velocity": {k: m.params() for k, m in gm.kinematic.get("velocity", {}).items()},
+               "label_map": lmap,
                "order": order, "mean": mean, "block": block}
     if as_json:
         echo_json(summary)
@@ -137,4 +160,10 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
         click.echo(f"{k}: temporal, {m.n_blocks} blocks, {m.channels} channels")
     for k, n in summary["impact_segments"].items():
         click.echo(f"{k}: impact decay, {n} impacts")
+    for k, c in summary["constraints"].items():
+        normals = "; ".join(" ".join(f"{v:+.3f}" for v in n) for n in c["normals"]) or "none"
+        click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}), "
+                   f"{c['segments']} runs")
+    for k, p in summary["velocity"].items():
+        click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     click.echo(f"models written to {out}")

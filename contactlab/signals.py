@@ -47,7 +47,8 @@ from contactlab.errors import DataError, UsageError
 __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "TARGET_RATE_HZ",
            "factor_for", "cutoff_for", "hf_block_for", "window_of", "Signal",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
-           "conditioned_signal", "trial_signals", "codes_at", "truth_codes", "REDUCE", "loudest_channel"]
+           "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
+           "relabel", "REDUCE", "loudest_channel"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -63,7 +64,7 @@ CUTOFF_DIVISOR = 2.0 * FACTOR
 HF_BLOCK = 2 * FACTOR
 #: input samples each conditioned sample depends on at 1000 Hz (:func:`window_of`)
 WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": HF_BLOCK + 1, "velocity": 1,
-          "position": 1}
+          "position": 1, "contact": FACTOR}
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
 
@@ -241,6 +242,12 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     for s in signals:
         if s in ("velocity", "position"):
             continue
+        if s == "contact":          # position then force, both through the 7.1 lowpass
+            w = condition(trial, "wrench", path=path)
+            p = condition(trial, "position", path=path)
+            out[s] = np.concatenate([p.y[:, :3], w.y[:, :3]], axis=1)
+            indices.append(w.index)
+            continue
         if s not in SIGNALS:
             raise DataError(f"unknown signal {s!r} (known: {', '.join(STREAMS)})",
                             file=str(path) if path else None, field=_field(trial, "")[:-1])
@@ -259,11 +266,25 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         index = np.arange(factor - 1, n_in, factor)
         n = len(index)
     for s in signals:
-        if s in ("velocity", "position"):
+        if s == "velocity" and getattr(trial, "velocity", None) is None \
+                and getattr(trial, "position", None) is not None:
+            v = derived_velocity(trial)
+            out[s] = v[np.minimum(index // FACTOR, len(v) - 1)]
+        elif s in ("velocity", "position"):
             out[s] = _raw(trial, s, path)[index]
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
     fs = float(trial.rate_hz) / factor_for(trial.rate_hz)
     return out, index[:n], fs
+
+
+def derived_velocity(trial) -> np.ndarray:
+    """Velocity (m/s) of a trial recorded without one: the central difference of its
+    position through the 7.1 lowpass, at the conditioned rate (row j is at input
+    sample ``FACTOR * j``)."""
+    p = lowpass(_raw(trial, "position", None), fs=float(trial.rate_hz))
+    if len(p) < 2:
+        return np.zeros_like(p)
+    return np.gradient(p, axis=0) * (float(trial.rate_hz) / FACTOR)
 
 
 def loudest_channel(strain, rows=slice(None)) -> int:
@@ -289,6 +310,21 @@ def codes_at(codes, index, *, window: int = 1) -> np.ndarray:
     lo = np.clip(index - window + 1, 0, None)
     run = np.r_[0, np.cumsum(np.diff(codes) != 0)]          # run id of each input sample
     return np.where(run[lo] == run[index], codes[index], -1)
+
+
+def relabel(trial, label_map: dict | None):
+    """``trial`` with its label names mapped by ``label_map`` (name -> new name;
+    unmapped names become None, i.e. unlabelled), or ``trial`` itself without a map.
+    Integer labels are matched by their names (``"1"``)."""
+    if not label_map:
+        return trial
+    from types import SimpleNamespace
+
+    names = [label_map.get(str(n)) for n in (getattr(trial, "label_names", None) or [])]
+    fields = {k: getattr(trial, k, None) for k in ("id", "rate_hz", "time", "labels", "strain",
+                                                  "wrench", "position", "velocity", "action",
+                                                  "command")}
+    return SimpleNamespace(**fields, label_names=names)
 
 
 def truth_codes(trial, index, names=None, *, window: int = 1, path=None) -> np.ndarray | None:

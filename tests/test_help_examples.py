@@ -140,6 +140,22 @@ def _write_csvs(root: Path) -> None:
     (root / "my-spec.toml").write_text(text.replace('name = "hf-test"', 'name = "my-spec"', 1))
 
 
+def _write_wrist(root: Path) -> None:
+    """A wrench-and-position recording of a hand-held tool (free-contact examples)."""
+    import pandas as pd
+
+    from contactlab.synthetic.free_contact import free_contact_recording
+
+    rec = free_contact_recording(seed=5, fs=100.0, cycles=3)
+    cols = rec.csv_columns()
+    cols["state"] = [("free", "contact", "free")[c - 1] for c in cols["state"]]
+    pd.DataFrame(cols).to_csv(root / "wrist.csv", index=False)
+    r = CliRunner().invoke(main, ["import", str(root / "wrist.csv"), "--out",
+                                  str(root / "wrist.h5"), "-q", "--columns",
+                                  "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"])
+    assert r.exit_code == 0, r.output
+
+
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory):
     root = tmp_path_factory.mktemp("examples")
@@ -148,6 +164,7 @@ def scratch(tmp_path_factory):
     _write_hf(root / "train.h5", 4, seed=0)
     _write_hf(root / "test.h5", 2, seed=1)
     _write_csvs(root)
+    _write_wrist(root)
     return root
 
 

@@ -31,21 +31,24 @@ __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MO
 MODEL_KINDS: dict[str, dict[str, bool]] = {
     "temporal": {"trained": False},
     "impact": {"trained": False, "theta_mean": False, "theta_sd": False, "noise_var": False},
-    "velocity-fixed": {"sigma": True},
-    "velocity-moving": {"low": True, "high": True, "sigma": True},
+    "velocity-fixed": {"sigma": False, "trained": False},
+    "velocity-moving": {"low": False, "high": False, "sigma": False, "trained": False},
+    "constraint": {"constraint": True, "trained": False, "mode": False, "rotate_deg": False,
+                   "noise_scale": False, "offset_sd": False, "prior_samples": False,
+                   "change_size": False},
 }
 #: kinds a graph may name that the observer cannot run, with the reason
-UNAVAILABLE_KINDS: dict[str, str] = {
-    "constraint": "constraint models are estimated by 'contactlab estimate', not by the observer"}
-_UNAVAILABLE_PARAMS = {"constraint": {"trained": False, "constraint": False}}
+UNAVAILABLE_KINDS: dict[str, str] = {}
+_UNAVAILABLE_PARAMS: dict[str, dict] = {}
 
-#: Signals a graph model may read (7.1 conditioning, plus the kinematic channels).
-KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position")
+#: Signals a graph model may read (7.1 conditioning, plus the kinematic channels;
+#: ``contact`` is position then force, what the constraint models read).
+KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "contact")
 
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
-                   "velocity-moving": "velocity", "constraint": "wrench"}
+                   "velocity-moving": "velocity", "constraint": "contact"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
-             "edges", "edge_sets"}
+             "edges", "edge_sets", "sides"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}
 _PROB_TOL = 1e-6
 
@@ -99,6 +102,7 @@ class FeatureGraph:
     actions: tuple[str, ...] = ()
     thesis: str = ""
     source: str | None = None
+    sides: str | None = None      # the detectors' sides this graph is meant for (None: default)
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -170,7 +174,8 @@ class FeatureGraph:
         nodes = tuple(Node(n.name, n.label, n.models, float(q), n.transient, n.self_transition)
                       for n, q in zip(self.nodes, p))
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
-                            self.action_edges, self.actions, self.thesis, self.source)
+                            self.action_edges, self.actions, self.thesis, self.source,
+                            self.sides)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -312,8 +317,11 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
 
     node_objs = tuple(Node(n["name"], n["label"], n["models"], float(p), n["transient"],
                            n["self_transition"]) for n, p in zip(nodes, init))
+    sides = doc.get("sides")
+    if sides is not None and sides not in ("increase", "both"):
+        raise err("sides", f"must be \"increase\" or \"both\"; got {sides!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
-                         thesis, source)
+                         thesis, source, sides)
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph
@@ -352,17 +360,54 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
             if required and k not in params:
                 raise err(f"{where}.{k}", f"missing (required by kind {kind!r})")
         for k, v in params.items():
-            if k in ("sigma", "low", "high", "noise_var"):
+            if k in ("sigma", "low", "high", "noise_var", "noise_scale", "offset_sd",
+                     "prior_samples", "change_size"):
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                     raise err(f"{where}.{k}", f"must be a finite number; got {v!r}")
-        if kind in ("velocity-fixed", "velocity-moving") and params["sigma"] <= 0:
-            raise err(f"{where}.sigma", f"must be > 0; got {params['sigma']!r}")
-        if kind == "velocity-moving" and not params["low"] < params["high"]:
-            raise err(f"{where}.high", f"must exceed low ({params['low']}); got {params['high']}")
+        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size"):
+            if k in params and params[k] <= 0:
+                raise err(f"{where}.{k}", f"must be > 0; got {params[k]!r}")
+        if params.get("change_size") == 1:
+            raise err(f"{where}.change_size", "must not be 1 (no change to detect)")
+        if kind == "velocity-moving":
+            _check_moving(params, where, err)
         if kind == "impact":
             _check_impact_prior(params, where, err)
+        if kind == "constraint":
+            _check_constraint(params, where, err)
         out[name] = ModelSpec(name, kind, signal, params)
     return out
+
+
+def _check_moving(params, where, err) -> None:
+    given = [k for k in ("low", "high", "sigma") if k in params]
+    if given and len(given) != 3:
+        missing = sorted({"low", "high", "sigma"} - set(given))[0]
+        raise err(f"{where}.{missing}", "inline velocity-moving parameters need low, high and "
+                  "sigma (or none: trained)")
+    if given and not params["low"] < params["high"]:
+        raise err(f"{where}.high", f"must exceed low ({params['low']}); got {params['high']}")
+
+
+def _check_constraint(params, where, err) -> None:
+    from contactlab.observer.models.constraint import CONSTRAINT_MODES, parse_constraint
+
+    c = params["constraint"]
+    if isinstance(c, int) and not isinstance(c, bool):
+        c = params["constraint"] = str(c)
+    try:
+        parse_constraint(c)
+    except ValueError:
+        raise err(f"{where}.constraint", f"must be a degree 0-3 or the constrained axes (Z, XZ, "
+                  f"YZ, ...); got {c!r}") from None
+    if params.get("mode", "fixed") not in CONSTRAINT_MODES:
+        raise err(f"{where}.mode", f"must be one of {', '.join(CONSTRAINT_MODES)}; got "
+                  f"{params['mode']!r}")
+    r = params.get("rotate_deg")
+    if r is not None and not (isinstance(r, list) and len(r) == 3 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+            for x in r)):
+        raise err(f"{where}.rotate_deg", "must be three angles in degrees [x, y, z]")
 
 
 def _check_impact_prior(params, where, err) -> None:

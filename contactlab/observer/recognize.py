@@ -41,7 +41,7 @@ from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
-from contactlab.signals import trial_signals, truth_codes
+from contactlab.signals import relabel, trial_signals, truth_codes
 from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["recognize_archive", "recognize_trial", "TrialRecognition",
@@ -130,8 +130,9 @@ def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray
 
 def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
                     action=None, observer_kw: dict | None = None, chunk: int = 4096,
-                    path=None) -> TrialRecognition:
-    """Run the observer over one archive trial (``models``: built model objects)."""
+                    path=None, label_map: dict | None = None) -> TrialRecognition:
+    """Run the observer over one archive trial (``models``: built model objects;
+    ``label_map``: the trial's label names -> node names for the truth)."""
     obs = Observer(graph, models, **(observer_kw or {}))
     data, index, fs = trial_signals(trial, obs.signals, reduce=reduce, path=path)
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
@@ -141,7 +142,7 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
                         else None, field=f"/trials/{trial.id}/measurements/action")
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act,
                   chunk=chunk)
-    truth = truth_codes(trial, index, graph.node_names)
+    truth = truth_codes(relabel(trial, label_map), index, graph.node_names)
     times = np.asarray(trial.time, np.float64)[index]
     return TrialRecognition(trial.id, res, times, truth, fs)
 
@@ -196,9 +197,11 @@ class RecognizeStage(Stage):
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE,
                  p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                 sides: str = "increase", delay_window: int = 50, write: bool = True,
-                 keep: bool = False):
+                 sides: str | None = None, delay_window: int = 50, write: bool = True,
+                 keep: bool = False, label_map: dict | None = None):
         self.graph, self.models, self.built = _load(graph, models)
+        sides = sides or self.graph.sides or "increase"
+        self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
                                 p_prune=p_prune, gap=gap, sides=sides)
         try:
@@ -209,13 +212,15 @@ class RecognizeStage(Stage):
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,
-                           "action": action, "delay_window": delay_window}
+                           "action": action, "delay_window": delay_window,
+                           "label_map": self.label_map}
 
     def run_trial(self, trial) -> TrialOutcome:
         """Observe one trial; its MAP path, confusion counts, delays and results."""
         graph, K = self.graph, self.graph.n_nodes
         rec = recognize_trial(trial, graph, self.built, reduce=self.models.reduce,
-                              action=self.action, observer_kw=self.observer_kw)
+                              action=self.action, observer_kw=self.observer_kw,
+                              label_map=self.label_map)
         r = rec.result
         entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rec.fs]
                           for n, s in r.map_path],
@@ -282,7 +287,7 @@ def recognize_archive(archive, *, graph, models, action=None,
                       threshold: float = D.OBSERVER_THRESHOLD,
                       change_size: float = D.OBSERVER_CHANGE_SIZE,
                       p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                      sides: str = "increase", trials=None, delay_window: int = 50,
+                      sides: str | None = None, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).

@@ -12,8 +12,13 @@ For each ``[models.NAME]`` of a graph:
   :class:`~contactlab.observer.models.ImpactFeature` prior on the linear decay
   ``(mu, a)`` of the log energy fitted to every labelled run of ``trained``
   (7.1, :meth:`ImpactFeature.from_segments`), each run starting at its first sample;
-* ``velocity-*`` and inline impacts carry their parameters in the graph file
-  (nothing to train); ``constraint`` is not available yet (an error).
+* ``constraint`` and ``velocity-*`` without inline parameters -- fitted from
+  the labelled runs of the ``contact`` / ``velocity`` signal
+  (:mod:`contactlab.observer.kinematics`); inline velocity models and inline
+  impacts carry their parameters in the graph file.
+
+``label_map`` maps the archive's own label names (integer codes read as
+their names) onto the graph's labels; unmapped labels are ignored.
 
 Signals (the observer's measurement streams) come from
 :func:`contactlab.signals.trial_signals`:
@@ -46,10 +51,13 @@ import numpy as np
 from contactlab import __version__
 from contactlab import defaults as D
 from contactlab.errors import DataError
-from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, load_graph
+from contactlab.observer.graph import FeatureGraph, load_graph
+from contactlab.observer.kinematics import (KINEMATIC_SIGNALS, fit_kinematic_models,
+                                            kinematic_specs, read_kinematic_models,
+                                            write_kinematic_models)
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
-from contactlab.signals import REDUCE, trial_signals, truth_codes, window_of
+from contactlab.signals import REDUCE, relabel, trial_signals, truth_codes, window_of
 from contactlab.temporal.blocks import mask_runs
 
 __all__ = ["GraphModels", "ImpactPrior", "train_graph", "load_graph_models"]
@@ -89,6 +97,7 @@ class GraphModels:
     provenance: dict = field(default_factory=dict)
     channels: list | None = None
     source: str | None = None
+    kinematic: dict = field(default_factory=dict)   # {"constraint": {}, "velocity": {}}
 
     @property
     def trained(self) -> dict:
@@ -101,7 +110,14 @@ class GraphModels:
         for lab, m in self.impacts.items():
             out[lab] = ImpactPrior(np.asarray(m.theta_mean), np.einsum(
                 "cij,ckj->cik", m.theta_sqrt, m.theta_sqrt), np.asarray(m.noise_var))
+        for ns, models in self.kinematic.items():
+            out.update({f"{ns}:{lab}": m for lab, m in models.items()})
         return out
+
+    @property
+    def label_map(self) -> dict | None:
+        """The archive label -> graph label map the models were trained with."""
+        return self.provenance.get("label_map")
 
     @property
     def labels(self) -> list[str]:
@@ -112,13 +128,17 @@ class GraphModels:
         from contactlab.fileio import atomic_path
         from contactlab.temporal import ModelSet
 
-        if not self.temporal:
-            raise ValueError("a models file needs at least one temporal model")
+        if not self.temporal and not any(self.kinematic.values()):
+            raise ValueError("a models file needs at least one trained model")
         ms = ModelSet(models=dict(self.temporal), signal=self.signal, fs=self.fs,
                       provenance=self.provenance, channels=self.channels)
         with atomic_path(path, force=force) as tmp:
-            ms.save(tmp, force=True)
+            if self.temporal:
+                ms.save(tmp, force=True)
+            else:
+                _save_header(ms, tmp)
             with h5py.File(tmp, "r+") as h5:
+                write_kinematic_models(h5, self.kinematic)
                 h5.attrs["reduce"] = self.reduce
                 g = h5.create_group("impacts")
                 for i, (label, m) in enumerate(self.impacts.items()):
@@ -136,10 +156,11 @@ class GraphModels:
         """Read a models file (also a plain ``contactlab train`` one: no impacts, no reduce)."""
         from contactlab.temporal import ModelSet
 
-        ms = ModelSet.load(path)
+        ms = _load_model_set(path)
         impacts: dict = {}
         reduce = "none"
         with h5py.File(path, "r") as h5:
+            kinematic = read_kinematic_models(h5, path)
             r = h5.attrs.get("reduce", "none")
             reduce = r.decode() if isinstance(r, bytes) else str(r)
             if reduce not in REDUCE:
@@ -165,7 +186,48 @@ class GraphModels:
                 impacts[label] = m
         return cls(temporal=dict(ms.models), impacts=impacts, signal=ms.signal, fs=ms.fs,
                    reduce=reduce, provenance=ms.provenance, channels=ms.channels,
-                   source=str(path))
+                   source=str(path), kinematic=kinematic)
+
+
+def _save_header(ms, path) -> None:
+    """A models file without temporal models: the ModelSet's root attributes, no labels."""
+    import json
+
+    from contactlab.temporal.model import FORMAT, FORMAT_VERSION
+
+    with h5py.File(path, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+        h5.attrs["signal"] = ms.signal
+        h5.attrs["fs"] = float(ms.fs)
+        h5.attrs.create("labels", np.array([], dtype=object), dtype=h5py.string_dtype("utf-8"))
+        h5.attrs["channels"] = json.dumps(ms.channels)
+        h5.attrs["provenance"] = json.dumps(ms.provenance, sort_keys=True)
+        h5.create_group("models")
+
+
+def _load_model_set(path):
+    """:meth:`ModelSet.load`, or the header of a file without temporal models."""
+    from contactlab.temporal import ModelSet
+    from contactlab.archive.reader import open_h5
+
+    h5 = open_h5(Path(path))
+    try:
+        labels = h5.attrs.get("labels")
+        empty = labels is not None and np.size(labels) == 0
+    finally:
+        h5.close()
+    if not empty:
+        return ModelSet.load(path)
+    import json
+
+    with h5py.File(path, "r") as h5:
+        try:
+            return ModelSet(models={}, signal=str(h5.attrs["signal"]), fs=float(h5.attrs["fs"]),
+                            provenance=json.loads(h5.attrs["provenance"]),
+                            channels=json.loads(h5.attrs["channels"]))
+        except (KeyError, ValueError, TypeError) as exc:
+            raise DataError(f"malformed models file ({exc})", file=str(path)) from None
 
 
 def load_graph_models(path) -> GraphModels:
@@ -179,7 +241,7 @@ def load_graph_models(path) -> GraphModels:
 def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
                 block: int = D.BLOCK,
                 reduce: str = "mean", trials=None, quiet: bool = True,
-                command: str | None = None) -> GraphModels:
+                command: str | None = None, label_map: dict | None = None) -> GraphModels:
     """Fit every trained model ``graph`` names from the labelled trials of ``archive``.
 
     Parameters
@@ -191,10 +253,11 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         block length (7.3: a mean and one AR coefficient, units of 100).
     reduce : ``"mean"`` (channel mean) or ``"none"`` (see :func:`trial_signals`).
     trials : trial ids to use (default all).
+    label_map : archive label name -> graph label (unmapped labels ignored).
 
     Raises DataError (one line, file and field) for a label with no data, too
-    few blocks or impacts, a constraint model, or a graph whose temporal
-    models read different signals.
+    few blocks or impacts, a frame the data do not determine, or a graph whose
+    temporal models read different signals.
     """
     from contactlab.archive import open_archive
     from contactlab.progress import progress
@@ -209,28 +272,29 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     gsrc = graph.source or "<graph>"
     temporal_specs, impact_specs = {}, {}
     for name, spec in graph.models.items():
-        if spec.kind == "constraint":
-            raise DataError(f"constraint models cannot be trained by the observer "
-                            f"({UNAVAILABLE_KINDS['constraint']})", file=gsrc,
-                            field=f"models.{name}.kind")
         if spec.kind == "temporal":
             temporal_specs.setdefault(spec.trained, spec)
         elif spec.kind == "impact" and "theta_mean" not in spec.params:
             impact_specs.setdefault(spec.trained, spec)
+    kin_specs = kinematic_specs(graph)
+    kin_labels = {lab for _, lab in kin_specs}
     signals = {s.signal for s in temporal_specs.values()}
-    if not temporal_specs:
-        raise DataError("the graph names no temporal model to train", file=gsrc, field="models")
+    if not temporal_specs and not kin_specs:
+        raise DataError("the graph names no model to train", file=gsrc, field="models")
     if len(signals) > 1:
         raise DataError(f"temporal models read different signals {sorted(signals)}; one "
                         "models file holds one signal", file=gsrc, field="models")
-    signal = signals.pop()
+    signal = signals.pop() if signals else "wrench"
     bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
            if s.signal not in _TRAINED_SIGNALS]
     if bad:
         raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
                         f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
-    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs)))
-    all_signals = sorted({s.signal for s in impact_specs.values()} | {signal})
+    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
+    kin_signals = {"contact" if kind == "constraint" else "velocity" for kind, _ in kin_specs}
+    all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
+                         | ({signal} if temporal_specs else set()))
+    kin_runs: dict = {}
     path = Path(archive)
     feats = {lab: [] for lab in temporal_specs}
     segs: dict[str, list] = {lab: [] for lab in impact_specs}
@@ -243,11 +307,17 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             trial = arch.trial(tid)
             if trial.labels is None:
                 continue
-            seen_labels.update(trial.label_names or [])
+            trial = relabel(trial, label_map)
+            seen_labels.update(n for n in (trial.label_names or []) if n is not None)
             data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
             ids_used.append(tid)
             for s in all_signals:
                 codes = truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
+                if s in KINEMATIC_SIGNALS:
+                    for k, lab in enumerate(labels):
+                        if lab in kin_labels:
+                            kin_runs.setdefault((s, lab), []).extend(
+                                data[s][a:b] for a, b in mask_runs(codes == k))
                 y = data[s]
                 for k, lab in enumerate(labels):
                     if lab in temporal_specs and s == signal:
@@ -288,7 +358,17 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
         m.n_segments_ = len(ss)
         impacts[lab] = m
+    missing = sorted(lab for lab in kin_labels if lab not in seen_labels)
+    if missing:
+        raise DataError(f"no label {missing[0]!r} in the ground truth (labels: "
+                        f"{', '.join(sorted(seen_labels))})", file=str(path),
+                        field="ground_truth/labels" + (" (after --label-map)" if label_map
+                                                       else ""))
+    kinematic = fit_kinematic_models(graph, kin_runs, source=str(path))
     provenance = {
+        "label_map": label_map,
+        "constraints": {k: getattr(m, "n_segments_", 0)
+                        for k, m in kinematic["constraint"].items()},
         "archive": str(path.resolve()), "archive_sha256": sha256_file(path), "trials": ids_used,
         "labels": "truth", "classes": list(temporal), "impacts": list(impacts), "skipped": {},
         "signal": signal, "reduce": reduce, "block": int(block), "order": int(order),
@@ -304,4 +384,5 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     }
     return GraphModels(temporal=temporal, impacts=impacts, signal=signal, fs=float(fs),
                        reduce=reduce, provenance=provenance,
-                       channels=None if reduce == "none" else [])
+                       channels=None if reduce == "none" else [], kinematic=kinematic)
+

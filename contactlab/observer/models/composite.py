@@ -19,6 +19,7 @@ import numpy as np
 from contactlab.errors import DataError
 from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, ModelSpec
 from contactlab.observer.models.base import FeatureModel
+from contactlab.observer.models.constraint import ConstraintFeature, parse_constraint
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.observer.models.temporal import TemporalFeature
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
@@ -71,20 +72,32 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
         raise DataError(f"model kind {spec.kind!r} is not available "
                         f"({UNAVAILABLE_KINDS[spec.kind]})", file=graph.source,
                         field=f"{where}.kind")
-    if spec.kind == "velocity-fixed":
+    if spec.kind == "velocity-fixed" and "sigma" in p:
         return FixedVelocity(name=spec.name, sigma=p["sigma"], signal=spec.signal)
-    if spec.kind == "velocity-moving":
+    if spec.kind == "velocity-moving" and "sigma" in p:
         return MovingVelocity(name=spec.name, low=p["low"], high=p["high"], sigma=p["sigma"],
                               signal=spec.signal)
     if spec.kind == "impact" and "theta_mean" in p:
         return ImpactFeature(name=spec.name, theta_mean=p["theta_mean"], theta_sqrt=p["theta_sd"],
                              noise_var=p["noise_var"], signal=spec.signal)
     label = spec.trained
+    ns = {"constraint": "constraint", "velocity-fixed": "velocity",
+          "velocity-moving": "velocity"}.get(spec.kind)
+    if ns is not None and f"{ns}:{label}" in trained:     # a models file's namespaced entry
+        label = f"{ns}:{label}"
     if label not in trained:
         raise DataError(f"no trained model {label!r} for {spec.kind} model {spec.name!r} "
                         f"(have: {', '.join(map(str, trained)) or 'none'})",
                         file=source or graph.source, field=f"{where}.trained")
     obj = trained[label]
+    if spec.kind == "constraint":
+        return _constraint(spec, obj, graph, source)
+    if spec.kind in ("velocity-fixed", "velocity-moving"):
+        cls = FixedVelocity if spec.kind == "velocity-fixed" else MovingVelocity
+        if not isinstance(obj, cls):
+            raise DataError(f"trained model {label!r} is not a {spec.kind} model",
+                            file=source or graph.source, field=f"{where}.trained")
+        return _renamed(obj, spec)
     if spec.kind == "temporal":
         if isinstance(obj, TemporalFeature):
             return _renamed(obj, spec)
@@ -98,6 +111,41 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
     return ImpactFeature(name=spec.name, theta_mean=obj.theta_mean,
                          theta_sqrt=np.linalg.cholesky(np.asarray(obj.theta_cov)),
                          noise_var=obj.noise_var, signal=spec.signal)
+
+
+def _constraint(spec: ModelSpec, obj, graph: FeatureGraph, source) -> ConstraintFeature:
+    """A graph's constraint declaration bound to a trained :class:`ConstraintFeature`:
+    the trained frame when the graph gives a degree, else the graph's named (and
+    rotated) frame; the trained ``V`` when the degrees agree (times ``noise_scale``)."""
+    where = f"models.{spec.name}"
+    p = spec.params
+    if not isinstance(obj, ConstraintFeature):
+        raise DataError(f"trained model {spec.trained!r} is not a constraint model",
+                        file=source or graph.source, field=f"{where}.trained")
+    m, N = parse_constraint(p["constraint"])
+    if N is None:
+        if obj.degree != m:
+            raise DataError(f"trained model {spec.trained!r} has degree {obj.degree}; the graph "
+                            f"asks for {m}", file=source or graph.source,
+                            field=f"{where}.constraint")
+        N = obj.normals
+    if "rotate_deg" in p:
+        from scipy.spatial.transform import Rotation
+
+        N = Rotation.from_euler("xyz", p["rotate_deg"], degrees=True).as_matrix() @ N
+    if obj.degree == m:
+        V = obj.V
+    else:       # another degree: the trained model's mean variances along normals / free dirs
+        d = np.diag(obj.V)
+        vn = d[:obj.degree].mean() if obj.degree else d.mean()
+        vf = d[obj.degree:].mean() if obj.degree < len(d) else d.mean()
+        V = np.diag([vn] * m + [vf] * (len(d) - m))
+    V = V * float(p.get("noise_scale", 1.0))
+    return ConstraintFeature(name=spec.name, normals=N, V=V, mode=p.get("mode", obj.mode),
+                             position_sd=obj.position_sd, force_sd=obj.force_sd,
+                             offset_sd=float(p.get("offset_sd", obj.offset_sd)),
+                             prior_samples=float(p.get("prior_samples", obj.prior_samples)),
+                             signal=spec.signal, change_size=p.get("change_size"))
 
 
 def _renamed(model: FeatureModel, spec: ModelSpec) -> FeatureModel:

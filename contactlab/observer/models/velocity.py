@@ -11,7 +11,16 @@
   (Our choice: a bare uniform gives probability zero to a measurement just
   outside the range and would kill the correct path on one noisy sample.)
 
-Both are stateless (no parameters are estimated).  The innovation the
+Both are stateless (no parameters are estimated per instance).  Their
+parameters are given in the graph file or trained from labelled samples
+(:meth:`FixedVelocity.fit`, :meth:`MovingVelocity.fit`): F's ``sigma`` is the
+root mean square of the velocity over the samples labelled still (the
+zero-mean normal's maximum-likelihood variance); M's range is symmetric,
+``+-`` the 99th percentile of ``|v|`` over the samples labelled moving (our
+choice: the thesis's fixed +-0.01 m/s assumes its apparatus's speeds), and its
+``sigma`` the velocity's white-noise level within those runs
+(:func:`contactlab.constraints.noise.raw_noise_sd`, the median over runs and
+components).  The innovation the
 detector tests is the measurement standardised by the model's variance:
 ``v / sigma`` for F, ``(v - centre) / sqrt(width^2/12 + sigma^2)`` for M
 (our choice; the thesis does not say what the velocity models' detectors
@@ -41,6 +50,17 @@ class FixedVelocity(FeatureModel):
             raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
         self.sigma = float(sigma)
 
+    @classmethod
+    def from_segments(cls, segments, *, name: str = "F", signal: str = "velocity") -> "FixedVelocity":
+        """``sigma`` from labelled still samples (segments (n_i, C)): the pooled RMS."""
+        v = np.concatenate([np.asarray(s, np.float64).reshape(len(s), -1) for s in segments])
+        if v.size == 0:
+            raise ValueError(f"{name}: no labelled samples")
+        return cls(name=name, sigma=max(float(np.sqrt(np.mean(v * v))), 1e-12), signal=signal)
+
+    def params(self) -> dict:
+        return {"sigma": self.sigma}
+
     def run(self, state, x, *, t0, starts):
         z2 = (x / self.sigma) ** 2
         C = x.shape[1]
@@ -62,6 +82,25 @@ class MovingVelocity(FeatureModel):
         if not sigma > 0:
             raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
         self.low, self.high, self.sigma = float(low), float(high), float(sigma)
+
+    @classmethod
+    def from_segments(cls, segments, *, name: str = "M", signal: str = "velocity") -> "MovingVelocity":
+        """Range and noise from labelled moving runs (segments (n_i, C), module notes)."""
+        from contactlab.constraints.noise import raw_noise_sd
+
+        segs = [np.asarray(s, np.float64).reshape(len(s), -1) for s in segments]
+        v = np.concatenate(segs) if segs else np.zeros((0, 1))
+        if v.size == 0:
+            raise ValueError(f"{name}: no labelled samples")
+        high = float(np.quantile(np.abs(v), 0.99))
+        noise = [raw_noise_sd(s) for s in segs if len(s) >= 5]
+        sigma = float(np.median(np.concatenate(noise))) if noise else 0.1 * high
+        sigma = max(sigma, 1e-3 * high, 1e-12)
+        return cls(name=name, low=-max(high, 1e-9), high=max(high, 1e-9), sigma=sigma,
+                   signal=signal)
+
+    def params(self) -> dict:
+        return {"low": self.low, "high": self.high, "sigma": self.sigma}
 
     def logpdf(self, x) -> np.ndarray:
         """Per-component log density of the measured velocity."""

@@ -1,0 +1,193 @@
+"""Training and storing the constraint and velocity models of a feature graph (8.1.1, 9.1.1).
+
+``contactlab train --graph`` fits, for every ``constraint`` declaration, a
+:class:`~contactlab.observer.models.ConstraintFeature` from the labelled runs of
+its ``trained`` label on the ``contact`` signal (position then force), and for
+every ``velocity-fixed``/``velocity-moving`` declaration without inline
+parameters a :class:`FixedVelocity`/:class:`MovingVelocity` from the labelled
+runs on the ``velocity`` signal.  :func:`kinematic_specs` lists what a graph
+needs, :func:`fit_kinematic_models` fits it from the collected runs, and
+:func:`write_kinematic_models` / :func:`read_kinematic_models` store it in
+the models file (``datasets_spec/MODELS.md``, "Constraint and velocity models").
+
+The constraint models of one file share one normalisation of units (8.7-8.9):
+the position and force accuracies are the white-noise levels of the training
+runs after the 7.1 lowpass (:func:`contactlab.constraints.noise.raw_noise_sd`
+on the conditioned signal: the median over runs and axes).
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from contactlab.errors import DataError
+from contactlab.observer.graph import FeatureGraph
+from contactlab.observer.models.constraint import K, ConstraintFeature, parse_constraint
+from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
+
+__all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
+           "read_kinematic_models", "parse_label_map", "check_label_map", "KINEMATIC_SIGNALS"]
+
+KINEMATIC_SIGNALS = ("contact", "velocity")
+_VELOCITY = {"velocity-fixed": FixedVelocity, "velocity-moving": MovingVelocity}
+
+
+def kinematic_specs(graph: FeatureGraph) -> dict:
+    """Trained label -> the first declaration needing it (constraint, or velocity
+    without inline parameters)."""
+    out = {}
+    for spec in graph.models.values():
+        if spec.kind == "constraint" or (spec.kind in _VELOCITY and "sigma" not in spec.params):
+            out.setdefault((spec.kind, spec.trained), spec)
+    return out
+
+
+def parse_label_map(text: str | None, *, field: str = "--label-map") -> dict | None:
+    """``"1=free,2=contact,3=free"`` -> ``{"1": "free", ...}`` (None for None/empty).
+
+    DataError naming the field for a malformed entry or a label mapped twice."""
+    if text is None or not str(text).strip():
+        return None
+    out: dict[str, str] = {}
+    for k, part in enumerate(str(text).split(",")):
+        src, eq, dst = part.partition("=")
+        src, dst = src.strip(), dst.strip()
+        if not eq or not src or not dst:
+            raise DataError(f"entry {k + 1} {part.strip()!r} is not LABEL=NODE", field=field)
+        if src in out and out[src] != dst:
+            raise DataError(f"label {src!r} mapped twice ({out[src]!r}, {dst!r})", field=field)
+        out[src] = dst
+    return out
+
+
+def check_label_map(label_map: dict | None, graph: FeatureGraph,
+                    field: str = "--label-map") -> None:
+    """DataError (file = the graph) when a map's target is neither a node nor a
+    trained label of ``graph``."""
+    if not label_map:
+        return
+    known = set(graph.node_names) | {s.trained for s in graph.models.values()}
+    for src, dst in label_map.items():
+        if dst not in known:
+            raise DataError(f"{src}={dst}: {dst!r} is not a node or trained label of graph "
+                            f"{graph.name!r} (known: {', '.join(sorted(known))})",
+                            file=graph.source or graph.name, field=field)
+
+
+def _noise_level(segments, columns) -> float:
+    from contactlab.constraints.noise import raw_noise_sd
+
+    levels = [raw_noise_sd(s[:, columns]) for s in segments if len(s) >= 5]
+    if not levels:
+        return float("nan")
+    return float(np.median(np.concatenate(levels)))
+
+
+def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None = None) -> dict:
+    """Fit every model of :func:`kinematic_specs` from labelled runs.
+
+    ``runs`` maps ``(signal, label)`` to a list of (n_i, C) arrays (maximal runs of
+    that label on that signal).  Returns label-keyed ``{"constraint": {...},
+    "velocity": {...}}``.  DataError (file = ``source``) when a label has no data or
+    the data do not determine a frame.
+    """
+    from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD
+
+    specs = kinematic_specs(graph)
+    contact_runs = [s for (sig, _), ss in runs.items() if sig == "contact" for s in ss]
+    pos_sd = _noise_level(contact_runs, slice(0, K))
+    frc_sd = _noise_level(contact_runs, slice(K, 2 * K))
+    pos_sd = pos_sd if np.isfinite(pos_sd) and pos_sd > 0 else POSITION_SD
+    frc_sd = frc_sd if np.isfinite(frc_sd) and frc_sd > 0 else FORCE_SD
+    out: dict = {"constraint": {}, "velocity": {}}
+    for (kind, label), spec in specs.items():
+        where = f"models.{spec.name}.trained"
+        signal = "contact" if kind == "constraint" else "velocity"
+        segs = runs.get((signal, label), [])
+        if not segs:
+            raise DataError(f"no labelled samples of {label!r} to train {kind} model "
+                            f"{spec.name!r}", file=source, field=f"ground_truth/labels "
+                            f"(graph {where})")
+        try:
+            if kind == "constraint":
+                m, N = parse_constraint(spec.params["constraint"])
+                model = ConstraintFeature.from_segments(segs, name=label, degree=m, normals=N,
+                                              mode=spec.params.get("mode", "fixed"),
+                                              position_sd=pos_sd, force_sd=frc_sd)
+                out["constraint"][label] = model
+            else:
+                out["velocity"][label] = _VELOCITY[kind].from_segments(segs, name=label)
+        except ValueError as exc:
+            raise DataError(str(exc), file=source, field=f"ground_truth/labels "
+                            f"(graph {where})") from None
+    return out
+
+
+def write_kinematic_models(h5: h5py.File, models: dict) -> None:
+    """Store the fitted models under ``/constraints/<i>`` and ``/velocity/<i>``."""
+    g = h5.create_group("constraints")
+    for i, (label, m) in enumerate(models.get("constraint", {}).items()):
+        sub = g.create_group(str(i))
+        sub.attrs["label"] = label
+        sub.attrs["degree"] = int(m.degree)
+        sub.attrs["mode"] = m.mode
+        sub.attrs["n_segments"] = int(getattr(m, "n_segments_", 0))
+        for key in ("position_sd", "force_sd", "offset_sd", "prior_samples"):
+            sub.attrs[key] = float(getattr(m, key))
+        sub.create_dataset("normals", data=np.asarray(m.normals, np.float64).reshape(K, -1))
+        sub.create_dataset("V", data=np.asarray(m.V, np.float64))
+    g = h5.create_group("velocity")
+    for i, (label, m) in enumerate(models.get("velocity", {}).items()):
+        sub = g.create_group(str(i))
+        sub.attrs["label"] = label
+        sub.attrs["kind"] = m.kind
+        for key, v in m.params().items():
+            sub.attrs[key] = float(v)
+
+
+def read_groups(h5: h5py.File, name: str, path, what: str, read) -> dict:
+    """``{label: model}`` from the numbered groups ``/name/<i>`` of a models file;
+    ``read(group) -> (label, model)``; DataError naming the group when one is bad."""
+    out = {}
+    g = h5.get(name)
+    for key in (sorted(g, key=int) if isinstance(g, h5py.Group) else []):
+        try:
+            label, model = read(g[key])
+        except (KeyError, ValueError, TypeError) as exc:
+            raise DataError(f"bad {what} ({exc})", file=str(path),
+                            field=f"/{name}/{key}") from None
+        out[label] = model
+    return out
+
+
+def _read_constraint(sub):
+    label = _text(sub.attrs["label"])
+    N = np.asarray(sub["normals"][()], np.float64).reshape(K, -1)
+    if N.shape[1] != int(sub.attrs["degree"]):
+        raise ValueError(f"normals have {N.shape[1]} columns for degree "
+                         f"{int(sub.attrs['degree'])}")
+    m = ConstraintFeature(name=label, normals=N, V=np.asarray(sub["V"][()], np.float64),
+                          mode=_text(sub.attrs["mode"]),
+                          **{k: float(sub.attrs[k]) for k in (
+                              "position_sd", "force_sd", "offset_sd", "prior_samples")})
+    m.n_segments_ = int(sub.attrs.get("n_segments", 0))
+    return label, m
+
+
+def _read_velocity(sub):
+    label = _text(sub.attrs["label"])
+    cls = _VELOCITY[_text(sub.attrs["kind"])]
+    keys = ("sigma",) if cls is FixedVelocity else ("low", "high", "sigma")
+    return label, cls(name=label, **{k: float(sub.attrs[k]) for k in keys})
+
+
+def read_kinematic_models(h5: h5py.File, path) -> dict:
+    """The models :func:`write_kinematic_models` stored (empty when absent)."""
+    return {"constraint": read_groups(h5, "constraints", path, "constraint model",
+                                      _read_constraint),
+            "velocity": read_groups(h5, "velocity", path, "velocity model", _read_velocity)}
+
+
+def _text(v) -> str:
+    return v.decode() if isinstance(v, bytes) else str(v)

@@ -1,0 +1,344 @@
+"""Constraint feature models (8.1.1, 8.3, 9.1.1): the Cartesian constraint form in the observer.
+
+A constraint model of degree ``m`` (0 free, 1 a plane, 2 an edge, 3 a corner
+in R^3; the graph files name the constrained axes: ``0``, ``Z``, ``XZ``,
+``YZ``, ``XYZ`` or ``3``) says that, in a frame ``R = [N, T]`` of ``m`` unit
+normals and ``k - m`` free directions, the reciprocity residual (8.10-8.11,
+8.14) of every sample
+
+    nu_t = [ N^T beta (x_t - x0) ;  T^T alpha w_t ]          (k values)
+
+-- motion along the normals about the surface point, force along the free
+directions -- is zero-mean normal with covariance ``V`` (8.15), in the units
+normalised by the measurement accuracies (8.7-8.9, :mod:`contactlab.constraints.scaling`).
+The model reads the ``contact`` signal: position (k) then force (k) per
+sample.  The force along the normals (the constraint force) and the motion
+along the free directions are not modelled here: the velocity models (F, M)
+of the node's triple describe motion (9.1.1).
+
+Per instance (one per active path, started at the path's start) the model is
+a sequential estimator, and the observer receives the *predictive*
+log-likelihood of each sample given the instance's earlier samples (6.10):
+
+* The surface point along the normals, ``N^T beta x0``, is unknown and
+  estimated from the instance's samples (the centring of 8.19) under the
+  conjugate prior ``N(0, V_nn / kappa0)``, ``kappa0 = mean(diag V_nn) /
+  (beta offset_sd)^2`` (about ``offset_sd`` metres of prior standard
+  deviation): after ``c`` samples its posterior mean is ``sum z / (kappa0 + c)``
+  and the normal block of the residual has predictive covariance
+  ``V_nn (1 + 1/(kappa0 + c))``; the sum of these predictive terms is the
+  exact marginal log-likelihood of the segment.  (Our choice: the thesis's 8.18 is a maximised
+  likelihood of a whole block, which favours every extra parameter on short
+  segments; the predictive form compares paths of any length fairly.)
+* ``mode="fixed"``: the frame is given (a nominal frame, or one estimated by
+  the chapter-8 estimator from labelled segments, :meth:`ConstraintFeature.fit`).
+* ``mode="estimated"``: the frame is re-estimated after every sample from the
+  instance's joint information (8.19, the running sums of
+  :mod:`contactlab.constraints.recursive`) by the trace criterion's closed
+  form (8.25, :func:`contactlab.constraints.frames.trace_closed_form`), with
+  the nominal frame as prior: ``prior_samples`` pseudo-samples whose motion
+  spans the nominal free directions and whose force spans the nominal normals
+  (our conjugate form of the 8.69-8.70 alignment prior: it pulls the estimate
+  toward the nominal frame with the weight of that many samples).  Sample t is
+  scored under the frame estimated from samples before t.
+
+``V`` is used block-diagonally -- ``V_nn`` (motion along the normals) and
+``V_ff`` (force along the free directions) -- (our choice: their
+cross-covariance is a stiffness effect that the rigid constraint form does not
+model, and the block form keeps the predictive update of the offset exact).
+The innovation the detectors test (6.11) is the residual standardised by its
+predictive covariance: chi-square with ``k`` degrees of freedom.
+
+All instances advance together over a chunk with numpy (cumulative sums; for
+the estimated frame batched 3x3 eigen-decompositions over samples x
+instances): no per-sample Python loop.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD, CartesianConstraint
+from contactlab.constraints.frames import trace_closed_form
+from contactlab.constraints.scaling import reciprocal_scaling
+from contactlab.observer.models.base import LOG_2PI, FeatureModel
+
+__all__ = ["ConstraintFeature", "constraint_normals", "parse_constraint", "CONSTRAINT_MODES",
+           "K"]
+
+#: the Cartesian space of the fingertip (R^3)
+K = 3
+CONSTRAINT_MODES = ("fixed", "estimated")
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+def constraint_normals(name: str) -> np.ndarray:
+    """Unit normals (3, m) of a named constraint: ``"0"`` (free), axis letters
+    (``"Z"``, ``"XZ"``, ``"YZ"``, ...) or ``"3"`` (all three axes).  ValueError otherwise."""
+    s = str(name).strip().upper()
+    if s == "0":
+        return np.zeros((K, 0))
+    if s == "3":
+        s = "XYZ"
+    if not s or any(c not in _AXES for c in s) or len(set(s)) != len(s):
+        raise ValueError(f"constraint must be '0', '3' or distinct axis letters from X, Y, Z; "
+                         f"got {name!r}")
+    return np.eye(K)[:, sorted(_AXES[c] for c in s)]
+
+
+def parse_constraint(name) -> tuple[int, np.ndarray | None]:
+    """``(degree, normals)`` of a graph file's ``constraint``: a degree ``"0"``-``"3"``
+    (normals None: the frame is estimated from training data, except 0 and 3 whose
+    frames are the whole space) or axis letters (:func:`constraint_normals`)."""
+    s = str(name).strip()
+    if s in ("0", "1", "2", "3"):
+        m = int(s)
+        return m, (constraint_normals(s) if m in (0, 3) else None)
+    N = constraint_normals(s)
+    return N.shape[1], N
+
+
+def _rotation_deg(angles) -> np.ndarray:
+    """Rotation matrix of x-y-z Euler angles in degrees (extrinsic, applied x first)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("xyz", np.asarray(angles, float), degrees=True).as_matrix()
+
+
+def _complement(N: np.ndarray) -> np.ndarray:
+    """The frame ``[N, T]`` (k, k): T an orthonormal complement of the orthonormal N."""
+    m = N.shape[1]
+    q, _ = np.linalg.qr(np.concatenate([N, np.eye(K)], axis=1))
+    T = q[:, m:K]
+    return np.concatenate([N, T], axis=1)
+
+
+class ConstraintFeature(FeatureModel):
+    """A Cartesian constraint model of degree ``m`` in a frame (module notes).
+
+    Parameters
+    ----------
+    normals : (3, m) physical unit normals (columns orthonormal); m = 0 is free space.
+    V : (3, 3) innovation covariance in normalised units, frame coordinates
+        (normals first); default the identity (measurement noise only).
+    mode : ``"fixed"`` or ``"estimated"`` (frame re-estimated per instance).
+    position_sd, force_sd : scalar measurement accuracies (m, N) that normalise
+        units (8.7-8.9); every model of one graph must use the same.
+    offset_sd : prior standard deviation (m) of the surface point along each normal.
+    prior_samples : weight of the nominal frame in ``mode="estimated"`` (samples).
+    """
+
+    kind = "constraint"
+
+    def __init__(self, *, name: str, normals, V=None, mode: str = "fixed",
+                 position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,
+                 offset_sd: float = 0.05, prior_samples: float = 25.0,
+                 signal: str = "contact", change_size: float | None = None):
+        super().__init__(name=name, signal=signal, change_size=change_size)
+        N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
+        m = N.shape[1]
+        if m and not np.allclose(N.T @ N, np.eye(m), atol=1e-6):
+            raise ValueError(f"{name}: normals must be orthonormal columns (3, m)")
+        if mode not in CONSTRAINT_MODES:
+            raise ValueError(f"{name}: mode must be one of {list(CONSTRAINT_MODES)}; got {mode!r}")
+        for key, v in (("position_sd", position_sd), ("force_sd", force_sd),
+                       ("offset_sd", offset_sd)):
+            if not (np.ndim(v) == 0 and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name}: {key} must be a number > 0; got {v!r}")
+        if not (math.isfinite(prior_samples) and prior_samples > 0):
+            raise ValueError(f"{name}: prior_samples must be > 0; got {prior_samples!r}")
+        V = np.eye(K) if V is None else np.asarray(V, dtype=np.float64)
+        if V.shape != (K, K) or not np.all(np.isfinite(V)):
+            raise ValueError(f"{name}: V must be a finite (3, 3) matrix")
+        self.degree = m
+        self.normals = N
+        self.frame = _complement(N)
+        self.V = 0.5 * (V + V.T)
+        self.mode = mode
+        self.position_sd, self.force_sd = float(position_sd), float(force_sd)
+        self.offset_sd = float(offset_sd)
+        self.prior_samples = float(prior_samples)
+        self.scaling = reciprocal_scaling(self.position_sd, self.force_sd, K)
+        self._beta = float(self.scaling.beta[0])
+        self._alpha = float(self.scaling.alpha[0])
+        Vn, Vf = self.V[:m, :m], self.V[m:, m:]
+        for part, blk in (("normal", Vn), ("free", Vf)):
+            if blk.size and np.linalg.eigvalsh(blk).min() <= 0:
+                raise ValueError(f"{name}: the {part} block of V must be positive definite")
+        self._Vn_inv = np.linalg.inv(Vn) if m else np.zeros((0, 0))
+        self._Vf_inv = np.linalg.inv(Vf) if m < K else np.zeros((0, 0))
+        self._logdet_n = float(np.linalg.slogdet(Vn)[1]) if m else 0.0
+        self._logdet_f = float(np.linalg.slogdet(Vf)[1]) if m < K else 0.0
+        # conjugate prior of the surface point: N(0, V_nn / kappa0)
+        self.kappa0 = (float(np.mean(np.diag(Vn))) / (self.offset_sd * self._beta) ** 2
+                       if m else 0.0)
+
+    # -- construction --------------------------------------------------------------------
+    @classmethod
+    def named(cls, name: str, constraint: str, *, rotate_deg=None, **kw) -> "ConstraintFeature":
+        """A model of a named constraint (:func:`constraint_normals`), its frame
+        optionally rotated by x-y-z Euler angles ``rotate_deg`` (degrees)."""
+        N = constraint_normals(constraint)
+        if rotate_deg is not None:
+            N = _rotation_deg(rotate_deg) @ N
+        return cls(name=name, normals=N, **kw)
+
+    @classmethod
+    def from_segments(cls, segments, *, name: str, degree: int | None = None, normals=None,
+            mode: str = "fixed", position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,
+            **kw) -> "ConstraintFeature":
+        """Train from labelled segments, each (n_i, 6): position then force.
+
+        The joint information (8.19) is pooled over segments, each centred on
+        its own mean motion (a segment's surface point is its own); the frame is
+        the chapter-8 constraint-form estimate of ``degree`` (log-det criterion,
+        :meth:`CartesianConstraint.estimate_information`) unless ``normals`` fix it;
+        ``V`` is ``P^T I P`` plus the estimator's noise floor (8.20).
+        """
+        segs = [np.asarray(s, dtype=np.float64).reshape(len(s), 2 * K) for s in segments]
+        segs = [s for s in segs if len(s) >= 2]
+        if not segs:
+            raise ValueError(f"{name}: no labelled segment of at least 2 samples")
+        scaling = reciprocal_scaling(position_sd, force_sd, K)
+        n = sum(len(s) for s in segs)
+        info = np.zeros((2 * K, 2 * K))
+        for s in segs:
+            y = np.concatenate([(s[:, :K] - s[:, :K].mean(axis=0)) * scaling.beta,
+                                s[:, K:] * scaling.alpha], axis=1)
+            info += y.T @ y
+        info /= n
+        if normals is None:
+            if degree is None:
+                raise ValueError(f"{name}: give the degree or the normals")
+            est = CartesianConstraint(degree=int(degree), position_sd=position_sd,
+                                      force_sd=force_sd)
+            f = est.estimate_information(info, max(n, 2 * K + 1), scaling=scaling)
+            N = f.normals_
+            if not f.determined_ or np.isnan(N).any():
+                raise ValueError(f"{name}: the labelled data do not determine a degree-"
+                                 f"{degree} frame ({f.reason_})")
+            R = _complement(N)
+            V = f.V_
+        else:
+            N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
+            R = _complement(N)
+            m = N.shape[1]
+            P = np.zeros((2 * K, K))
+            P[:K, :m], P[K:, m:] = R[:, :m], R[:, m:]
+            V = P.T @ info @ P + np.eye(K)      # the estimator's noise floor (8.20)
+        model = cls(name=name, normals=R[:, :N.shape[1]], V=V, mode=mode,
+                    position_sd=position_sd, force_sd=force_sd, **kw)
+        model.n_samples_ = n
+        model.n_segments_ = len(segs)
+        return model
+
+    def params(self) -> dict:
+        """The parameters that define the model (what the models file stores)."""
+        return {"normals": self.normals, "V": self.V, "mode": self.mode,
+                "position_sd": self.position_sd, "force_sd": self.force_sd,
+                "offset_sd": self.offset_sd, "prior_samples": self.prior_samples}
+
+    # -- the FeatureModel contract -------------------------------------------------------
+    def check_channels(self, channels: int) -> None:
+        if channels != 2 * K:
+            raise ValueError(f"model {self.name!r} reads position and force ({2 * K} "
+                             f"channels); the {self.signal!r} signal has {channels}")
+
+    def dim(self, channels: int) -> int:
+        return K
+
+    def init_state(self, starts, channels):
+        U = len(starts)
+        state = {"count": np.zeros(U)}
+        if self.mode == "fixed":
+            state["sum"] = np.zeros((U, self.degree))
+        else:
+            state["sx"] = np.zeros((U, K))
+            state["sxx"] = np.zeros((U, K, K))
+            state["sww"] = np.zeros((U, K, K))
+        return state
+
+    def run(self, state, x, *, t0, starts):
+        N, U = x.shape[0], len(starts)
+        xs = x[:, :K] * self._beta                       # (N, 3) scaled motion
+        ws = x[:, K:] * self._alpha                      # (N, 3) scaled force
+        c = state["count"][None, :] + np.arange(N, dtype=np.float64)[:, None]   # before t
+        if self.mode == "fixed":
+            ll, chi2 = self._run_fixed(state, xs, ws, c)
+        else:
+            ll, chi2 = self._run_estimated(state, xs, ws, c)
+        state["count"] += N
+        return ll, chi2
+
+    def _score(self, e, f, c):
+        """(N, U) log-likelihood and chi-square of normal residuals ``e`` (N, U, m)
+        about the running offset after ``c`` samples and free residuals ``f`` (N, U, k-m)."""
+        m = self.degree
+        ll = np.zeros(c.shape)
+        chi2 = np.zeros(c.shape)
+        if m:
+            g = 1.0 + 1.0 / (self.kappa0 + c)
+            q = np.einsum("nui,ij,nuj->nu", e, self._Vn_inv, e) / g
+            ll -= 0.5 * (q + self._logdet_n + m * np.log(g) + m * LOG_2PI)
+            chi2 += q
+        if m < K:
+            qf = np.einsum("nui,ij,nuj->nu", f, self._Vf_inv, f)
+            ll -= 0.5 * (qf + self._logdet_f + (K - m) * LOG_2PI)
+            chi2 += qf
+        return ll, chi2
+
+    def _run_fixed(self, state, xs, ws, c):
+        m = self.degree
+        N_, T_ = self.frame[:, :m], self.frame[:, m:]
+        z = xs @ N_                                      # (N, m) motion along the normals
+        f = np.broadcast_to((ws @ T_)[:, None, :], (len(xs), c.shape[1], K - m))
+        cz = np.concatenate([np.zeros((1, m)), np.cumsum(z, axis=0)[:-1]], axis=0)
+        tot = state["sum"][None, :, :] + cz[:, None, :]                 # (N, U, m)
+        e = z[:, None, :] - tot / (self.kappa0 + c)[:, :, None]
+        ll, chi2 = self._score(e, f, c)
+        state["sum"] += z.sum(axis=0)[None, :]
+        return ll, chi2
+
+    def _run_estimated(self, state, xs, ws, c):
+        m, n_, U = self.degree, len(xs), c.shape[1]
+        # exclusive running sums per instance (before sample t)
+        px = np.concatenate([np.zeros((1, K)), np.cumsum(xs, axis=0)[:-1]], axis=0)
+        pxx = np.concatenate([np.zeros((1, K, K)),
+                              np.cumsum(xs[:, :, None] * xs[:, None, :], axis=0)[:-1]], axis=0)
+        pww = np.concatenate([np.zeros((1, K, K)),
+                              np.cumsum(ws[:, :, None] * ws[:, None, :], axis=0)[:-1]], axis=0)
+        sx = state["sx"][None] + px[:, None]                        # (N, U, 3)
+        sxx = state["sxx"][None] + pxx[:, None]
+        sww = state["sww"][None] + pww[:, None]
+        cc = np.maximum(c, 1.0)[:, :, None]
+        mean = sx / cc
+        # c * (Ixx - Iww) with motion centred (8.19), plus the prior pseudo-samples
+        D = sxx - np.einsum("nui,nuj->nuij", sx, mean) - sww
+        N0, T0 = self.frame[:, :m], self.frame[:, m:]
+        D = D + self.prior_samples * (T0 @ T0.T - N0 @ N0.T)
+        I = np.zeros((n_ * U, 2 * K, 2 * K))
+        I[:, :K, :K] = D.reshape(-1, K, K)
+        R = trace_closed_form(I, m).reshape(n_, U, K, K)
+        Nh, Th = R[..., :m], R[..., m:]
+        # bases within the normal / free spans aligned to the nominal ones (V is
+        # expressed in the nominal frame): orthogonal Procrustes
+        Nh = _align(Nh, N0)
+        Th = _align(Th, T0)
+        e = np.einsum("nui,nuij->nuj", xs[:, None, :] - sx / (self.kappa0 + c)[:, :, None], Nh)
+        f = np.einsum("ni,nuij->nuj", ws, Th)
+        ll, chi2 = self._score(e, f, c)
+        state["sx"] += xs.sum(axis=0)[None]
+        state["sxx"] += (xs.T @ xs)[None]
+        state["sww"] += (ws.T @ ws)[None]
+        return ll, chi2
+
+
+def _align(B: np.ndarray, B0: np.ndarray) -> np.ndarray:
+    """``B Q`` with Q orthogonal closest to mapping the basis B (..., k, j) onto B0 (k, j)."""
+    if B.shape[-1] == 0:
+        return B
+    M = np.swapaxes(B, -1, -2) @ B0                   # (..., j, j)
+    u, _, vt = np.linalg.svd(M)
+    return B @ (u @ vt)

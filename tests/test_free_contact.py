@@ -1,0 +1,97 @@
+"""A user's wrench-and-position recording: import a CSV, train free-contact, recognise."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from contactlab.peers.force_threshold import ForceThreshold
+from contactlab.synthetic.free_contact import free_contact_recording
+
+from conftest import one_json_object, run_cli
+
+COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"
+MAP = "1=free,2=contact,3=free"
+
+
+def _archive(tmp_path, name, seed, fs):
+    rec = free_contact_recording(seed=seed, fs=fs, cycles=4)
+    csv = tmp_path / f"{name}.csv"
+    pd.DataFrame(rec.csv_columns()).to_csv(csv, index=False)
+    out = tmp_path / f"{name}.h5"
+    r = run_cli("import", csv, "--out", out, "--columns", COLUMNS, "-q")
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("fs", [100.0, 500.0])
+def test_imported_recording_trains_and_is_recognised(tmp_path, fs):
+    train = _archive(tmp_path, "rec1", 11, fs)
+    test = _archive(tmp_path, "rec2", 12, fs)
+    models = tmp_path / "m.h5"
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", MAP,
+                "--out", models, "--json", "-q")
+    assert r.exit_code == 0, r.output
+    info = one_json_object(r.output)
+    assert info["constraints"]["contact"]["degree"] == 1
+    assert info["label_map"] == {"1": "free", "2": "contact", "3": "free"}
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "--json",
+                "-q", "--no-write")
+    assert r.exit_code == 0, r.output
+    out = one_json_object(r.output)
+    (tid, trial), = out["trials"].items()
+    path = trial["path"]
+    assert path[0] == ["free", 0.0]
+    assert all(isinstance(n, str) and isinstance(s, float) for n, s in path)
+    assert [n for n, _ in path].count("contact") >= 4          # four touch-downs
+    # chance: always the most frequent node, about half the points
+    assert trial["accuracy"] > 0.9
+    assert out["accuracy"] == pytest.approx(trial["accuracy"])
+
+
+def test_force_threshold_peer_on_the_same_points():
+    """The peer as a library part: trained k and sigma, predictions on forces."""
+    rng = np.random.default_rng(0)
+    free = rng.normal(0, 0.05, (500, 3))
+    contact = free[:300] + np.array([0.0, 0.0, 0.6])
+    f = np.r_[free, contact]
+    c = np.r_[np.zeros(500, bool), np.ones(300, bool)]
+    p = ForceThreshold().fit(f, c)
+    assert p.sigma_ == pytest.approx(0.05, rel=0.1)
+    assert np.mean(p.predict(f) == c) > 0.97
+    assert ForceThreshold(k=3).fit(f, c).k_ == 3
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--label-map", "1=free,2"], "--label-map: entry 2 '2' is not LABEL=NODE"),
+    (["--label-map", "1=free,1=contact"], "label '1' mapped twice"),
+    (["--label-map", "1=table"], "'table' is not a node or trained label"),
+])
+def test_bad_label_map_is_one_line(tmp_path, args, message):
+    train = _archive(tmp_path, "rec1", 11, 100.0)
+    r = run_cli("train", train, "--graph", "free-contact", *args, "--out", tmp_path / "m.h5")
+    assert r.exit_code != 0
+    assert message in r.output
+    assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output
+
+
+def test_bad_graph_constraint_is_one_line(tmp_path):
+    g = tmp_path / "g.toml"
+    g.write_text('[models.C]\nkind = "constraint"\nconstraint = "W"\n'
+                 '[[nodes]]\nname = "a"\nmodels = "C"\ninitial = 1.0\n')
+    train = _archive(tmp_path, "rec1", 11, 100.0)
+    r = run_cli("train", train, "--graph", g, "--out", tmp_path / "m.h5")
+    assert r.exit_code != 0
+    assert "g.toml" in r.output and "models.C.constraint" in r.output
+    assert len(r.output.strip().splitlines()) == 1
+
+
+def test_graph_sides_is_validated_and_used_by_default():
+    from contactlab.errors import DataError
+    from contactlab.observer import parse_graph
+
+    doc = {"models": {"C": {"kind": "constraint", "constraint": "0"}},
+           "nodes": [{"name": "a", "models": "C", "initial": 1.0}]}
+    assert parse_graph(doc).sides is None
+    assert parse_graph({**doc, "sides": "both"}).sides == "both"
+    with pytest.raises(DataError, match="sides"):
+        parse_graph({**doc, "sides": "sideways"})

@@ -1,0 +1,151 @@
+"""Constraint and velocity feature models of the observer (8.1.1, 9.1.1) against oracles."""
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.spatial.transform import Rotation
+
+from contactlab.observer import Observer, observe, parse_graph
+from contactlab.observer.models import ConstraintFeature, FixedVelocity, MovingVelocity
+from contactlab.observer.models.constraint import constraint_normals, parse_constraint
+
+V = np.array([[2.0, 0.3, 0.1], [0.3, 1.5, 0.2], [0.1, 0.2, 1.2]])
+
+
+def _run(model, x, U=1):
+    st = model.init_state(np.zeros(U, int), 6)
+    return model.run(st, x, t0=0, starts=np.zeros(U, int)), st
+
+
+@pytest.mark.parametrize("name", ["0", "Z", "YZ", "XZ", "3"])
+def test_fixed_likelihood_is_the_closed_form_marginal(name):
+    """Sum of the predictive terms == the joint normal density of the segment's residuals,
+    with the surface point integrated out under its prior (scipy on the closed form)."""
+    rng = np.random.default_rng(3)
+    model = ConstraintFeature.named("c", name, V=V, offset_sd=1e-4)
+    n = 30
+    x = rng.normal(size=(n, 6)) * np.r_[[2e-5] * 3, [0.02] * 3]
+    (ll, chi2), _ = _run(model, x)
+    m = model.degree
+    R = model.frame
+    z = (x[:, :3] * model.scaling.beta) @ R[:, :m]
+    f = (x[:, 3:] * model.scaling.alpha) @ R[:, m:]
+    want = 0.0
+    if m:
+        Vn = V[:m, :m]
+        C = np.kron(np.eye(n), Vn) + np.kron(np.ones((n, n)), Vn / model.kappa0)
+        want += stats.multivariate_normal(np.zeros(n * m), C).logpdf(z.reshape(-1))
+    if m < 3:
+        want += stats.multivariate_normal(np.zeros(3 - m), V[m:, m:]).logpdf(f).sum()
+    assert ll.shape == (n, 1)
+    assert ll.sum() == pytest.approx(want, rel=1e-9)
+    assert np.all(chi2 >= 0)
+
+
+@pytest.mark.parametrize("mode", ["fixed", "estimated"])
+def test_chunks_equal_one_run_and_instances_are_independent(mode):
+    rng = np.random.default_rng(4)
+    model = ConstraintFeature.named("c", "Z", mode=mode)
+    x = rng.normal(size=(50, 6)) * 1e-3
+    (ll, c2), _ = _run(model, x, U=2)
+    st = model.init_state(np.zeros(2, int), 6)
+    a = model.run(st, x[:13], t0=0, starts=np.zeros(2, int))
+    b = model.run(st, x[13:], t0=13, starts=np.zeros(2, int))
+    np.testing.assert_allclose(np.r_[a[0], b[0]], ll, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(np.r_[a[1], b[1]], c2, rtol=1e-10, atol=1e-9)
+    np.testing.assert_array_equal(ll[:, 0], ll[:, 1])
+
+
+def _plane(rng, n, tilt_deg, *, normal_force=1.0):
+    R = Rotation.from_euler("x", tilt_deg, degrees=True).as_matrix()
+    N, T = R[:, 2:], R[:, :2]
+    pos = (rng.normal(size=(n, 2)) * 2e-3) @ T.T + 0.01 * N.T + rng.normal(size=(n, 3)) * 1e-5
+    frc = (normal_force + 0.1 * rng.normal(size=(n, 1))) @ N.T + rng.normal(size=(n, 3)) * 0.01
+    return np.c_[pos, frc]
+
+
+def test_model_of_the_true_frame_wins_and_estimation_finds_a_rotated_frame():
+    rng = np.random.default_rng(5)
+    x = _plane(rng, 400, 5.0)
+    ll = {}
+    for mode in ("fixed", "estimated"):
+        for rot in (0.0, 5.0):
+            m = ConstraintFeature.named("c", "Z", rotate_deg=[rot, 0, 0], mode=mode)
+            ll[mode, rot] = _run(m, x)[0][0].sum()
+    free = _run(ConstraintFeature.named("c", "0"), x)[0][0].sum()
+    assert ll["fixed", 5.0] > ll["fixed", 0.0] + 1000          # 5 deg apart: decisive
+    assert ll["estimated", 0.0] > ll["fixed", 0.0] + 1000      # the estimate follows the data
+    assert ll["fixed", 5.0] > free + 1000                      # a pressed plane is not free
+
+
+def test_fit_recovers_the_frame_and_noise_of_labelled_segments():
+    rng = np.random.default_rng(6)
+    segs = [_plane(rng, 300, 12.0) for _ in range(3)]
+    m = ConstraintFeature.from_segments(segs, name="contact", degree=1, position_sd=1e-5, force_sd=0.01)
+    true = Rotation.from_euler("x", 12.0, degrees=True).as_matrix()[:, 2]
+    assert abs(abs(m.normals[:, 0] @ true) - 1) < 1e-3
+    # the normal-motion variance in normalised units is the position noise (+ the floor)
+    assert 1.5 < m.V[0, 0] < 2.5
+    fixed = ConstraintFeature.from_segments(segs, name="c", normals=constraint_normals("Z"),
+                                  position_sd=1e-5, force_sd=0.01)
+    assert np.diag(fixed.V)[1:].max() > 10 * np.diag(m.V)[1:].max()   # wrong frame: force leaks
+
+
+def test_velocity_models_fit_their_oracles():
+    rng = np.random.default_rng(7)
+    still = rng.normal(0, 0.003, size=(5000, 3))
+    F = FixedVelocity.from_segments([still])
+    assert F.sigma == pytest.approx(0.003, rel=0.03)
+    x = rng.normal(size=(20, 3)) * 0.01
+    ll = F.run({}, x, t0=0, starts=np.zeros(1))[0][:, 0]
+    np.testing.assert_allclose(ll, stats.norm(0, F.sigma).logpdf(x).sum(axis=1))
+    t = np.arange(2000)[:, None] / 250.0
+    smooth = 0.05 * np.sin(2 * np.pi * np.array([0.3, 0.5, 0.7]) * t + np.array([0, 1, 2]))
+    moving = [smooth + rng.normal(0, 0.001, (2000, 3))]
+    M = MovingVelocity.from_segments(moving)
+    assert M.high == pytest.approx(0.05, rel=0.05) and M.low == -M.high
+    assert 0.0005 < M.sigma < 0.002
+    # density: uniform convolved with the noise normal, integrated numerically
+    v = 0.0493
+    grid = np.linspace(M.low, M.high, 20001)
+    want = np.trapezoid(stats.norm(grid, M.sigma).pdf(v), grid) / (M.high - M.low)
+    assert np.exp(M.logpdf(np.array([v]))[0]) == pytest.approx(want, rel=1e-4)
+
+
+def test_parse_constraint_names():
+    assert parse_constraint("0")[0] == 0 and parse_constraint("3")[0] == 3
+    m, N = parse_constraint("XZ")
+    assert m == 2 and np.array_equal(N, np.eye(3)[:, [0, 2]])
+    assert parse_constraint("1") == (1, None)
+    for bad in ("W", "ZZ", "4", ""):
+        with pytest.raises(ValueError):
+            parse_constraint(bad)
+
+
+def test_observer_tracks_free_to_contact_with_triples():
+    """A free -> pressed-plane trace through an observer of (constraint, velocity) pairs."""
+    rng = np.random.default_rng(8)
+    free = np.c_[np.cumsum(rng.normal(size=(300, 3)) * 2e-5, axis=0),
+                 rng.normal(size=(300, 3)) * 0.01]
+    x = np.r_[free, _plane(rng, 300, 0.0)]
+    v = np.r_[rng.normal(0, 0.002, (300, 3)), rng.normal(0, 0.002, (300, 3))]
+    g = parse_graph({"models": {"C0": {"kind": "constraint", "constraint": "0"},
+                                "CZ": {"kind": "constraint", "constraint": "Z"},
+                                "CXZ": {"kind": "constraint", "constraint": "XZ"},
+                                "M": {"kind": "velocity-moving", "low": -0.01, "high": 0.01,
+                                      "sigma": 0.002}},
+                     "nodes": [{"name": "free", "models": {"constraint": "C0", "velocity": "M"},
+                                "initial": 1.0},
+                               {"name": "Z", "models": {"constraint": "CZ", "velocity": "M"}},
+                               {"name": "XZ", "models": {"constraint": "CXZ",
+                                                         "velocity": "M"}}],
+                     "edges": ["free -> Z, XZ"]})
+    models = {"C0": ConstraintFeature.named("C0", "0", position_sd=1e-5, force_sd=0.01),
+              "CZ": ConstraintFeature.named("CZ", "Z", position_sd=1e-5, force_sd=0.01),
+              "CXZ": ConstraintFeature.named("CXZ", "XZ", position_sd=1e-5, force_sd=0.01),
+              "M": MovingVelocity(name="M", low=-0.01, high=0.01, sigma=0.002)}
+    res = observe(Observer(g, models), {"contact": x, "velocity": v})
+    path = [n for n, _ in res.map_path]
+    assert path[0] == "free" and path[-1] == "Z"
+    start = dict((n, s) for n, s in res.map_path)["Z"]
+    assert 295 <= start <= 320
