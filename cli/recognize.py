@@ -32,8 +32,11 @@ from contactlab.cli.inputs import checks_archive
               help="Probability mass P_prune kept when pruning paths (6.4).")
 @click.option("--gap", type=float, default=D.OBSERVER_GAP, show_default=True,
               help="Drop paths this far below the best log-likelihood (9.1.1).")
-@click.option("--sides", type=click.Choice(["increase", "both"]), default="increase",
-              show_default=True, help="Detect covariance increases only (the thesis) or both.")
+@click.option("--sides", type=click.Choice(list(D.OBSERVER_SIDE_CHOICES)), default=D.OBSERVER_SIDES,
+              show_default=True,
+              help="Detector tests on each model's innovations: 'increase' (the thesis's "
+                   "covariance increase, 6.14), 'both' (and a decrease), 'mean' (the "
+                   "increase plus a two-sided mean change of sqrt(q-1) sd), 'all'.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
 @parallel_options("trials")

@@ -40,3 +40,8 @@ OBSERVER_THRESHOLD = 8.0
 OBSERVER_CHANGE_SIZE = 2.0
 OBSERVER_PRUNE = 0.999
 OBSERVER_GAP = 20.0
+#: the observer's detector tests: the covariance increase of 6.14 plus a two-sided test
+#: of the normalised innovation's mean (best on the switching suite, benchmarks/bench_observer.py)
+OBSERVER_SIDES = "mean"
+#: the choices of ``sides`` (contactlab.observer.observer.SIDE_TESTS says what each tests)
+OBSERVER_SIDE_CHOICES = ("increase", "both", "mean", "all")

@@ -61,7 +61,13 @@ from contactlab.observer.paths import ChangeEvent, PathInfo, RowBuffer, Segment,
 
 __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path"]
 
-SIDES = ("increase", "both")
+#: the detector tests per model instance, by ``sides``: the covariance tests of 6.14
+#: (``increase``: ``q V``, the thesis's; ``decrease``: ``V / q``) and the mean tests
+#: (``up``/``down``: the normalised innovation's mean moves by ``+-sqrt(q - 1)``)
+SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
+              "mean": ("increase", "up", "down"), "all": ("increase", "decrease", "up", "down")}
+SIDES = D.OBSERVER_SIDE_CHOICES
+assert set(SIDES) == set(SIDE_TESTS)
 
 
 @numba.njit(cache=True, inline="always")
@@ -188,8 +194,10 @@ class Observer:
     change_size : ``q``, the covariance change of the alternative (6.14); 7.3.1 uses 2.0.
     p_prune : probability mass kept when pruning (``P_prune``, 6.4).
     gap : drop paths whose log-likelihood is more than this below the best (9.1.1: 20.0).
-    sides : ``"increase"`` (the thesis's test for ``N(0, qV)``) or ``"both"``
-        (also a decrease to ``V/q``).
+    sides : the detector tests (:data:`SIDE_TESTS`): ``"increase"`` (the thesis's test
+        for ``N(0, qV)``), ``"both"`` (also a decrease to ``V/q``), ``"mean"`` (the
+        increase plus a two-sided change of the normalised innovation's mean by
+        ``sqrt(q - 1)``; the default, best on the switching suite) or ``"all"``.
     max_paths : optional beam width cap after pruning.
     initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
 
@@ -201,7 +209,7 @@ class Observer:
     def __init__(self, graph: FeatureGraph, models: Mapping[str, FeatureModel], *,
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
-                 gap: float = D.OBSERVER_GAP, sides: str = "increase", max_paths: int | None = None,
+                 gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
                  initial=None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
@@ -269,7 +277,7 @@ class Observer:
 
     def _start(self, data: dict[str, np.ndarray]) -> None:
         """First data: channel counts are known; build the banks and the initial instances."""
-        S = 1 if self.sides == "increase" else 2
+        S = len(SIDE_TESTS[self.sides])
         self._channels = {s: data[s].shape[1] for s in self.signals}
         self._banks = {}
         for name, m in self.models.items():
@@ -426,11 +434,22 @@ class Observer:
     def _x(self, model: FeatureModel, a: int, b: int) -> np.ndarray:
         return self._buf[model.signal].rows(a - model.lag, b)
 
-    def _xi_of(self, chi2: np.ndarray, dim: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """(N, U, S) increments (6.14) for each side."""
-        qs = [q] if self.sides == "increase" else [q, 1.0 / q]
-        return np.stack([0.5 * (-dim * np.log(qq) + (1.0 - 1.0 / qq) * chi2) for qq in qs],
-                        axis=-1)
+    def _xi_of(self, stat: np.ndarray, dim: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """(N, U, S) increments for each side: (6.14) on ``stat[..., 0]`` (the chi-square
+        of 6.11) for a covariance ``q V`` (and ``V / q``); ``+-delta z - delta^2 / 2`` on
+        ``stat[..., 1]`` (the normalised innovation sum z) for a mean change of
+        ``delta = sqrt(q - 1)`` innovation standard deviations."""
+        chi2, z = stat[..., 0], stat[..., 1]
+        out = []
+        for side in SIDE_TESTS[self.sides]:
+            if side == "increase":
+                out.append(0.5 * (-dim * np.log(q) + (1.0 - 1.0 / q) * chi2))
+            elif side == "decrease":
+                out.append(0.5 * (dim * np.log(q) + (1.0 - q) * chi2))
+            else:
+                d = np.sqrt(q - 1.0) * (1.0 if side == "up" else -1.0)
+                out.append(d * z - 0.5 * d * d)
+        return np.stack(out, axis=-1)
 
     def _open_window(self, w0: int, end: int) -> None:
         """Run every bank over the chunk: per-unit log-likelihoods and increments."""
@@ -438,16 +457,16 @@ class Observer:
         n = end - w0
         self._w0 = w0
         self._inc = np.zeros((n, U))
-        chi2 = np.zeros((n, U))
+        stat = np.zeros((n, U, 2))
         for k, name in enumerate(self._model_names):
             cols = np.flatnonzero(self._u_model == k)
             if cols.size == 0:
                 continue
             bank = self._banks[name]
-            ll, c2 = bank.run(self._x(bank.model, w0, end), t0=w0)
+            ll, st = bank.run(self._x(bank.model, w0, end), t0=w0)
             self._inc[:, cols] = ll
-            chi2[:, cols] = c2
-        self._xi = np.ascontiguousarray(self._xi_of(chi2, self._u_dim, self._u_q))
+            stat[:, cols] = st
+        self._xi = np.ascontiguousarray(self._xi_of(stat, self._u_dim, self._u_q))
 
     # -- events ----------------------------------------------------------------------
     def _handle_event(self, ta: int, end: int) -> None:
@@ -464,12 +483,11 @@ class Observer:
         cands: dict[tuple[int, int], tuple[float, Segment]] = {}
         for pi, _, r in alarms:
             p = self._paths[pi]
-            base = float(self._hist.rows(r, r + 1)[0, p.slot])     # path ll after sample r-1
             a = int(self._act.rows(r, r + 1)[0, 0])
-            for j in self.graph.successors(p.node, None if a < 0 else a):
-                key = (j, r)
-                if key not in cands or base > cands[key][0]:
-                    cands[key] = (base, p.seg)
+            a = None if a < 0 else a
+            for j in self.graph.successors(p.node, a):
+                if (j, r) not in cands:
+                    cands[(j, r)] = self._best_predecessor(j, r, a)
         tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
         spawned, merged = [], []
         new = []
@@ -490,6 +508,19 @@ class Observer:
             self._spawn(new, ta, end)
             spawned = [(self.graph.nodes[j].name, r) for j, r, _, _ in new]
         self._prune(ta, alarms, spawned, merged)
+
+    def _best_predecessor(self, j: int, r: int, action) -> tuple[float, Segment]:
+        """The best tracked path into instance ``(j, r)``: the highest path log-likelihood
+        after sample ``r - 1`` over the tracked paths started by ``r`` whose node may go
+        to ``j`` (the maximisation of 6.1/6.5 over the predecessors of a feature
+        instance; the spawning path is one of them)."""
+        row = self._hist.rows(r, r + 1)[0]
+        best, prev = -np.inf, None
+        for p in self._paths:
+            if p.start <= r and row[p.slot] > best and \
+                    j in self.graph.successors(p.node, action):
+                best, prev = float(row[p.slot]), p.seg
+        return best, prev
 
     def _spawn(self, new: list, ta: int, end: int) -> None:
         """Step 3: new paths initialised at the spawning path's log-likelihood and caught up."""
@@ -516,10 +547,10 @@ class Observer:
             for r in sorted({unit_specs[i][2] for i in idx}):
                 g = [i for i in idx if unit_specs[i][2] == r]
                 starts, state = bank.new([r] * len(g))
-                ll, c2 = bank.run(self._x(bank.model, r, end), t0=r, starts=starts, state=state)
+                ll, st = bank.run(self._x(bank.model, r, end), t0=r, starts=starts, state=state)
                 for c, i in enumerate(g):
                     outs_ll[i] = ll[:, c]
-                    outs_c2[i] = c2[:, c]
+                    outs_c2[i] = st[:, c]
                 states.append(state)
                 order.extend(g)
             perm = np.argsort(order, kind="stable")
@@ -535,7 +566,7 @@ class Observer:
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
         new_inc = np.zeros((end - self._w0, n_new))
-        new_c2 = np.zeros((end - self._w0, n_new))
+        new_c2 = np.zeros((end - self._w0, n_new, 2))
         for p in paths:
             pi = self._paths.index(p)
             us = [i for i, s in enumerate(unit_specs) if s[0] == pi]

@@ -196,7 +196,7 @@ class RecognizeStage(Stage):
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE,
                  p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                 sides: str = "increase", delay_window: int = 50, write: bool = True,
+                 sides: str = D.OBSERVER_SIDES, delay_window: int = 50, write: bool = True,
                  keep: bool = False):
         self.graph, self.models, self.built = _load(graph, models)
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
@@ -282,7 +282,7 @@ def recognize_archive(archive, *, graph, models, action=None,
                       threshold: float = D.OBSERVER_THRESHOLD,
                       change_size: float = D.OBSERVER_CHANGE_SIZE,
                       p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
-                      sides: str = "increase", trials=None, delay_window: int = 50,
+                      sides: str = D.OBSERVER_SIDES, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
