@@ -474,11 +474,14 @@ class Observer:
         over = (self._df > self.threshold).any(axis=1)
         alarms = []
         for u in np.flatnonzero(over):
-            side = int(np.argmax(np.where(self._df[u] > self.threshold, self._df[u], -np.inf)))
-            r = int(self._lz[u, side]) + 1
+            # every test that crossed is a detected change with its own change time (each
+            # the maximiser of 6.15 under its alternative); a big jump makes all of them
+            # cross, and the one with the largest statistic may date from an old excursion
+            rs = sorted({int(z) + 1 for z in self._lz[u, self._df[u] > self.threshold]})
             self._df[u] = 0.0                   # step 4: reset the spawning model's test
             self._lz[u] = ta
-            alarms.append((int(self._u_path[u]), self._model_names[self._u_model[u]], r))
+            alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
+                          for r in rs)
         # candidates (step 1) with the maximisation over (node, start) (step 2)
         cands: dict[tuple[int, int], tuple[float, Segment]] = {}
         for pi, _, r in alarms:

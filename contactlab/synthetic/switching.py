@@ -7,9 +7,11 @@ Four states named like the nodes of the bundled ``hf-context-free`` graph:
   over the floor;
 - ``H2`` (other vibration): a broad resonance (AR(2), 220 Hz, pole radius
   0.80) over the floor;
-- ``H3`` (impact): a burst of the ``H1`` resonance whose amplitude decays
-  exponentially from the burst level to the floor over the impact's duration,
-  so its log energy falls linearly (the impact model of 7.1).
+- ``H3`` (impact): a broadband burst (an impact excites every frequency, 7.1)
+  whose amplitude decays exponentially over the impact's duration, so its log
+  energy falls linearly (the impact model of 7.1), down to the level at which
+  its first difference has the energy of the state that follows (the impact
+  is labelled while it stands out of that state).
 
 A trial at 1000 Hz is a sequence of segments of 0.5-1.4 s of ``H0``-``H2``
 (no two neighbours alike); with probability ``impact_p`` a change of state
@@ -45,7 +47,7 @@ __all__ = ["STATES", "LEVELS", "FRESH_RANGE", "SwitchingTrial", "switching_trial
            "switching_trials"]
 
 #: state name -> (resonance Hz, pole radius) of its AR(2) part (None: floor only)
-STATES = {"H0": None, "H1": (60.0, 0.985), "H2": (220.0, 0.80), "H3": (60.0, 0.985)}
+STATES = {"H0": None, "H1": (60.0, 0.985), "H2": (220.0, 0.80), "H3": None}
 #: standard deviation of each state's resonance (fixed variant; the floor is 1)
 LEVELS = {"H0": 0.0, "H1": 4.0, "H2": 12.0}
 #: range of the resonance's standard deviation in the fresh variant (all states but H0,
@@ -96,6 +98,16 @@ def _ar2(rng, f, r, fs, m, channels, state):
     return out
 
 
+def _white_level(name: str, level: float, floor: float, fs: float) -> float:
+    """The white-noise standard deviation whose first difference has the energy of the
+    state's signal (floor plus resonance): ``var(diff) = 2 var (1 - rho_1)`` with the
+    AR(2)'s lag-1 autocorrelation ``rho_1 = a1 / (1 - a2)``."""
+    if STATES[name] is None or level == 0:
+        return floor
+    a1, a2 = ar2_coefficients(*STATES[name], fs)
+    return float(np.sqrt(floor ** 2 + level ** 2 * (1 - a1 / (1 - a2))))
+
+
 def switching_trial(*, seed: int, fresh: bool = False, duration_s: float = 10.0,
                     fs: float = 1000.0, channels: int = 4, segment_s=(0.5, 1.4),
                     impact_p: float = 0.35) -> SwitchingTrial:
@@ -111,27 +123,27 @@ def switching_trial(*, seed: int, fresh: bool = False, duration_s: float = 10.0,
     a, prev = 0, -1
     while a < n:
         cls = int(rng.choice([c for c in range(3) if c != prev]))
+        name = names[cls]
+        level = np.exp(rng.uniform(*np.log(FRESH_RANGE))) if fresh else LEVELS[name]
+        if name == "H0":                       # the floor itself varies in the fresh variant
+            floor = FLOOR_SD * (level / np.sqrt(np.prod(FRESH_RANGE)) if fresh else 1.0)
+            level = 0.0
+        else:
+            floor = FLOOR_SD
         if prev >= 0 and rng.random() < impact_p:              # an impact announces it
             m = min(int(round(rng.uniform(*IMPACT_S) * fs)), n - a)
             peak = np.exp(rng.uniform(*np.log(IMPACT_LEVEL)))
-            env = peak * (FLOOR_SD / peak) ** (np.arange(m) / m)   # log-linear to the floor
-            burst = _ar2(rng, *STATES["H3"], fs, m, channels, ar_state["H1"])
-            y[a:a + m] = env[:, None] * burst + FLOOR_SD * rng.standard_normal((m, channels))
+            end = _white_level(name, level, floor, fs)
+            env = peak * (end / peak) ** (np.arange(m) / m)       # log-linear down to `end`
+            y[a:a + m] = env[:, None] * rng.standard_normal((m, channels))
             codes[a:a + m] = 3
             starts.append(a)
             a += m
             if a >= n:
                 break
         m = min(int(round(rng.uniform(*segment_s) * fs)), n - a)
-        name = names[cls]
-        if fresh:
-            level = np.exp(rng.uniform(*np.log(FRESH_RANGE)))
-        else:
-            level = LEVELS[name]
-        seg = FLOOR_SD * rng.standard_normal((m, channels))
-        if name == "H0" and fresh:                 # the floor itself varies in the fresh variant
-            seg *= level / np.sqrt(np.prod(FRESH_RANGE))
-        elif STATES[name] is not None:
+        seg = floor * rng.standard_normal((m, channels))
+        if level > 0:
             seg += level * _ar2(rng, *STATES[name], fs, m, channels, ar_state[name])
         y[a:a + m] = seg
         codes[a:a + m] = cls
