@@ -23,9 +23,11 @@ from contactlab.cli.inputs import checks_archive
 @click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
               help="Conditioned signal (7.1) to model.  [default: strain when the trials "
                    "have strain gauges, else wrench]")
-@click.option("--order", type=int, default=D.TRAIN_ORDER, show_default=True, help="AR order p.")
-@click.option("--mean/--no-mean", default=False, show_default=True,
-              help="Include a constant (mean) regressor.")
+@click.option("--order", type=int, default=None,
+              help=f"AR order p.  [default: {D.TRAIN_ORDER}; with --graph {D.GRAPH_ORDER}]")
+@click.option("--mean/--no-mean", default=None,
+              help="Include a constant (mean) regressor.  [default: no; with --graph "
+                   f"{'yes' if D.GRAPH_MEAN else 'no'}]")
 @click.option("--block", type=int, default=D.BLOCK, show_default=True,
               help="Samples per training block (blocks never span a label change).")
 @click.option("--classes", default=None, metavar="A,B,...",
@@ -35,9 +37,9 @@ from contactlab.cli.inputs import checks_archive
               type=click.Path(dir_okay=False, path_type=Path),
               help="Train every model this feature graph names (temporal models, impact-decay "
                    "priors) from the ground truth; the graph's models give the signal.")
-@click.option("--reduce", type=click.Choice(["none", "mean"]), default="none",
-              show_default=True,
-              help="With --graph: model every channel of the signal (none) or their mean.")
+@click.option("--reduce", type=click.Choice(["none", "mean"]), default=None,
+              help="With --graph: model every channel of the signal (none) or their mean.  "
+                   f"[default: {D.GRAPH_REDUCE}]")
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @json_option
 @quiet_option
@@ -59,7 +61,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
       contactlab train runs.h5 --classes free,contact --out m.h5 --force
       contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --force --json
       contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
-          --order 1 --mean --reduce mean --out hf-models.h5
+          --out hf-models.h5
 
     --classes takes label names as the archive spells them ('contactlab info'
     lists them), e.g. sanded_aluminium_80,polished_aluminium for stroke-a.
@@ -67,11 +69,16 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     With --graph GRAPH every model the graph names is trained from the
     ground-truth labels its declarations name (temporal: the prior above on
     the model's signal; impact: the linear-decay prior of 7.1 over every
-    labelled impact) and stored with provenance in one models file.
+    labelled impact) and stored with provenance in one models file.  Its
+    defaults (AR(1) with a mean on the channel mean) are the best settings
+    found on the switching benchmark suite (benchmarks/bench_observer.py).
     """
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal
 
+    graph = graph_file is not None
+    order = order if order is not None else (D.GRAPH_ORDER if graph else D.TRAIN_ORDER)
+    mean = mean if mean is not None else (D.GRAPH_MEAN if graph else False)
     if order < 1:
         raise click.BadParameter(f"must be >= 1; got {order}", param_hint="'--order'")
     if block < 1:
@@ -82,8 +89,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
                      mean=mean, block=block, classes=classes, trials=trials, reduce=reduce,
                      force=force, as_json=as_json, quiet=quiet)
         return
-    if click.get_current_context().get_parameter_source("reduce") \
-            is not click.core.ParameterSource.DEFAULT:
+    if reduce is not None:
         raise click.UsageError("--reduce needs --graph")
     names = None if classes is None else [c.strip() for c in classes.split(",") if c.strip()]
     if names is not None and not names:
@@ -120,7 +126,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                                    "name their signals and labels)")
     if labels != "truth":
         raise click.UsageError("--graph trains from the ground truth (--labels truth)")
-    gm = train_graph(archive, graph_file, order=order, mean=mean, block=block, reduce=reduce,
+    gm = train_graph(archive, graph_file, order=order, mean=mean, block=block,
+                     reduce=reduce or D.GRAPH_REDUCE,
                      trials=list(trials) or None, quiet=quiet,
                      command=" ".join(["contactlab"] + sys.argv[1:]))
     gm.save(out, force=force)

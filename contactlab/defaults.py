@@ -34,6 +34,9 @@ BLOCK = 100
 #: models of a feature graph (7.3): AR(1) with a mean over the channel-mean y_h
 GRAPH_ORDER = 1
 GRAPH_MEAN = True
+#: ``train --graph``: model the channel mean of the graph's signal (``"mean"``) or every
+#: channel (``"none"``); with ORDER and MEAN the best settings on the switching suite
+GRAPH_REDUCE = "mean"
 
 #: the observer (6.4, 7.3.2): Page-Hinkley threshold, change size, pruning, gap
 OBSERVER_THRESHOLD = 8.0

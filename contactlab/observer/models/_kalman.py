@@ -15,7 +15,7 @@ import numpy as np
 from contactlab.estimators.kalman import MODE_PLAIN, STRUCTURES, kalman_step
 
 MODES = STRUCTURES
-__all__ = ["MODES", "MODE_PLAIN", "prior_state", "run_kalman", "as_channel_prior"]
+__all__ = ["MODES", "MODE_PLAIN", "prior_state", "repeat_state", "run_kalman", "as_channel_prior"]
 
 
 def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
@@ -29,6 +29,11 @@ def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
     lv = np.sqrt(noise_var).reshape(C, 1, 1)
     return {"theta": tile(theta_mean), "S": tile(theta_sqrt), "Lv": tile(lv), "Ve": tile(lv),
             "vcount": np.zeros((n_units, C)), "Ls": tile(structure_sqrt)}
+
+
+def repeat_state(template: dict, n_units: int) -> dict:
+    """``n_units`` copies of a one-instance state (:func:`prior_state` with one unit)."""
+    return {k: np.repeat(v, n_units, axis=0) for k, v in template.items()}
 
 
 def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
