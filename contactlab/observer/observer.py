@@ -87,6 +87,9 @@ __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from
 SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
               "mean": ("increase", "up", "down"), "all": ("increase", "decrease", "up", "down")}
 SIDES = D.OBSERVER_SIDE_CHOICES
+#: samples the model banks advance at a time within a chunk: a path spawned at an event
+#: is run to the end of its window, so events cost O(WINDOW) (results do not depend on it)
+WINDOW = 128
 assert set(SIDES) == set(SIDE_TESTS)
 
 
@@ -152,7 +155,7 @@ def _catch_up(inc, xi, ll0, t_first):  # pragma: no cover
     return traj, df, lz
 
 
-@dataclass
+@dataclass(eq=False)
 class _Path:
     id: int
     node: int
@@ -256,6 +259,7 @@ class Observer:
         self.signals = tuple(sorted({m.signal for m in self.models.values()}))
         self._model_names = list(self.models)
         self._membership = np.zeros((0, self.graph.n_nodes))
+        self._succ: dict = {}
         self.reset()
 
     # -- state -----------------------------------------------------------------------
@@ -313,6 +317,9 @@ class Observer:
         self._u_q = np.empty(0)
         self._df = np.zeros((0, S))
         self._lz = np.zeros((0, S), dtype=np.int64)
+        ms = [self.models[k] for k in self._model_names]
+        self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
+        self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
@@ -326,11 +333,8 @@ class Observer:
         models = np.asarray(models, dtype=np.int64)
         self._u_path = np.concatenate([self._u_path, np.asarray(paths, dtype=np.int64)])
         self._u_model = np.concatenate([self._u_model, models])
-        dims = [self.models[self._model_names[k]].dim(
-            self._channels[self.models[self._model_names[k]].signal]) for k in models]
-        qs = [self.models[self._model_names[k]].change_size or self.change_size for k in models]
-        self._u_dim = np.concatenate([self._u_dim, np.asarray(dims, dtype=float)])
-        self._u_q = np.concatenate([self._u_q, np.asarray(qs, dtype=float)])
+        self._u_dim = np.concatenate([self._u_dim, self._model_dim[models]])
+        self._u_q = np.concatenate([self._u_q, self._model_q[models]])
         self._df = np.concatenate([self._df, df])
         self._lz = np.concatenate([self._lz, lz])
 
@@ -412,23 +416,25 @@ class Observer:
             map_node[:w0 - t0] = mn
         if w0 < end:
             self._hist.extend_to(end + 1)
-            self._open_window(w0, end)
-            cur = w0
-            while cur < end:
-                r0 = cur - w0
-                trace = np.empty((end - cur, len(self._paths)))
+        for ws in range(w0, end, WINDOW):
+            we = min(ws + WINDOW, end)
+            self._open_window(ws, we)
+            cur = ws
+            while cur < we:
+                r0 = cur - ws
+                trace = np.empty((we - cur, len(self._paths)))
                 stop = _advance(self._inc[r0:], self._xi[r0:], self._u_path, self._df, self._lz,
                                 self.threshold, self._ll, trace, cur, self.gap)
-                last = cur + min(stop + 1, end - cur)
+                last = cur + min(stop + 1, we - cur)
                 self._write_hist(cur, trace[:last - cur])
-                upto = last if stop >= end - cur else last - 1
+                upto = last if stop >= we - cur else last - 1
                 if upto > cur:
                     np_, mn = self._probabilities(trace[:upto - cur])
                     node_prob[cur - t0:upto - t0] = np_
                     map_node[cur - t0:upto - t0] = mn
-                if stop < end - cur:
+                if stop < we - cur:
                     ta = cur + stop
-                    self._handle_event(ta, end)
+                    self._handle_event(ta, we)
                     np_, mn = self._probabilities(self._ll[None, :])
                     node_prob[ta - t0] = np_[0]
                     map_node[ta - t0] = mn[0]
@@ -509,7 +515,7 @@ class Observer:
             p = self._paths[pi]
             a = int(self._act.rows(r, r + 1)[0, 0])
             a = None if a < 0 else a
-            for j in self.graph.successors(p.node, a):
+            for j in self._successors(p.node, a):
                 if (j, r) not in cands:
                     cands[(j, r)] = self._best_predecessor(j, r, a)
         tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
@@ -533,6 +539,12 @@ class Observer:
             spawned = [(self.graph.nodes[j].name, r) for j, r, _, _ in new]
         self._prune(ta, alarms, spawned, merged)
 
+    def _successors(self, node: int, action) -> tuple[int, ...]:
+        key = (node, action)
+        if key not in self._succ:
+            self._succ[key] = self.graph.successors(node, action)
+        return self._succ[key]
+
     def _best_predecessor(self, j: int, r: int, action) -> tuple[float, Segment]:
         """The best tracked path into instance ``(j, r)``: the highest path log-likelihood
         after sample ``r - 1`` over the tracked paths started by ``r`` whose node may go
@@ -541,8 +553,7 @@ class Observer:
         row = self._hist.rows(r, r + 1)[0]
         best, prev = -np.inf, None
         for p in self._paths:
-            if p.start <= r and row[p.slot] > best and \
-                    j in self.graph.successors(p.node, action):
+            if p.start <= r and row[p.slot] > best and j in self._successors(p.node, action):
                 best, prev = float(row[p.slot]), p.seg
         return best, prev
 
@@ -554,7 +565,7 @@ class Observer:
         paths = []
         for j, r, init, prev in new:
             p = self._new_path(j, r, init, prev)
-            paths.append(p)
+            paths.append((len(self._paths) - 1, p))
             for m in self.nodes[j].models:
                 unit_specs.append((len(self._paths) - 1, self._model_names.index(m.name), r))
         self._hist.widen(self._n_slots)
@@ -582,17 +593,13 @@ class Observer:
                             for key in states[0]}
             bank.extend(np.array([unit_specs[i][2] for i in idx], dtype=np.int64), merged_state)
         # detectors and path log-likelihoods over the catch-up samples r..ta
-        dims = np.array([self.models[self._model_names[s[1]]].dim(
-            self._channels[self.models[self._model_names[s[1]]].signal]) for s in unit_specs],
-            dtype=float)
-        qs = np.array([self.models[self._model_names[s[1]]].change_size or self.change_size
-                       for s in unit_specs], dtype=float)
+        kinds = np.array([s[1] for s in unit_specs], dtype=np.int64)
+        dims, qs = self._model_dim[kinds], self._model_q[kinds]
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
         new_inc = np.zeros((end - self._w0, n_new))
         new_c2 = np.zeros((end - self._w0, n_new, 2))
-        for p in paths:
-            pi = self._paths.index(p)
+        for pi, p in paths:
             us = [i for i, s in enumerate(unit_specs) if s[0] == pi]
             r = p.start
             inc = np.stack([outs_ll[i] for i in us], axis=1)
