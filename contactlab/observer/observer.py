@@ -137,22 +137,41 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  
 
 
 @numba.njit(cache=True)
-def _catch_up(inc, xi, ll0, t_first):  # pragma: no cover
-    """A new path's log-likelihood trajectory and detector state over its catch-up rows.
+def _catch_up(inc, xi, unit_path, ll0, t_first):  # pragma: no cover
+    """New paths' log-likelihood trajectories and detector states over their catch-up rows.
 
-    Same arithmetic and order as :func:`_advance` (no thresholding).
+    ``inc`` (n, U), ``xi`` (n, U, S) of units of paths ``unit_path`` (U,) started at
+    ``t_first`` with initial log-likelihoods ``ll0`` (P,).  Same arithmetic and order
+    as :func:`_advance` (no thresholding).
     """
     n, k, S = xi.shape
-    traj = np.empty(n)
+    P = ll0.shape[0]
+    traj = np.empty((n, P))
     df = np.zeros((k, S))
     lz = np.full((k, S), t_first - 1, dtype=np.int64)
-    ll = ll0
+    ll = ll0.copy()
     for i in range(n):
         _detector_row(df, lz, xi[i], t_first + i)
         for u in range(k):
-            ll += inc[i, u]
-        traj[i] = ll
+            ll[unit_path[u]] += inc[i, u]
+        for p in range(P):
+            traj[i, p] = ll[p]
     return traj, df, lz
+
+
+@numba.njit(cache=True)
+def _increments(stat, kinds, a, b, src):  # pragma: no cover
+    """(N, U, S) detector increments ``a[k, s] + b[k, s] * stat[n, u, src[s]]`` of the
+    units of model kinds ``kinds`` (the tables of :meth:`Observer._side_tables`)."""
+    N, U = stat.shape[0], stat.shape[1]
+    S = src.shape[0]
+    out = np.empty((N, U, S))
+    for n in range(N):
+        for u in range(U):
+            k = kinds[u]
+            for s in range(S):
+                out[n, u, s] = a[k, s] + b[k, s] * stat[n, u, src[s]]
+    return out
 
 
 @dataclass(eq=False)
@@ -258,6 +277,12 @@ class Observer:
         self.lag = max(m.lag for m in self.models.values())
         self.signals = tuple(sorted({m.signal for m in self.models.values()}))
         self._model_names = list(self.models)
+        #: model indices (into ``_model_names``) of each node's models
+        self._node_kinds = [[self._model_names.index(m.name) for m in self.nodes[j].models]
+                            for j in range(self.graph.n_nodes)]
+        #: models whose instances may share one run (:meth:`FeatureModel.batch_key`)
+        self._batch_of = [(k,) if m.batch_key() is None else m.batch_key()
+                          for k, m in enumerate(self.models.values())]
         self._membership = np.zeros((0, self.graph.n_nodes))
         self._succ: dict = {}
         self.reset()
@@ -313,13 +338,12 @@ class Observer:
         self._act = RowBuffer(1, t0=0, dtype=np.int64)
         self._u_path = np.empty(0, dtype=np.int64)
         self._u_model = np.empty(0, dtype=np.int64)
-        self._u_dim = np.empty(0)
-        self._u_q = np.empty(0)
         self._df = np.zeros((0, S))
         self._lz = np.zeros((0, S), dtype=np.int64)
         ms = [self.models[k] for k in self._model_names]
         self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
         self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
+        self._side_tables()
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
@@ -333,8 +357,6 @@ class Observer:
         models = np.asarray(models, dtype=np.int64)
         self._u_path = np.concatenate([self._u_path, np.asarray(paths, dtype=np.int64)])
         self._u_model = np.concatenate([self._u_model, models])
-        self._u_dim = np.concatenate([self._u_dim, self._model_dim[models]])
-        self._u_q = np.concatenate([self._u_q, self._model_q[models]])
         self._df = np.concatenate([self._df, df])
         self._lz = np.concatenate([self._lz, lz])
 
@@ -460,23 +482,32 @@ class Observer:
     def _x(self, model: FeatureModel, a: int, b: int) -> np.ndarray:
         return self._buf[model.signal].rows(a - model.lag, b)
 
-    def _xi_of(self, stat: np.ndarray, dim: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """(N, U, S) increments for each side: (6.14) on ``stat[..., 0]`` (the chi-square
-        of 6.11) for a covariance ``q V`` (and ``V / q``); ``+-delta z - delta^2 / 2`` on
-        ``stat[..., 1]`` (the normalised innovation sum z) for a mean change of
-        ``delta = sqrt(q - 1)`` innovation standard deviations."""
-        chi2, z = stat[..., 0], stat[..., 1]
+    def _side_tables(self) -> None:
+        """Per model and side, the increment ``a + b * x`` of each detector test:
+        (6.14) on the chi-square of 6.11 (``x = stat[..., 0]``) for a covariance
+        ``q V`` (``a = -m log(q) / 2``, ``b = (1 - 1/q) / 2``) and ``V / q``; on the
+        normalised innovation sum z (``x = stat[..., 1]``) ``+-delta z - delta^2 / 2``
+        for a mean change of ``delta = sqrt(q - 1)`` innovation standard deviations."""
         tests = SIDE_TESTS[self.sides]
-        out = np.empty(chi2.shape + (len(tests),))
+        dim, q = self._model_dim, self._model_q
+        a = np.empty((len(dim), len(tests)))
+        b = np.empty_like(a)
         for k, side in enumerate(tests):
             if side == "increase":
-                out[..., k] = 0.5 * (-dim * np.log(q) + (1.0 - 1.0 / q) * chi2)
+                a[:, k], b[:, k] = 0.5 * (-dim * np.log(q)), 0.5 * (1.0 - 1.0 / q)
             elif side == "decrease":
-                out[..., k] = 0.5 * (dim * np.log(q) + (1.0 - q) * chi2)
+                a[:, k], b[:, k] = 0.5 * (dim * np.log(q)), 0.5 * (1.0 - q)
             else:
                 d = np.sqrt(q - 1.0) * (1.0 if side == "up" else -1.0)
-                out[..., k] = d * z - 0.5 * d * d
-        return out
+                a[:, k], b[:, k] = -(0.5 * d * d), d
+        self._side_a, self._side_b = a, b
+        self._side_src = np.array([0 if t in ("increase", "decrease") else 1 for t in tests],
+                                  dtype=np.int64)
+
+    def _xi_of(self, stat: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+        """(N, U, S) increments of every side for units of model kinds ``kinds``."""
+        return _increments(np.ascontiguousarray(stat), np.ascontiguousarray(kinds, dtype=np.int64),
+                           self._side_a, self._side_b, self._side_src)
 
     def _open_window(self, w0: int, end: int) -> None:
         """Run every bank over the chunk: per-unit log-likelihoods and increments."""
@@ -493,7 +524,7 @@ class Observer:
             ll, st = bank.run(self._x(bank.model, w0, end), t0=w0)
             self._inc[:, cols] = ll
             stat[:, cols] = st
-        self._xi = np.ascontiguousarray(self._xi_of(stat, self._u_dim, self._u_q))
+        self._xi = self._xi_of(stat, self._u_model)
 
     # -- events ----------------------------------------------------------------------
     def _handle_event(self, ta: int, end: int) -> None:
@@ -565,59 +596,85 @@ class Observer:
         paths = []
         for j, r, init, prev in new:
             p = self._new_path(j, r, init, prev)
-            paths.append((len(self._paths) - 1, p))
-            for m in self.nodes[j].models:
-                unit_specs.append((len(self._paths) - 1, self._model_names.index(m.name), r))
+            pi = len(self._paths) - 1
+            paths.append((pi, p))
+            for k in self._node_kinds[j]:
+                unit_specs.append((pi, k, r))
         self._hist.widen(self._n_slots)
         n_new = len(unit_specs)
-        outs_ll: list = [None] * n_new
-        outs_c2: list = [None] * n_new
-        # one vectorised run per (model, start) group; bank rows appended in unit order
-        for k, name in enumerate(self._model_names):
-            idx = [i for i, s in enumerate(unit_specs) if s[1] == k]
-            if not idx:
-                continue
-            bank = self._banks[name]
-            states, order = [], []
-            for r in sorted({unit_specs[i][2] for i in idx}):
-                g = [i for i in idx if unit_specs[i][2] == r]
-                starts, state = bank.new([r] * len(g))
-                ll, st = bank.run(self._x(bank.model, r, end), t0=r, starts=starts, state=state)
-                for c, i in enumerate(g):
-                    outs_ll[i] = ll[:, c]
-                    outs_c2[i] = st[:, c]
-                states.append(state)
-                order.extend(g)
-            perm = np.argsort(order, kind="stable")
-            merged_state = {key: np.concatenate([s[key] for s in states])[perm]
-                            for key in states[0]}
-            bank.extend(np.array([unit_specs[i][2] for i in idx], dtype=np.int64), merged_state)
-        # detectors and path log-likelihoods over the catch-up samples r..ta
         kinds = np.array([s[1] for s in unit_specs], dtype=np.int64)
-        dims, qs = self._model_dim[kinds], self._model_q[kinds]
+        # one vectorised run per (batch, start) group: models whose instances can share a
+        # run (equal ``batch_key``) are advanced together; bank rows appended in unit order
+        groups: dict = {}
+        for i, (_, k, r) in enumerate(unit_specs):
+            groups.setdefault(r, {}).setdefault(self._batch_of[k], {}).setdefault(k, []).append(i)
+        parts: dict = {}                                 # model -> [(unit indices, state)]
+        runs: dict = {}                                  # start -> [(unit indices, ll, xi)]
+        for r, batches in groups.items():
+            for by_model in batches.values():
+                states, cols = [], []
+                for k, g in by_model.items():
+                    states.append((k, len(g), self._banks[self._model_names[k]].new([r] * len(g))[1]))
+                    cols.extend(g)
+                bank = self._banks[self._model_names[next(iter(by_model))]]
+                state = states[0][2] if len(states) == 1 else \
+                    {key: np.concatenate([st[key] for _, _, st in states]) for key in states[0][2]}
+                ll, st = bank.run(self._x(bank.model, r, end), t0=r,
+                                  starts=np.full(len(cols), r, dtype=np.int64), state=state)
+                runs.setdefault(r, []).append((cols, ll, self._xi_of(st, kinds[cols])))
+                a = 0
+                for k, m, _ in states:
+                    piece = state if len(states) == 1 else {key: v[a:a + m] for key, v in state.items()}
+                    parts.setdefault(k, []).append((by_model[k], piece))
+                    a += m
+        for k, ps in parts.items():
+            idx = [i for g, _ in ps for i in g]
+            if len(ps) == 1:                             # one run: already in unit order
+                merged_state = ps[0][1]
+                starts = np.full(len(idx), unit_specs[idx[0]][2], dtype=np.int64)
+            else:
+                perm = np.argsort(idx, kind="stable")
+                merged_state = {key: np.concatenate([st[key] for _, st in ps])[perm]
+                                for key in ps[0][1]}
+                starts = np.array([unit_specs[i][2] for i in idx], dtype=np.int64)[perm]
+            self._banks[self._model_names[k]].extend(starts, merged_state)
+        # detectors and path log-likelihoods over the catch-up samples r..ta, one
+        # compiled pass per start time
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
         new_inc = np.zeros((end - self._w0, n_new))
-        new_c2 = np.zeros((end - self._w0, n_new, 2))
-        for pi, p in paths:
-            us = [i for i, s in enumerate(unit_specs) if s[0] == pi]
-            r = p.start
-            inc = np.stack([outs_ll[i] for i in us], axis=1)
-            c2 = np.stack([outs_c2[i] for i in us], axis=1)
-            xi = np.ascontiguousarray(self._xi_of(c2, dims[us], qs[us]))
+        new_xi = np.zeros((end - self._w0, n_new, S))
+        rest = slice(ta + 1 - self._w0, end - self._w0)
+        lls = np.empty(len(paths))
+        first_path = paths[0][0]
+        for r, rs in runs.items():
+            if len(rs) == 1:
+                us, inc, xi = rs[0]
+            else:
+                order = np.argsort([i for cols, _, _ in rs for i in cols], kind="stable")
+                us = [i for cols, _, _ in rs for i in cols]
+                us = [us[o] for o in order]
+                inc = np.concatenate([ll for _, ll, _ in rs], axis=1)[:, order]
+                xi = np.concatenate([x for _, _, x in rs], axis=1)[:, order]
+            pis = sorted({unit_specs[i][0] for i in us})
+            local = {pi: c for c, pi in enumerate(pis)}
+            unit_path = np.array([local[unit_specs[i][0]] for i in us], dtype=np.int64)
+            ps = [self._paths[pi] for pi in pis]
+            init = np.array([p.init for p in ps])
+            slots = np.array([p.slot for p in ps], dtype=np.int64)
             nc = ta - r + 1
-            traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), xi[:nc], p.init, r)
+            traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), np.ascontiguousarray(xi[:nc]),
+                                   unit_path, init, r)
             df[us], lz[us] = d, z
-            self._hist.rows(r, r + 1)[0, p.slot] = p.init
-            self._hist.rows(r + 1, ta + 2)[:, p.slot] = traj
-            self._ll = np.append(self._ll, traj[-1])
-            rest = slice(ta + 1 - self._w0, end - self._w0)
+            self._hist.rows(r, r + 1)[0, slots] = init
+            self._hist.rows(r + 1, ta + 2)[:, slots] = traj
+            lls[np.array(pis) - first_path] = traj[-1]
             new_inc[rest, us] = inc[nc:]
-            new_c2[rest, us] = c2[nc:]
-        self._append_units([s[0] for s in unit_specs], [s[1] for s in unit_specs], df, lz)
+            new_xi[rest, us] = xi[nc:]
+        self._ll = np.concatenate([self._ll, lls])
+        self._append_units([s[0] for s in unit_specs], kinds, df, lz)
         self._inc = np.concatenate([self._inc, new_inc], axis=1)
-        self._xi = np.ascontiguousarray(np.concatenate(
-            [self._xi, self._xi_of(new_c2, dims, qs)], axis=1))
+        self._xi = np.concatenate([self._xi, new_xi], axis=1)
         assert len(self._u_path) == first_unit + n_new
 
     def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> None:
@@ -659,8 +716,6 @@ class Observer:
                 self._banks[name].keep(np.flatnonzero(umask[sel]))
         self._u_path = remap[self._u_path[umask]]
         self._u_model = self._u_model[umask]
-        self._u_dim = self._u_dim[umask]
-        self._u_q = self._u_q[umask]
         self._df = self._df[umask]
         self._lz = self._lz[umask]
         self._inc = np.ascontiguousarray(self._inc[:, umask])

@@ -62,6 +62,12 @@ class FeatureModel:
     def init_state(self, starts: np.ndarray, channels: int) -> dict:
         return {}
 
+    def batch_key(self):
+        """None, or a hashable key: models with equal keys may ``run`` each other's
+        (concatenated) states, as their instances are advanced by the same arithmetic
+        from their own state alone."""
+        return None
+
     def run(self, state: dict, x: np.ndarray, *, t0: int, starts: np.ndarray):
         raise NotImplementedError
 

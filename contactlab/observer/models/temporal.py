@@ -107,6 +107,10 @@ class TemporalFeature(FeatureModel):
             cache[channels] = prior_state(1, *self._prior(channels))
         return repeat_state(cache[channels], len(starts))
 
+    def batch_key(self):
+        return (type(self), self.ar.order, self.ar.mean, self.structure, self.estimate_noise,
+                self.noise_prior_count)
+
     def run(self, state, x, *, t0, starts):
         psi = self.ar.regressors(x)                        # (N, C, q)
         y = x[self.lag:]
