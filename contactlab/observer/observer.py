@@ -328,12 +328,21 @@ class Observer:
         """First data: channel counts are known; build the banks and the initial instances."""
         S = len(SIDE_TESTS[self.sides])
         self._channels = {s: data[s].shape[1] for s in self.signals}
-        self._banks = {}
-        for name, m in self.models.items():
+        # one bank per batch of models (equal ``batch_key``): their instances advance in one run
+        self._banks: list[ModelBank] = []
+        first: dict = {}
+        bank_of = []
+        for k, (name, m) in enumerate(self.models.items()):
             try:
-                self._banks[name] = ModelBank(m, self._channels[m.signal])
+                if self._batch_of[k] in first:
+                    m.check_channels(self._channels[m.signal])
+                else:
+                    first[self._batch_of[k]] = len(self._banks)
+                    self._banks.append(ModelBank(m, self._channels[m.signal]))
             except ValueError as exc:
                 raise ValueError(f"model {name!r}: {exc}") from None
+            bank_of.append(first[self._batch_of[k]])
+        self._bank_of = np.array(bank_of, dtype=np.int64)          # bank of each model
         self._buf = {s: RowBuffer(self._channels[s], t0=0) for s in self.signals}
         self._act = RowBuffer(1, t0=0, dtype=np.int64)
         self._u_path = np.empty(0, dtype=np.int64)
@@ -347,10 +356,10 @@ class Observer:
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
-            for m in self.nodes[p.node].models:
-                starts, state = self._banks[m.name].new([p.start])
-                self._banks[m.name].extend(starts, state)
-                self._append_units([i], [self._model_names.index(m.name)],
+            for k in self._node_kinds[p.node]:
+                bank = self._banks[self._bank_of[k]]
+                bank.extend(*bank.new([p.start], model=self.models[self._model_names[k]]))
+                self._append_units([i], [k],
                                    np.zeros((1, S)), np.full((1, S), L - 1, dtype=np.int64))
 
     def _append_units(self, paths, models, df, lz) -> None:
@@ -516,11 +525,11 @@ class Observer:
         self._w0 = w0
         self._inc = np.zeros((n, U))
         stat = np.zeros((n, U, 2))
-        for k, name in enumerate(self._model_names):
-            cols = np.flatnonzero(self._u_model == k)
+        u_bank = self._bank_of[self._u_model]
+        for b, bank in enumerate(self._banks):
+            cols = np.flatnonzero(u_bank == b)
             if cols.size == 0:
                 continue
-            bank = self._banks[name]
             ll, st = bank.run(self._x(bank.model, w0, end), t0=w0)
             self._inc[:, cols] = ll
             stat[:, cols] = st
@@ -603,31 +612,32 @@ class Observer:
         self._hist.widen(self._n_slots)
         n_new = len(unit_specs)
         kinds = np.array([s[1] for s in unit_specs], dtype=np.int64)
-        # one vectorised run per (batch, start) group: models whose instances can share a
-        # run (equal ``batch_key``) are advanced together; bank rows appended in unit order
+        # one vectorised run per (bank, start); bank rows appended in unit order
         groups: dict = {}
         for i, (_, k, r) in enumerate(unit_specs):
-            groups.setdefault(r, {}).setdefault(self._batch_of[k], {}).setdefault(k, []).append(i)
-        parts: dict = {}                                 # model -> [(unit indices, state)]
+            groups.setdefault(r, {}).setdefault(int(self._bank_of[k]), []).append(i)
+        parts: dict = {}                                 # bank -> [(unit indices, state)]
         runs: dict = {}                                  # start -> [(unit indices, ll, xi)]
-        for r, batches in groups.items():
-            for by_model in batches.values():
-                states, cols = [], []
-                for k, g in by_model.items():
-                    states.append((k, len(g), self._banks[self._model_names[k]].new([r] * len(g))[1]))
-                    cols.extend(g)
-                bank = self._banks[self._model_names[next(iter(by_model))]]
-                state = states[0][2] if len(states) == 1 else \
-                    {key: np.concatenate([st[key] for _, _, st in states]) for key in states[0][2]}
+        for r, by_bank in groups.items():
+            for b, cols in by_bank.items():
+                bank = self._banks[b]
+                ks = kinds[cols]
+                if (ks == ks[0]).all():
+                    state = bank.new([r] * len(cols), model=self.models[self._model_names[ks[0]]])[1]
+                else:
+                    news = {int(k): bank.new([r] * int((ks == k).sum()),
+                                             model=self.models[self._model_names[k]])[1]
+                            for k in np.unique(ks)}
+                    state = {key: np.concatenate([st[key] for st in news.values()])
+                             for key in next(iter(news.values()))}
+                    if (np.diff(ks) < 0).any():         # rows of each model to unit order
+                        perm = np.argsort(np.argsort(ks, kind="stable"), kind="stable")
+                        state = {key: v[perm] for key, v in state.items()}
                 ll, st = bank.run(self._x(bank.model, r, end), t0=r,
                                   starts=np.full(len(cols), r, dtype=np.int64), state=state)
-                runs.setdefault(r, []).append((cols, ll, self._xi_of(st, kinds[cols])))
-                a = 0
-                for k, m, _ in states:
-                    piece = state if len(states) == 1 else {key: v[a:a + m] for key, v in state.items()}
-                    parts.setdefault(k, []).append((by_model[k], piece))
-                    a += m
-        for k, ps in parts.items():
+                runs.setdefault(r, []).append((cols, ll, self._xi_of(st, ks)))
+                parts.setdefault(b, []).append((cols, state))
+        for b, ps in parts.items():
             idx = [i for g, _ in ps for i in g]
             if len(ps) == 1:                             # one run: already in unit order
                 merged_state = ps[0][1]
@@ -637,7 +647,7 @@ class Observer:
                 merged_state = {key: np.concatenate([st[key] for _, st in ps])[perm]
                                 for key in ps[0][1]}
                 starts = np.array([unit_specs[i][2] for i in idx], dtype=np.int64)[perm]
-            self._banks[self._model_names[k]].extend(starts, merged_state)
+            self._banks[b].extend(starts, merged_state)
         # detectors and path log-likelihoods over the catch-up samples r..ta, one
         # compiled pass per start time
         df = np.zeros((n_new, S))
@@ -710,10 +720,11 @@ class Observer:
         self._paths = [self._paths[i] for i in keep]
         self._ll = self._ll[keep]
         umask = remap[self._u_path] >= 0
-        for k, name in enumerate(self._model_names):
-            sel = self._u_model == k
-            if sel.any():
-                self._banks[name].keep(np.flatnonzero(umask[sel]))
+        u_bank = self._bank_of[self._u_model]
+        for b, bank in enumerate(self._banks):
+            kept = umask[u_bank == b]
+            if not kept.all():
+                bank.keep(np.flatnonzero(kept))
         self._u_path = remap[self._u_path[umask]]
         self._u_model = self._u_model[umask]
         self._df = self._df[umask]

@@ -33,6 +33,8 @@ def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
 
 def repeat_state(template: dict, n_units: int) -> dict:
     """``n_units`` copies of a one-instance state (:func:`prior_state` with one unit)."""
+    if n_units == 1:
+        return {k: v.copy() for k, v in template.items()}
     return {k: np.repeat(v, n_units, axis=0) for k, v in template.items()}
 
 

@@ -89,10 +89,11 @@ class ModelBank:
     def __len__(self) -> int:
         return len(self.starts)
 
-    def new(self, starts) -> tuple[np.ndarray, dict]:
-        """Prior state of new instances started at ``starts`` (not yet in the bank)."""
+    def new(self, starts, model: FeatureModel | None = None) -> tuple[np.ndarray, dict]:
+        """Prior state of new instances started at ``starts`` (not yet in the bank), of
+        ``model`` (default the bank's; another model of the same ``batch_key``)."""
         starts = np.asarray(starts, dtype=np.int64).reshape(-1)
-        return starts, self.model.init_state(starts, self.channels)
+        return starts, (self.model if model is None else model).init_state(starts, self.channels)
 
     def run(self, x, *, t0: int, starts=None, state=None):
         """Advance the bank (or a detached ``state`` from :meth:`new`) over ``x``:

@@ -108,7 +108,7 @@ class TemporalFeature(FeatureModel):
         return repeat_state(cache[channels], len(starts))
 
     def batch_key(self):
-        return (type(self), self.ar.order, self.ar.mean, self.structure, self.estimate_noise,
+        return (type(self), self.signal, self.ar.order, self.ar.mean, self.structure, self.estimate_noise,
                 self.noise_prior_count)
 
     def run(self, state, x, *, t0, starts):
