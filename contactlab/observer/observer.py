@@ -24,8 +24,12 @@ could still report.  Node probabilities are sums of path probabilities (6.5).
 
 Processing is incremental: :meth:`Observer.process` takes a chunk of any
 length (one sample from a live source, or a whole trace), and any split of a
-stream into chunks gives identical results.  Within a chunk every model bank
-runs all its instances over the chunk in one vectorised call; the detectors
+stream into chunks gives identical results.  Models whose instances advance by
+the same arithmetic from their own state (equal
+:meth:`~contactlab.observer.models.base.FeatureModel.batch_key`, e.g. AR
+models of one order and structure) share one bank.  Within a chunk every bank
+runs all its instances over the chunk in one vectorised call, and the
+successors one event spawns run in one call per bank and start time; the detectors
 and path sums then advance in a compiled loop that stops at the first event
 (a detector crossing or a gap prune), which is handled in Python before the
 loop resumes.
