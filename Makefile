@@ -37,7 +37,7 @@ demo: $(STAMP)
 	$(BIN)/contactlab acquire --spec hf-train --seed $(SEED) --out $(DEMO)/hf-train.h5 --force
 	$(BIN)/contactlab acquire --spec hf-test --seed $(SEED) --out $(DEMO)/hf-test.h5 --force
 	$(BIN)/contactlab validate $(DEMO)/hf-test.h5
-	$(BIN)/contactlab train $(DEMO)/hf-train.h5 --graph $(GRAPH) --order 1 --mean --reduce mean --out $(DEMO)/hf-models.h5 --force
+	$(BIN)/contactlab train $(DEMO)/hf-train.h5 --graph $(GRAPH) --out $(DEMO)/hf-models.h5 --force
 	$(BIN)/contactlab recognize $(DEMO)/hf-test.h5 --graph $(GRAPH) --models $(DEMO)/hf-models.h5
 	$(BIN)/contactlab report $(DEMO)/hf-test.h5 --out reports/demo --force | tee $(DEMO)/summary.txt
 	$(BIN)/contactlab reproduce ph-demo hf-recognition --out $(DEMO)/reports --seed $(SEED) | tee -a $(DEMO)/summary.txt

@@ -23,9 +23,11 @@ from contactlab.cli.inputs import checks_archive
 @click.option("--signal", type=click.Choice(["strain", "wrench", "hf"]), default=None,
               help="Conditioned signal (7.1) to model.  [default: strain when the trials "
                    "have strain gauges, else wrench]")
-@click.option("--order", type=int, default=D.TRAIN_ORDER, show_default=True, help="AR order p.")
-@click.option("--mean/--no-mean", default=False, show_default=True,
-              help="Include a constant (mean) regressor.")
+@click.option("--order", type=int, default=None,
+              help=f"AR order p.  [default: {D.TRAIN_ORDER}; with --graph {D.GRAPH_ORDER}]")
+@click.option("--mean/--no-mean", default=None,
+              help="Include a constant (mean) regressor.  [default: no; with --graph "
+                   f"{'yes' if D.GRAPH_MEAN else 'no'}]")
 @click.option("--block", type=int, default=D.BLOCK, show_default=True,
               help="Samples per training block (blocks never span a label change).")
 @click.option("--classes", default=None, metavar="A,B,...",
@@ -39,9 +41,9 @@ from contactlab.cli.inputs import checks_archive
               help="With --graph: map the archive's labels (names or integer codes) onto the "
                    "graph's labels, e.g. '1=free,2=contact,3=free'; unmapped labels are "
                    "ignored.")
-@click.option("--reduce", type=click.Choice(["none", "mean"]), default="none",
-              show_default=True,
-              help="With --graph: model every channel of the signal (none) or their mean.")
+@click.option("--reduce", type=click.Choice(["none", "mean"]), default=None,
+              help="With --graph: model every channel of the signal (none) or their mean.  "
+                   f"[default: {D.GRAPH_REDUCE}]")
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @json_option
 @quiet_option
@@ -63,7 +65,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
       contactlab train runs.h5 --classes free,contact --out m.h5 --force
       contactlab train runs.h5 --signal wrench --order 2 --block 100 --out m.h5 --force --json
       contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
-          --order 1 --mean --reduce mean --out hf-models.h5
+          --out hf-models.h5
       contactlab train wrist.h5 --graph free-contact --out fc-models.h5
 
     --classes takes label names as the archive spells them ('contactlab info'
@@ -74,7 +76,9 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     the model's signal; impact: the linear-decay prior of 7.1 over every
     labelled impact; constraint: the frame and noise of chapter 8 over every
     labelled run; velocity: the F and M models of 9.1.1) and stored with
-    provenance in one models file.  Graph names resolve like spec names
+    provenance in one models file.  Its defaults (AR(1) with a mean on the
+    channel mean) are the best settings found on the switching benchmark
+    suite (benchmarks/bench_observer.py).  Graph names resolve like spec names
     (free-contact, guarded-move, ...).  --label-map maps a recording's own
     labels onto the graph's (free-contact's: free, contact), e.g. integer
     labels with --label-map "1=free,2=contact,3=free"; unmapped labels are
@@ -83,6 +87,9 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal
 
+    graph = graph_file is not None
+    order = order if order is not None else (D.GRAPH_ORDER if graph else D.TRAIN_ORDER)
+    mean = mean if mean is not None else (D.GRAPH_MEAN if graph else False)
     if order < 1:
         raise click.BadParameter(f"must be >= 1; got {order}", param_hint="'--order'")
     if block < 1:
@@ -95,8 +102,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
         return
     if label_map is not None:
         raise click.UsageError("--label-map needs --graph")
-    if click.get_current_context().get_parameter_source("reduce") \
-            is not click.core.ParameterSource.DEFAULT:
+    if reduce is not None:
         raise click.UsageError("--reduce needs --graph")
     names = None if classes is None else [c.strip() for c in classes.split(",") if c.strip()]
     if names is not None and not names:
@@ -138,7 +144,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
     graph = load_graph(graph_file)
     lmap = parse_label_map(label_map)
     check_label_map(lmap, graph)
-    gm = train_graph(archive, graph, order=order, mean=mean, block=block, reduce=reduce,
+    gm = train_graph(archive, graph, order=order, mean=mean, block=block,
+                     reduce=reduce or D.GRAPH_REDUCE,
                      trials=list(trials) or None, quiet=quiet,
                      command=" ".join(["contactlab"] + sys.argv[1:]), label_map=lmap)
     gm.save(out, force=force)

@@ -36,9 +36,17 @@ BLOCK = 100
 #: models of a feature graph (7.3): AR(1) with a mean over the channel-mean y_h
 GRAPH_ORDER = 1
 GRAPH_MEAN = True
+#: ``train --graph``: model the channel mean of the graph's signal (``"mean"``) or every
+#: channel (``"none"``); with ORDER and MEAN the best settings on the switching suite
+GRAPH_REDUCE = "mean"
 
 #: the observer (6.4, 7.3.2): Page-Hinkley threshold, change size, pruning, gap
 OBSERVER_THRESHOLD = 8.0
 OBSERVER_CHANGE_SIZE = 2.0
 OBSERVER_PRUNE = 0.999
 OBSERVER_GAP = 20.0
+#: the observer's detector tests: the covariance increase of 6.14 plus a two-sided test
+#: of the normalised innovation's mean (best on the switching suite, benchmarks/bench_observer.py)
+OBSERVER_SIDES = "mean"
+#: the choices of ``sides`` (contactlab.observer.observer.SIDE_TESTS says what each tests)
+OBSERVER_SIDE_CHOICES = ("increase", "both", "mean", "all")

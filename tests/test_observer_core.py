@@ -188,6 +188,27 @@ def test_chunking_gives_identical_results():
     assert len([e for e in results[0].events if e.model]) >= 3
 
 
+def test_models_sharing_a_bank_give_the_results_of_one_bank_each():
+    """AR models of one structure run in one bank (batch_key); each model alone in its
+    bank (batch_key None) must give the same events, paths and probabilities."""
+    class Alone(TemporalFeature):
+        def batch_key(self):
+            return None
+
+    truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900)]
+    y = simulate(truth, 1200, 5)
+    g = graph(["A", "B", "C"])
+    alone = {k: Alone(name=k, order=1, mean=True, theta_mean=[mu, a], theta_sqrt=[0.3, 0.05],
+                      noise_var=v, structure="plain") for k, (mu, a, v) in PARAMS.items()}
+    shared_obs, alone_obs = Observer(g, ar_models()), Observer(g, alone)
+    shared, single = observe(shared_obs, y, chunk=100), observe(alone_obs, y, chunk=100)
+    assert len(shared_obs._banks) == 1 and len(alone_obs._banks) == 3
+    np.testing.assert_array_equal(shared.node_prob, single.node_prob)
+    assert shared.map_path == single.map_path
+    assert [e.to_dict() for e in shared.events] == [e.to_dict() for e in single.events]
+    assert sum(len(e.spawned) for e in shared.events) >= 6
+
+
 @pytest.mark.parametrize("p_prune", [0.9, 0.999])
 def test_pruning_keeps_mass_and_gap(p_prune):
     truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900), ("B", 1200)]

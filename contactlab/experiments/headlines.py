@@ -28,7 +28,7 @@ HEADLINES: dict[str, tuple[str, str]] = {
     'hf-models': ('high-frequency models',
         'normal-fit diagonal H0 0.78, H1 0.97, H2 0.44 (thesis 0.92, 0.97, 0.84): moving separates, pressed sits at the stationary level'),
     'hf-recognition': ('the observer with and without context, HMM peer',
-        'test 29 % without, 66 % with context (thesis 66 / 95 %); HMM peer 72 %'),
+        'test 43 % without, 71 % with context (thesis 66 / 95 %; 8 channels 72 / 92 %); HMM peer 72 %'),
     'cartesian-estimation': ('Cartesian constraint estimation',
         "constraint form plane 3.1 deg, line 2.5 deg (thesis 1.2, 0.5) under the PHANToM's kinematic and the sensor's calibration error; stiffness form fails on the line"),
     'polygon-estimation': ('planar polygon estimation',

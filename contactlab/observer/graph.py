@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contactlab import defaults as D
 from contactlab.errors import DataError
 
 __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MODEL_KINDS",
@@ -318,8 +319,8 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     node_objs = tuple(Node(n["name"], n["label"], n["models"], float(p), n["transient"],
                            n["self_transition"]) for n, p in zip(nodes, init))
     sides = doc.get("sides")
-    if sides is not None and sides not in ("increase", "both"):
-        raise err("sides", f"must be \"increase\" or \"both\"; got {sides!r}")
+    if sides is not None and sides not in D.OBSERVER_SIDE_CHOICES:
+        raise err("sides", f"must be one of {', '.join(D.OBSERVER_SIDE_CHOICES)}; got {sides!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
                          thesis, source, sides)
     _check_reachable(graph, err)

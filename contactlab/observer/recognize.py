@@ -200,7 +200,7 @@ class RecognizeStage(Stage):
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None):
         self.graph, self.models, self.built = _load(graph, models)
-        sides = sides or self.graph.sides or "increase"
+        sides = sides or self.graph.sides or D.OBSERVER_SIDES
         self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
                                 p_prune=p_prune, gap=gap, sides=sides)

@@ -240,7 +240,7 @@ def load_graph_models(path) -> GraphModels:
 
 def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
                 block: int = D.BLOCK,
-                reduce: str = "mean", trials=None, quiet: bool = True,
+                reduce: str = D.GRAPH_REDUCE, trials=None, quiet: bool = True,
                 command: str | None = None, label_map: dict | None = None) -> GraphModels:
     """Fit every trained model ``graph`` names from the labelled trials of ``archive``.
 

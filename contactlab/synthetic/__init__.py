@@ -10,6 +10,9 @@ nothing to :mod:`contactlab.sim`, with the standard peers side by side:
 - :mod:`.textures` -- AR(2) texture classes, one differing only in frequency,
   one only in level, with per-segment and per-trial variation (labelling; a
   linear discriminant is the peer);
+- :mod:`.switching` -- switching states (noise, two vibrations) with decaying
+  impact bursts, with fixed or per-segment parameters (recognition by the
+  6.4 observer; a supervised Gaussian HMM is the peer);
 - :mod:`.contacts` -- point contacts (free, plane, edge, corner) with known
   constraint frames, Coulomb friction and position/force noise (constraint
   decisions, 8.2);
@@ -29,9 +32,11 @@ from contactlab.synthetic.piecewise_ar import (
     piecewise_ar,
     piecewise_ar_trials,
 )
+from contactlab.synthetic.switching import SwitchingTrial, switching_trial, switching_trials
 from contactlab.synthetic.textures import TEXTURES, TextureTrial, texture_trial, texture_trials
 
 __all__ = ["CHANGE_KINDS", "ContactTrial", "PiecewiseAR", "TEXTURES", "TextureTrial",
            "ar2_coefficients", "ar2_variance", "contact_trial", "contact_trials",
-           "piecewise_ar", "piecewise_ar_trials", "texture_trial",
+           "piecewise_ar", "piecewise_ar_trials", "SwitchingTrial", "switching_trial",
+           "switching_trials", "texture_trial",
            "texture_trials", "write_archive"]

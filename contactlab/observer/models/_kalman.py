@@ -15,7 +15,7 @@ import numpy as np
 from contactlab.estimators.kalman import MODE_PLAIN, STRUCTURES, kalman_step
 
 MODES = STRUCTURES
-__all__ = ["MODES", "MODE_PLAIN", "prior_state", "run_kalman", "as_channel_prior"]
+__all__ = ["MODES", "MODE_PLAIN", "prior_state", "repeat_state", "run_kalman", "as_channel_prior"]
 
 
 def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
@@ -31,18 +31,26 @@ def prior_state(n_units: int, theta_mean: np.ndarray, theta_sqrt: np.ndarray,
             "vcount": np.zeros((n_units, C)), "Ls": tile(structure_sqrt)}
 
 
+def repeat_state(template: dict, n_units: int) -> dict:
+    """``n_units`` copies of a one-instance state (:func:`prior_state` with one unit)."""
+    if n_units == 1:
+        return {k: v.copy() for k, v in template.items()}
+    return {k: np.repeat(v, n_units, axis=0) for k, v in template.items()}
+
+
 def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
                estimate_noise: bool = False, noise_prior_count: float = 8.0):
     """Advance every instance: ``psi`` (N, U, C, q), ``y`` (N, U, C).
 
-    Returns ``(loglik, chi2)``, each (N, U): the per-sample log-likelihood
-    (A.39, summed over the independent channels) and ``sum_c alpha_c^2``
-    (6.11 with a diagonal innovation covariance, m = C).
+    Returns ``(loglik, stat)``: (N, U) per-sample log-likelihoods (A.39, summed
+    over the independent channels) and (N, U, 2) detector statistics,
+    ``sum_c alpha_c^2`` (6.11 with a diagonal innovation covariance, m = C) and
+    ``sum_c alpha_c / sqrt(C)`` (the normalised innovation, N(0, 1) under the model).
     """
     N, U, C, q = psi.shape
     B = U * C
     if N == 0 or U == 0:
-        return np.zeros((N, U)), np.zeros((N, U))
+        return np.zeros((N, U)), np.zeros((N, U, 2))
     psi4 = np.ascontiguousarray(psi, dtype=np.float64).reshape(N, B, 1, q)
     y3 = np.ascontiguousarray(y, dtype=np.float64).reshape(N, B, 1)
     view = {k: v.reshape((B,) + v.shape[2:]) for k, v in state.items()}
@@ -53,8 +61,10 @@ def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
                       noise_prior_count=float(noise_prior_count))
     ll, lc = res.loglik, res.change_stat
     loglik = ll.reshape(N, U, C).sum(axis=2)
-    chi2 = (-2.0 * lc).reshape(N, U, C).sum(axis=2)
-    return loglik, chi2
+    stat = np.empty((N, U, 2))
+    stat[..., 0] = (-2.0 * lc).reshape(N, U, C).sum(axis=2)
+    stat[..., 1] = res.alpha.reshape(N, U, C).sum(axis=2) * (1.0 / np.sqrt(C))
+    return loglik, stat
 
 
 def as_channel_prior(theta_mean, theta_sqrt, noise_var, q: int, name: str):

@@ -14,9 +14,13 @@ A model is a small object (parameters in ``__init__``) with
 * ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
 * ``init_state(starts, channels) -> dict`` -- the prior state of ``U`` new
   instances (arrays with a leading unit axis; ``{}`` for stateless models);
-* ``run(state, x, *, t0, starts) -> (loglik, chi2)`` -- advance every instance
+* ``run(state, x, *, t0, starts) -> (loglik, stat)`` -- advance every instance
   over the samples ``t0 .. t0+N-1``: ``x`` is ``(lag + N, C)``, the measurements
-  from ``t0 - lag``; returns two ``(N, U)`` arrays and updates ``state`` in
+  from ``t0 - lag``; returns the ``(N, U)`` log-likelihoods and either the
+  ``(N, U)`` chi-square statistics or ``(N, U, 2)``: the chi-square and the
+  normalised innovation ``z`` (N(0, 1) under the model; e.g. ``sum_c alpha_c /
+  sqrt(C)``) that the mean tests of the detector read (a model giving only the
+  chi-square has ``z = 0``: its mean tests never fire); updates ``state`` in
   place.  Running consecutive blocks must equal one run on their union.
 
 :class:`ModelBank` holds all instances of one model as one batch, so paths
@@ -58,6 +62,12 @@ class FeatureModel:
     def init_state(self, starts: np.ndarray, channels: int) -> dict:
         return {}
 
+    def batch_key(self):
+        """None, or a hashable key: models with equal keys may ``run`` each other's
+        (concatenated) states, as their instances are advanced by the same arithmetic
+        from their own state alone."""
+        return None
+
     def run(self, state: dict, x: np.ndarray, *, t0: int, starts: np.ndarray):
         raise NotImplementedError
 
@@ -79,16 +89,22 @@ class ModelBank:
     def __len__(self) -> int:
         return len(self.starts)
 
-    def new(self, starts) -> tuple[np.ndarray, dict]:
-        """Prior state of new instances started at ``starts`` (not yet in the bank)."""
+    def new(self, starts, model: FeatureModel | None = None) -> tuple[np.ndarray, dict]:
+        """Prior state of new instances started at ``starts`` (not yet in the bank), of
+        ``model`` (default the bank's; another model of the same ``batch_key``)."""
         starts = np.asarray(starts, dtype=np.int64).reshape(-1)
-        return starts, self.model.init_state(starts, self.channels)
+        return starts, (self.model if model is None else model).init_state(starts, self.channels)
 
     def run(self, x, *, t0: int, starts=None, state=None):
-        """Advance the bank (or a detached ``state`` from :meth:`new`) over ``x``."""
+        """Advance the bank (or a detached ``state`` from :meth:`new`) over ``x``:
+        ``(loglik (N, U), stat (N, U, 2))`` (chi-square, normalised innovation)."""
         if state is None:
             starts, state = self.starts, self.state
-        return self.model.run(state, x, t0=t0, starts=starts)
+        ll, stat = self.model.run(state, x, t0=t0, starts=starts)
+        stat = np.asarray(stat, dtype=np.float64)
+        if stat.ndim == 2:
+            stat = np.stack([stat, np.zeros_like(stat)], axis=-1)
+        return ll, stat
 
     def extend(self, starts: np.ndarray, state: dict) -> None:
         self.starts = np.concatenate([self.starts, starts])

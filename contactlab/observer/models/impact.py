@@ -12,7 +12,8 @@ import numpy as np
 
 from contactlab.deprecation import renamed_method
 from contactlab.estimators.models import LinearDecayModel, estimate
-from contactlab.observer.models._kalman import MODE_PLAIN, as_channel_prior, prior_state, run_kalman
+from contactlab.observer.models._kalman import (MODE_PLAIN, as_channel_prior, prior_state,
+                                                repeat_state, run_kalman)
 from contactlab.observer.models.base import FeatureModel
 
 __all__ = ["ImpactFeature"]
@@ -72,10 +73,13 @@ class ImpactFeature(FeatureModel):
                              f"the {self.signal!r} signal has {channels}")
 
     def init_state(self, starts, channels):
-        rep = 1 if self.channels == channels else channels
-        return prior_state(len(starts), np.repeat(self.theta_mean, rep, 0),
-                           np.repeat(self.theta_sqrt, rep, 0), np.repeat(self.noise_var, rep, 0),
-                           np.broadcast_to(np.eye(2), (channels, 2, 2)))
+        cache = self.__dict__.setdefault("_templates", {})
+        if channels not in cache:
+            rep = 1 if self.channels == channels else channels
+            cache[channels] = prior_state(
+                1, np.repeat(self.theta_mean, rep, 0), np.repeat(self.theta_sqrt, rep, 0),
+                np.repeat(self.noise_var, rep, 0), np.broadcast_to(np.eye(2), (channels, 2, 2)))
+        return repeat_state(cache[channels], len(starts))
 
     def run(self, state, x, *, t0, starts):
         N, C = x.shape

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from contactlab.estimators.models import ARModel
-from contactlab.observer.models._kalman import MODES, as_channel_prior, prior_state, run_kalman
+from contactlab.observer.models._kalman import (MODES, as_channel_prior, prior_state,
+                                                repeat_state, run_kalman)
 from contactlab.observer.models.base import FeatureModel
 
 __all__ = ["TemporalFeature"]
@@ -101,7 +102,14 @@ class TemporalFeature(FeatureModel):
                              f"the {self.signal!r} signal has {channels}")
 
     def init_state(self, starts, channels):
-        return prior_state(len(starts), *self._prior(channels))
+        cache = self.__dict__.setdefault("_templates", {})
+        if channels not in cache:
+            cache[channels] = prior_state(1, *self._prior(channels))
+        return repeat_state(cache[channels], len(starts))
+
+    def batch_key(self):
+        return (type(self), self.signal, self.ar.order, self.ar.mean, self.structure, self.estimate_noise,
+                self.noise_prior_count)
 
     def run(self, state, x, *, t0, starts):
         psi = self.ar.regressors(x)                        # (N, C, q)
