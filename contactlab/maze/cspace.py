@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 from functools import cached_property
 
+import numba
 import numpy as np
 
 from contactlab.sim import constants as C
@@ -183,6 +184,13 @@ class MazeCSpace:
         arc = (dv <= self.r + self.tol) & (t[:, rv - 1] >= 1.0) & (t[:, rv] <= 0.0)
         return np.concatenate([seg, arc], axis=1)
 
+    def contact_bits(self, c) -> np.ndarray:
+        """(N,) int64: :meth:`contacts` as bit masks (bit k = surface k), compiled, for long traces."""
+        c = np.ascontiguousarray(np.asarray(c, float).reshape(-1, 2))
+        return _contact_bits(c, np.ascontiguousarray(self.p0), np.ascontiguousarray(self.dirs),
+                             np.ascontiguousarray(self.edge_len), np.flatnonzero(self.reflex),
+                             float(self.r), float(self.tol))
+
     def project(self, c, *, iterations: int = 4):
         """Push configurations that overlap the walls back onto the c-space boundary.
 
@@ -209,3 +217,27 @@ class MazeCSpace:
             pushed[rows, kk] += over[rows, kk]
             normals[rows, kk] = u
         return c, normals, pushed
+
+
+@numba.njit(cache=True)
+def _contact_bits(c, p0, dirs, elen, reflex_idx, r, tol):  # pragma: no cover
+    n, n_e = c.shape[0], p0.shape[0]
+    out = np.zeros(n, np.int64)
+    t = np.empty(n_e)
+    for i in range(n):
+        bits = 0
+        for e in range(n_e):
+            te = ((c[i, 0] - p0[e, 0]) * dirs[e, 0] + (c[i, 1] - p0[e, 1]) * dirs[e, 1]) / elen[e]
+            t[e] = te
+            tc = min(max(te, 0.0), 1.0)
+            qx = p0[e, 0] + tc * elen[e] * dirs[e, 0]
+            qy = p0[e, 1] + tc * elen[e] * dirs[e, 1]
+            if 0.0 < te < 1.0 and math.hypot(c[i, 0] - qx, c[i, 1] - qy) <= r + tol:
+                bits |= 1 << e
+        for j in range(reflex_idx.shape[0]):
+            v = reflex_idx[j]
+            if (math.hypot(c[i, 0] - p0[v, 0], c[i, 1] - p0[v, 1]) <= r + tol
+                    and t[(v - 1) % n_e] >= 1.0 and t[v] <= 0.0):
+                bits |= 1 << (n_e + j)
+        out[i] = bits
+    return out

@@ -73,6 +73,17 @@ class MazePartitions:
         _, idx = ndimage.distance_transform_edt(~free, return_indices=True)
         self._nearest = self.labels[idx[0], idx[1]]
 
+    def _from_bits(self, bits: np.ndarray) -> np.ndarray:
+        """Partition numbers of contact bit masks (0: no contact); a combination no partition
+        has (not produced by the channel's geometry) takes its lowest surface's partition."""
+        keys, inv = np.unique(bits, return_inverse=True)
+        nums = np.zeros(len(keys), np.int64)
+        for k, b in enumerate(keys.tolist()):
+            if b:
+                key = tuple(i for i in range(b.bit_length()) if b >> i & 1)
+                nums[k] = self._by_surfaces.get(key, self._by_surfaces.get(key[:1], 0))
+        return nums[inv.ravel()]
+
     def __len__(self) -> int:
         return len(self.partitions)
 
@@ -88,9 +99,9 @@ class MazePartitions:
     def classify(self, c) -> np.ndarray:
         """(N,) partition number of each configuration ((N, 2), m)."""
         c = np.asarray(c, float).reshape(-1, 2)
-        touch = self.cspace.contacts(c)
-        out = _lookup(touch, self._by_surfaces)
-        any_touch = touch.any(axis=1)
+        bits = self.cspace.contact_bits(c)
+        out = self._from_bits(bits)
+        any_touch = bits != 0
         free = ~any_touch
         ix = np.clip(np.rint((c[free, 0] - self.x0) / self.cell).astype(np.int64), 0, self.labels.shape[1] - 1)
         iy = np.clip(np.rint((c[free, 1] - self.y0) / self.cell).astype(np.int64), 0, self.labels.shape[0] - 1)
