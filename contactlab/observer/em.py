@@ -33,7 +33,7 @@ import numpy as np
 
 from contactlab.errors import UsageError
 
-__all__ = ["baum_welch", "EMResult", "graph_chain", "learned_edges"]
+__all__ = ["baum_welch", "EMResult", "graph_chain", "learned_edges", "viterbi"]
 
 
 @dataclass
@@ -181,3 +181,22 @@ def learned_edges(graph, result: EMResult, *, min_expected: float = 1.0,
                 new.append((int(i), int(j), float(e[i, j]), float(jp[i, j])))
         out[a] = new
     return out
+
+
+def viterbi(loglik, actions, start, transitions) -> np.ndarray:
+    """(T,) the most probable node sequence of one run (log domain), for scoring a learned chain."""
+    ll = np.asarray(loglik, float)
+    acts = np.asarray(actions, np.int64)
+    logs = {a: np.log(np.maximum(m, 1e-300)) + np.where(m > 0, 0.0, -np.inf) for a, m in transitions.items()}
+    T, K = ll.shape
+    delta = np.log(np.maximum(start, 1e-300)) + np.where(np.asarray(start) > 0, 0.0, -np.inf) + ll[0]
+    back = np.empty((T, K), np.int64)
+    for t in range(1, T):
+        s = delta[:, None] + logs[acts[t]]
+        back[t] = np.argmax(s, axis=0)
+        delta = s[back[t], np.arange(K)] + ll[t]
+    path = np.empty(T, np.int64)
+    path[-1] = int(np.argmax(delta))
+    for t in range(T - 1, 0, -1):
+        path[t - 1] = back[t, path[t]]
+    return path
