@@ -89,7 +89,7 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in [
     Experiment("guarded-move", "Guarded move onto a surface", "9.1.1, fig 9.1", _K),
     Experiment("guarded-move-multi", "Guarded move into a corner", "9.1.2, figs 9.2-9.3", _K),
     Experiment("guarded-move-actions", "Action-dependent guarded moves", "9.1.3, figs 9.4-9.5", _K),
-    Experiment("maze", "The gear-shift maze", "9.2, figs 9.6-9.8", _K),
+    Experiment("maze", "The gear-shift maze", "9.2, figs 9.6-9.8", _K, "contactlab.experiments.maze"),
 ]}
 
 

@@ -45,6 +45,6 @@ HEADLINES: dict[str, tuple[str, str]] = {
         ''),
     'guarded-move-actions': ('action-dependent guarded moves',
         ''),
-    'maze': ('the gear-shift maze',
-        ''),
+    'maze': ('the gear-shift maze: c-space, forward-projected graph, EM-learned edges',
+        "74 partitions by Monte Carlo forward projection (thesis 62, hand-unified); action 1 from the tail reaches the leg's end 20 of 20, end feature decoded 20 of 20 (81 % of features in order); EM recovers 2 of 3 removed edges"),
 }

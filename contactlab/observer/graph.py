@@ -104,6 +104,9 @@ class FeatureGraph:
     thesis: str = ""
     source: str | None = None
     sides: str | None = None      # the detectors' sides this graph is meant for (None: default)
+    #: transition probabilities per action, ``{action: {(i, j): p}}`` (edge sets'
+    #: ``probabilities``; counted by a forward projection or learned by EM)
+    edge_probabilities: dict[int, dict[tuple[int, int], float]] = field(default_factory=dict)
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -176,7 +179,7 @@ class FeatureGraph:
                       for n, q in zip(self.nodes, p))
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
-                            self.sides)
+                            self.sides, self.edge_probabilities)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -187,7 +190,7 @@ class FeatureGraph:
 
         return {
             "name": self.name, "title": self.title, "thesis": self.thesis, "source": self.source,
-            "actions": list(self.actions),
+            "actions": list(self.actions), "sides": self.sides,
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
@@ -195,7 +198,11 @@ class FeatureGraph:
                        "self_transition": n.self_transition} for n in self.nodes],
             "edges": pairs(self.edges),
             "edge_sets": [{"actions": [self.actions[a] if a < len(self.actions) else a],
-                           "edges": pairs(e)} for a, e in sorted(self.action_edges.items())],
+                           "edges": pairs(e),
+                           **({"probabilities": [self.edge_probabilities[a].get(ij, 0.0)
+                                                 for ij in sorted(e)]}
+                              if a in self.edge_probabilities else {})}
+                          for a, e in sorted(self.action_edges.items())],
         }
 
 
@@ -288,6 +295,7 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
 
     edges = _parse_edges(doc.get("edges", []), names, "edges", err)
     action_edges: dict[int, frozenset] = {}
+    edge_probs: dict[int, dict[tuple[int, int], float]] = {}
     sets = doc.get("edge_sets", [])
     if not isinstance(sets, list):
         raise err("edge_sets", "must be an array of tables ([[edge_sets]])")
@@ -295,9 +303,9 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
         where = f"edge_sets[{k}]"
         if not isinstance(es, Mapping):
             raise err(where, "must be a table with actions and edges")
-        bad = set(es) - {"actions", "edges"}
+        bad = set(es) - {"actions", "edges", "probabilities"}
         if bad:
-            raise err(f"{where}.{sorted(bad)[0]}", "unknown key (allowed: actions, edges)")
+            raise err(f"{where}.{sorted(bad)[0]}", "unknown key (allowed: actions, edges, probabilities)")
         acts = es.get("actions")
         if not isinstance(acts, list) or not acts:
             raise err(f"{where}.actions", "must be a non-empty list of action names or codes")
@@ -315,6 +323,9 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
             else:
                 raise err(f"{where}.actions", f"not an action name or code: {a!r}")
             action_edges[code] = action_edges.get(code, frozenset()) | e
+            if "probabilities" in es:
+                edge_probs.setdefault(code, {}).update(
+                    _parse_probabilities(es, names, f"{where}.probabilities", err))
 
     node_objs = tuple(Node(n["name"], n["label"], n["models"], float(p), n["transient"],
                            n["self_transition"]) for n, p in zip(nodes, init))
@@ -322,7 +333,7 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     if sides is not None and sides not in D.OBSERVER_SIDE_CHOICES:
         raise err("sides", f"must be one of {', '.join(D.OBSERVER_SIDE_CHOICES)}; got {sides!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
-                         thesis, source, sides)
+                         thesis, source, sides, edge_probs)
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph
@@ -503,6 +514,29 @@ def _parse_edges(raw, names, where, err) -> frozenset[tuple[int, int]]:
                     continue
                 out.add((i, j))
     return frozenset(out)
+
+
+def _parse_probabilities(es, names, where, err) -> dict[tuple[int, int], float]:
+    """An edge set's ``probabilities``: one number in [0, 1] per edge of ``edges``, each edge
+    then a single ``"A -> B"``; per source node they sum to at most 1 (the rest: no change)."""
+    probs, edges = es["probabilities"], es.get("edges", [])
+    if not isinstance(probs, list) or len(probs) != len(edges):
+        raise err(where, f"must be a list of {len(edges)} numbers, one per edge")
+    out: dict[tuple[int, int], float] = {}
+    for k, (e, p) in enumerate(zip(edges, probs)):
+        if not isinstance(p, (int, float)) or isinstance(p, bool) or not 0.0 <= p <= 1.0:
+            raise err(f"{where}[{k}]", f"must be a probability in [0, 1]; got {p!r}")
+        a, b = (x.strip() for x in e.split("->"))
+        if a not in names or b not in names:
+            raise err(f"{where}[{k}]", f"edge {e!r} with a probability must join two named nodes")
+        out[(names.index(a), names.index(b))] = float(p)
+    total: dict[int, float] = {}
+    for (i, _), p in out.items():
+        total[i] = total.get(i, 0.0) + p
+    for i, t in total.items():
+        if t > 1.0 + 1e-3:
+            raise err(where, f"probabilities out of node {names[i]!r} sum to {t:.4g} > 1")
+    return out
 
 
 def _endpoints(text, names, fld, err) -> list[int]:

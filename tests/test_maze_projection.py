@@ -1,0 +1,88 @@
+"""Monte Carlo forward projection of the maze (thesis 5.3.5, 9.2, 10.1.1) and its graph file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactlab.errors import DataError
+from contactlab.maze import build_partitions
+from contactlab.maze.projection import maze_graph, node_kind
+from contactlab.observer.graph import load_graph, parse_graph
+from contactlab.observer.graph_toml import dumps_graph, graph_document, write_graph
+
+TAIL_END, LEG_END = 25, 29       # the concave corners at the tail's end and the right leg's upper end
+
+
+@pytest.fixture(scope="module")
+def small():
+    parts = build_partitions()
+    doc, header, fp = maze_graph(samples=12, steps=600, seed=5, actions=(1, 5), parts=parts)
+    return parts, doc, fp
+
+
+def _reach(graph, start, action):
+    adj = graph.adjacency(action)
+    seen = {start}
+    todo = [start]
+    while todo:
+        i = todo.pop()
+        for j in np.flatnonzero(adj[i]):
+            if j not in seen:
+                seen.add(int(j))
+                todo.append(int(j))
+    return seen
+
+
+def test_a_small_projection_finds_the_thesis_route_and_its_return(small, tmp_path):
+    parts, doc, fp = small
+    assert parts.by_number(TAIL_END).point == pytest.approx((-0.010 + parts.cspace.r, -0.040 + parts.cspace.r))
+    assert parts.by_number(LEG_END).point == pytest.approx((0.035 - parts.cspace.r, 0.040 - parts.cspace.r))
+    g = load_graph(write_graph(doc, tmp_path / "m.toml"))
+    # 9.2: action 1 takes the robot from the tail's end to the right leg's end, action 5 back
+    assert g.index(str(LEG_END)) in _reach(g, g.index(str(TAIL_END)), "action-1")
+    assert g.index(str(TAIL_END)) in _reach(g, g.index(str(LEG_END)), "action-5")
+    # under action 1 the leg's end is absorbing: every trace that reaches it stops there
+    assert not fp.counts[1][LEG_END - 1].any()
+    # probabilities out of every node under an action sum to 1, and are the counts' shares
+    for a in (1, 5):
+        p = fp.probabilities(a)
+        out = fp.counts[a].sum(axis=1) > 0
+        assert p[out].sum(axis=1) == pytest.approx(1.0)
+        for (i, j), q in g.edge_probabilities[g.action_index(f"action-{a}")].items():
+            ni, nj = int(g.node_names[i]), int(g.node_names[j])
+            assert q == pytest.approx(fp.counts[a][ni - 1, nj - 1] / fp.counts[a][ni - 1].sum(), abs=1e-4)
+    # impacts: only into contact partitions, and each is followed by that partition's node
+    for num, p in fp.impact_of.items():
+        assert parts.by_number(p).kind != "free"
+        nxt = np.flatnonzero(fp.counts[1][num - 1] + fp.counts[5][num - 1]) + 1
+        assert all(node_kind(fp, int(n))[1] == p for n in nxt)
+
+
+def test_the_shipped_graph_holds_the_small_projections_common_edges(small):
+    _, _, fp = small
+    g = load_graph("maze")
+    for a in (1, 5):
+        shipped = g.active_edges(f"action-{a}")
+        common = [(i, j) for i, j in fp.edges(a) if fp.counts[a][i - 1, j - 1] >= 5]
+        assert len(common) > 20
+        missing = [(i, j) for i, j in common if (g.index(str(i)), g.index(str(j))) not in shipped]
+        assert not missing
+
+
+def test_graph_documents_round_trip_and_bad_probabilities_are_one_line_errors(tmp_path):
+    g = load_graph("maze")
+    again = parse_graph(graph_document(g))
+    assert again.nodes == g.nodes and again.action_edges == g.action_edges
+    assert again.edge_probabilities == g.edge_probabilities
+    doc = graph_document(load_graph("guarded-move"))
+    doc["actions"] = ["go"]
+    doc["edge_sets"] = [{"actions": ["go"], "edges": ["0 -> 1", "0 -> 2"], "probabilities": [0.7, 0.6]}]
+    path = tmp_path / "bad.toml"
+    path.write_text(dumps_graph(doc))
+    with pytest.raises(DataError, match=r"bad.toml.*edge_sets\[0\].probabilities.*sum to 1.3"):
+        load_graph(path)
+    doc["edge_sets"][0]["probabilities"] = [0.5]
+    path.write_text(dumps_graph(doc))
+    with pytest.raises(DataError, match=r"must be a list of 2 numbers"):
+        load_graph(path)
