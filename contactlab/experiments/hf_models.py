@@ -282,7 +282,8 @@ def _level_text(mu, pc) -> str:
     return (f"H1 lies {h1:.1f} within-class sd above H0 and H2 {h2:+.1f}: moving is "
             + ("clearly separated from stationary, as the thesis found" if h1 > 3 else
                "only partly separated from stationary") + ", while pressed "
-            + ("overlaps stationary." if abs(h2) < 2 else "is separated from stationary."))
+            + ("overlaps stationary." if abs(h2) < 2 else "is separated from stationary.")
+            + f" Pressed lies {(mu[2] - mu[1]) / max(sd[1], sd[2]):+.1f} sd from moving.")
 
 
 def _differences(feats, pc, impacts) -> list[str]:
@@ -298,9 +299,11 @@ def _differences(feats, pc, impacts) -> list[str]:
            "identified from the thesis's signal facts, not from this table (reproduce "
            "apparatus): a 16-bit converter dithered by the amplifier noise, so the moving "
            "drive's vibration (brush and capstan-cable friction ripple, commutation ripple, "
-           "control noise on encoder feedback) raises y_h above the stationary floor; no "
-           "mechanism adds vibration to a finger pressed still, so H2 sits at the H0 level "
-           "(7.3.3 says contact is the louder of the two, its main confusion)."]
+           "control noise on encoder feedback) raises y_h above the stationary floor, and a "
+           "finger pressed still carries the motors' force noise (the force DAC's steps and "
+           "the amplifier noise) through the contact into the sensor. Ordered by level: "
+           + " < ".join(STATIONARY[i] for i in np.argsort(means[:, 0]))
+           + " (the thesis: pressed between stationary and moving, 7.3.3)."]
     counts = np.bincount(feats["labels"], minlength=3)
     out.append(f"Sample sizes: H1 has only {counts[1]} units of {BLOCK}, because our moves "
                "last 0.5 s (diagonal) and the x move hits its wall after about 0.6 s, while a "

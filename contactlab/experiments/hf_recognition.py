@@ -300,8 +300,7 @@ def _headline(res, hmm_res) -> str:
             f"{100 * THESIS['test_cf']['accuracy']:.0f} %, HMM peer "
             f"{100 * _acc(hmm_res['test'][0]):.0f} %), with context "
             f"{100 * ctx['accuracy']:.0f} % (thesis {100 * THESIS['test_ctx']['accuracy']:.0f} "
-            "%); the simulated pressed state sits at the stationary level, see 'Where ours "
-            "differ'")
+            "%); see 'Where ours differ'")
 
 
 def _differences(res, hmm_res, gm, check) -> list[str]:
@@ -309,20 +308,21 @@ def _differences(res, hmm_res, gm, check) -> list[str]:
     out = [
         "The stationary classes: the trained means of the LPC mean coefficient are "
         + ", ".join(f"{k} {v:.3f}" for k, v in means.items())
-        + ". The simulated moving drive raises y_h above the stationary floor (hf-models), "
-        "but a finger pressed still adds no vibration in the simulator, so H0 and H2 are "
-        "close in y_h and no recogniser on y_h alone can separate them: their confusions "
-        "say more about the simulator than about the observer (reproduce apparatus lists "
-        "which signal facts hold). The pipeline (train --graph, recognize, this page) is "
-        "not tuned to them.",
+        + " (ordered: " + " < ".join(sorted(means, key=means.get)) + "). The simulated "
+        "moving drive raises y_h above the stationary floor and a finger pressed still "
+        "carries the motors' force noise through the contact (hf-models; the thesis has "
+        "pressed between stationary and moving). The levels are close against their "
+        "spread, so the confusions say more about the simulator than about the observer "
+        "(reproduce apparatus lists which signal facts hold). The pipeline (train --graph, "
+        "recognize, this page) is not tuned to them.",
         "H3 (impact): the transient node ends: a path leaves H3 when the decay stops "
         "(the mean tests of the observer fire on the flat y_h that the decay model "
         f"mispredicts); H2 points marked H3 on the test runs, context free: "
         f"{res['test_cf']['confusion']['matrix'][2][3]}.",
         f"The HMM peer marks {100 * _acc(hmm_res['test'][0]):.1f} % of the test points "
         f"correctly against the observer's {100 * res['test_cf']['accuracy']:.1f} % on the "
-        "channel mean (context free). On this signal H0 and H2 coincide (above) and H0 "
-        "and H1 overlap; the HMM's label-count transitions keep it in a state for as long "
+        "channel mean (context free). On this signal the three stationary levels overlap "
+        "(above); the HMM's label-count transitions keep it in a state for as long "
         "as the runs do, while the observer re-estimates each segment's parameters from "
         "its prior, so a moving segment whose level lies inside the stationary prior can "
         "be taken for stationary. The same pipeline on the 8 gauges as independent "

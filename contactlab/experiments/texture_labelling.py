@@ -371,17 +371,18 @@ def _differences(results: dict) -> list[str]:
             f"{e['means'][1]:.3f} (sd {e['sds'][1]:.3f}); log of one ADC step "
             f"{r['log_lsb']:.3f}. Driving variance {c[0]} / {c[1]} per channel: "
             + ", ".join(f"{x:.3g}" for x in ratio) + ".")
+    gaps = {n: r["energy"]["means"][0] - r["energy"]["means"][1] for n, r in results.items()}
     out.append(
-        "Why: sliding vibration in the simulator is dominated by the drive and the servo "
-        "(the random control wrench of 4.12 and the encoder-fed damping term move the robot "
-        "once the finger slides), common to both textures; the textures' own vibration adds "
-        "little on top of it, so the log-energy separates them far less than on the "
-        "thesis's sensor (reproduce apparatus: sample A's y_h normal-fit error is a fact that "
-        "does not hold, and rough wood is not louder than polished aluminium). The lowpassed "
-        "strains and wrench (below 125 Hz) keep a texture-dependent force fluctuation -- the "
-        "driving variances above differ on some channels -- and the AR likelihood uses it. "
-        "The thesis found the reverse weighting (log-energy nearly sufficient, AR marginal, "
-        "7.2.2/7.4). "
+        "Why: sliding vibration in the simulator carries the drive and the servo (friction "
+        "ripple, the force DAC and amplifier noise), common to both textures, beside the "
+        "textures' own vibration; the y_h gap between the two textures of a sample is "
+        + ", ".join(f"{g:+.2f} nat ({n})" for n, g in gaps.items())
+        + " against block sds near 0.1, so log-energy separates a pair only as far as the "
+        "texture outweighs the drive (reproduce apparatus lists which texture facts hold). "
+        "The lowpassed strains and wrench (below 125 Hz) keep a texture-dependent force "
+        "fluctuation -- the driving variances above differ on some channels -- and the AR "
+        "likelihood uses it. The thesis found log-energy nearly sufficient on sample A and "
+        "AR marginal (7.2.2/7.4). "
         "Nothing was tuned to move either number. Sample sizes: 8 trials per sample as in "
         "the thesis; our 45 mm strokes give the block counts of the first table (thesis: 67 "
         "for sample A), so one misplaced block changes a rate by about 0.03.")
