@@ -63,3 +63,22 @@ def test_rotated_graph():
     # the rotated alternative shares the floor's training labels
     assert g5.models["CXZ"].trained == g5.models["CZ"].trained
     assert g5.node_names == g0.node_names
+
+
+def test_three_simulated_runs_train_every_model_of_the_graph(tmp_path):
+    from contactlab.acquire.simulated import record_spec
+    from contactlab.observer.models.composite import build_models
+    from contactlab.observer.training import train_graph
+
+    arc = record_spec("guarded-move", tmp_path / "g.h5", seed=4, n_trials=3)
+    g = guarded_graph(5.0)
+    gm = train_graph(arc, g)
+    built = build_models(g, gm.trained)
+    # still samples (free and on the floor) vary far less than moving ones
+    assert built["F"].sigma < 0.2 * built["M"].high
+    assert built["C0"].degree == 0 and built["CZ"].degree == 1
+    assert np.allclose(built["CZ"].normals[:, 0], [0, 0, 1])
+    # the rotated alternative: the floor's normal turned 5 deg about x, the floor's noise
+    cos = abs(float(built["CXZ"].normals[:, 0] @ built["CZ"].normals[:, 0]))
+    assert np.degrees(np.arccos(min(cos, 1.0))) == pytest.approx(5.0, abs=1e-6)
+    assert np.allclose(built["CXZ"].V, built["CZ"].V)
