@@ -65,8 +65,17 @@ class ModelSpec:
 
     @property
     def trained(self) -> str:
-        """The label of the trained model this declaration uses (default: its name)."""
-        return str(self.params.get("trained", self.name))
+        """The label of the trained model this declaration uses (default: its name); a
+        list of labels (constraint and velocity models) is named by joining them with "+"."""
+        return "+".join(self.trained_labels)
+
+    @property
+    def trained_labels(self) -> tuple[str, ...]:
+        """The ground-truth labels whose samples train this model (``trained`` may be one
+        label or, for constraint and velocity models, a list: a free, moving sample
+        trains both the free-space constraint and the moving-velocity model)."""
+        t = self.params.get("trained", self.name)
+        return tuple(str(x) for x in t) if isinstance(t, list) else (str(t),)
 
 
 @dataclass(frozen=True)
@@ -381,6 +390,14 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                 raise err(f"{where}.{k}", f"must be > 0; got {params[k]!r}")
         if params.get("change_size") == 1:
             raise err(f"{where}.change_size", "must not be 1 (no change to detect)")
+        t = params.get("trained")
+        if isinstance(t, list) and (kind not in ("constraint", "velocity-fixed",
+                                                 "velocity-moving")
+                                    or not t or not all(isinstance(x, str) and x for x in t)):
+            raise err(f"{where}.trained", "a list of labels trains constraint and velocity "
+                      f"models only, and must hold label names; got {t!r}")
+        if t is not None and not isinstance(t, (str, list)):
+            raise err(f"{where}.trained", f"must be a label name or a list of them; got {t!r}")
         if kind == "velocity-moving":
             _check_moving(params, where, err)
         if kind == "impact":

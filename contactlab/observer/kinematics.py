@@ -67,7 +67,8 @@ def check_label_map(label_map: dict | None, graph: FeatureGraph,
     trained label of ``graph``."""
     if not label_map:
         return
-    known = set(graph.node_names) | {s.trained for s in graph.models.values()}
+    known = set(graph.node_names) | {lab for s in graph.models.values()
+                                     for lab in s.trained_labels}
     for src, dst in label_map.items():
         if dst not in known:
             raise DataError(f"{src}={dst}: {dst!r} is not a node or trained label of graph "
@@ -88,7 +89,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     """Fit every model of :func:`kinematic_specs` from labelled runs.
 
     ``runs`` maps ``(signal, label)`` to a list of (n_i, C) arrays (maximal runs of
-    that label on that signal).  Returns label-keyed ``{"constraint": {...},
+    that label on that signal); a model trained on a list of labels pools their runs.  Returns label-keyed ``{"constraint": {...},
     "velocity": {...}}``.  DataError (file = ``source``) when a label has no data or
     the data do not determine a frame.
     """
@@ -104,7 +105,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     for (kind, label), spec in specs.items():
         where = f"models.{spec.name}.trained"
         signal = "contact" if kind == "constraint" else "velocity"
-        segs = runs.get((signal, label), [])
+        segs = [s for lab in spec.trained_labels for s in runs.get((signal, lab), [])]
         if not segs:
             raise DataError(f"no labelled samples of {label!r} to train {kind} model "
                             f"{spec.name!r}", file=source, field=f"ground_truth/labels "

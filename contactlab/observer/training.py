@@ -277,7 +277,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         elif spec.kind == "impact" and "theta_mean" not in spec.params:
             impact_specs.setdefault(spec.trained, spec)
     kin_specs = kinematic_specs(graph)
-    kin_labels = {lab for _, lab in kin_specs}
+    kin_labels = {lab for spec in kin_specs.values() for lab in spec.trained_labels}
     signals = {s.signal for s in temporal_specs.values()}
     if not temporal_specs and not kin_specs:
         raise DataError("the graph names no model to train", file=gsrc, field="models")

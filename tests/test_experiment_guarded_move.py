@@ -1,0 +1,84 @@
+"""guarded-move (9.1.1): labels pooled per model, the path score, the rotated graph."""
+
+import numpy as np
+import pytest
+
+from contactlab.errors import DataError
+from contactlab.experiments.guarded_move import guarded_graph, reduce_impacts, score_path
+from contactlab.observer.graph import parse_graph
+from contactlab.observer.kinematics import fit_kinematic_models
+
+GRAPH = {
+    "name": "pooled", "edges": ["a -> b", "b -> a"],
+    "models": {"F": {"kind": "velocity-fixed", "trained": ["still-free", "still-floor"]},
+               "M": {"kind": "velocity-moving", "trained": "moving"}},
+    "nodes": [{"name": "a", "models": {"v": "F"}, "initial": 1.0},
+              {"name": "b", "models": {"v": "M"}}],
+}
+
+
+def test_list_of_labels_pools_their_samples():
+    g = parse_graph(GRAPH)
+    assert g.models["F"].trained_labels == ("still-free", "still-floor")
+    rng = np.random.default_rng(0)
+    a, b = 0.001 * rng.standard_normal((400, 3)), 0.003 * rng.standard_normal((300, 3))
+    runs = {("velocity", "still-free"): [a], ("velocity", "still-floor"): [b],
+            ("velocity", "moving"): [0.005 * rng.standard_normal((500, 3))]}
+    out = fit_kinematic_models(g, runs)
+    # FixedVelocity: sigma is the RMS of every still sample of both labels (9.1.1)
+    both = np.concatenate([a, b])
+    assert out["velocity"]["still-free+still-floor"].sigma == pytest.approx(
+        np.sqrt(np.mean(both ** 2)))
+    with pytest.raises(DataError, match="no labelled samples"):
+        fit_kinematic_models(g, {("velocity", "moving"): runs[("velocity", "moving")]})
+
+
+def test_list_of_labels_only_for_kinematic_models():
+    doc = {**GRAPH, "models": {**GRAPH["models"],
+                               "S": {"kind": "temporal", "trained": ["x", "y"]}}}
+    with pytest.raises(DataError) as e:
+        parse_graph(doc)
+    assert e.value.field == "models.S.trained"
+
+
+def test_score_path():
+    assert score_path(list("01213"))["strict"]
+    # an impact during free motion and during the contact is tolerated (9.1.1)
+    s = score_path(list("0121212131313"))
+    assert s["correct"] and not s["strict"] and not s["distractor"]
+    # leaving the surface for free motion is not
+    assert not score_path(list("012131213"))["correct"]
+    # a distractor contact is wrong, and flagged
+    s = score_path(list("01214"))
+    assert not s["correct"] and s["distractor"]
+    assert not score_path(list("0123"))["correct"]
+    assert reduce_impacts(list("3131")) == ["3", "1"]
+
+
+def test_rotated_graph():
+    g0, g5 = guarded_graph(), guarded_graph(5.0)
+    assert g0.models["CXZ"].params["constraint"] == "XZ"
+    p = g5.models["CXZ"].params
+    assert p["constraint"] == "Z" and p["rotate_deg"] == [5.0, 0.0, 0.0]
+    # the rotated alternative shares the floor's training labels
+    assert g5.models["CXZ"].trained == g5.models["CZ"].trained
+    assert g5.node_names == g0.node_names
+
+
+def test_three_simulated_runs_train_every_model_of_the_graph(tmp_path):
+    from contactlab.acquire.simulated import record_spec
+    from contactlab.observer.models.composite import build_models
+    from contactlab.observer.training import train_graph
+
+    arc = record_spec("guarded-move", tmp_path / "g.h5", seed=4, n_trials=3)
+    g = guarded_graph(5.0)
+    gm = train_graph(arc, g)
+    built = build_models(g, gm.trained)
+    # still samples (free and on the floor) vary far less than moving ones
+    assert built["F"].sigma < 0.2 * built["M"].high
+    assert built["C0"].degree == 0 and built["CZ"].degree == 1
+    assert np.allclose(built["CZ"].normals[:, 0], [0, 0, 1])
+    # the rotated alternative: the floor's normal turned 5 deg about x, the floor's noise
+    cos = abs(float(built["CXZ"].normals[:, 0] @ built["CZ"].normals[:, 0]))
+    assert np.degrees(np.arccos(min(cos, 1.0))) == pytest.approx(5.0, abs=1e-6)
+    assert np.allclose(built["CXZ"].V, built["CZ"].V)
