@@ -19,7 +19,7 @@ experiments analyse.  It owns the conditioning constants of 7.1:
 * the log floor of ``y_h``: half the strain converter step
   (:func:`contactlab.conditioning.quantisation_floor`), so exact zeros of the
   difference of quantised strains enter as ``log(lsb / 2)``, not ``log(1e-12)``;
-* the input window each conditioned sample depends on (:data:`WINDOW`), used
+* the input window each conditioned sample depends on (:func:`window_of`), used
   to give a conditioned sample a truth label only when its whole window has it.
 
 Signals (:data:`SIGNALS`): ``strain`` (``y_l``: strains lowpassed and
@@ -44,7 +44,7 @@ import numpy as np
 from contactlab.conditioning import difference, log_energy, lowpass_decimate, quantisation_floor
 from contactlab.errors import DataError, UsageError
 
-__all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "WINDOW", "TARGET_RATE_HZ",
+__all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "factor_for", "cutoff_for", "hf_block_for", "window_of", "Signal",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
@@ -62,9 +62,6 @@ TARGET_RATE_HZ = 250.0
 CUTOFF_DIVISOR = 2.0 * FACTOR
 #: differences averaged into one y_h sample (7.1: blocks of 8, every 4th sample)
 HF_BLOCK = 2 * FACTOR
-#: input samples each conditioned sample depends on at 1000 Hz (:func:`window_of`)
-WINDOW = {"strain": FACTOR, "wrench": FACTOR, "hf": HF_BLOCK + 1, "velocity": 1,
-          "position": 1, "contact": FACTOR}
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
 
@@ -269,7 +266,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         if s == "velocity" and getattr(trial, "velocity", None) is None \
                 and getattr(trial, "position", None) is not None:
             v = derived_velocity(trial)
-            out[s] = v[np.minimum(index // FACTOR, len(v) - 1)]
+            out[s] = v[np.minimum(index // factor_for(trial.rate_hz), len(v) - 1)]
         elif s in ("velocity", "position"):
             out[s] = _raw(trial, s, path)[index]
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
@@ -278,13 +275,15 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
 
 
 def derived_velocity(trial) -> np.ndarray:
-    """Velocity (m/s) of a trial recorded without one: the central difference of its
-    position through the 7.1 lowpass, at the conditioned rate (row j is at input
-    sample ``FACTOR * j``)."""
-    p = lowpass(_raw(trial, "position", None), fs=float(trial.rate_hz))
-    if len(p) < 2:
-        return np.zeros_like(p)
-    return np.gradient(p, axis=0) * (float(trial.rate_hz) / FACTOR)
+    """Velocity (m/s) of a trial recorded without one, as chapter 1 derives it from the
+    encoders: the first difference of the position times the rate, through the 7.1
+    lowpass and decimation of :func:`lowpass` (row j is at input sample
+    ``factor_for(rate) * j``; ``p(-1) := p(0)``, so it starts from rest).  At 1000 Hz
+    this is :func:`contactlab.conditioning.velocity_from_position`; :func:`lowpass`
+    also serves other rates."""
+    fs = float(trial.rate_hz)
+    p = _raw(trial, "position", None)
+    return lowpass(np.diff(p, axis=0, prepend=p[:1]) * fs, fs=fs)
 
 
 def loudest_channel(strain, rows=slice(None)) -> int:
@@ -301,7 +300,7 @@ def codes_at(codes, index, *, window: int = 1) -> np.ndarray:
     ``index[k] - window + 1 .. index[k]`` (clipped to the record) holds one code, else -1.
 
     ``codes`` are per input sample; ``index`` the conditioned samples' newest input
-    samples; ``window`` the input span a sample depends on (:data:`WINDOW`).
+    samples; ``window`` the input span a sample depends on (:func:`window_of`).
     """
     codes = np.asarray(codes, np.int64)
     index = np.clip(np.asarray(index, np.int64), 0, len(codes) - 1)

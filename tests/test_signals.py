@@ -10,7 +10,7 @@ from scipy import signal as sps
 
 from contactlab.archive import create_archive, open_archive
 from contactlab.errors import DataError
-from contactlab.signals import WINDOW, condition, default_signal, trial_signals, truth_codes
+from contactlab.signals import condition, window_of, default_signal, trial_signals, truth_codes
 from conftest import LABEL_NAMES, RATE_HZ, one_json_object, run_cli, synthetic_labels, \
     synthetic_measurements
 
@@ -67,7 +67,7 @@ def test_truth_codes_window_brute_force(archive_path):
     with open_archive(archive_path) as arc:
         trial = arc.trial("t01")
         idx = condition(trial, "hf").index
-        got = truth_codes(trial, idx, window=WINDOW["hf"])
+        got = truth_codes(trial, idx, window=window_of("hf", RATE_HZ))
         raw = trial.labels
         for k, i in enumerate(idx):
             w = raw[max(i - 8, 0):i + 1]
@@ -153,3 +153,28 @@ def test_segment_finds_changes_in_a_250_hz_recording(tmp_path):
     assert res.exit_code == 0, res.output
     m = one_json_object(res.stdout)["metrics"]["overall"]
     assert m["f1"] >= 0.9, m
+
+
+@pytest.mark.parametrize("fs", [1000.0, 100.0])
+def test_derived_velocity_at_any_rate(fs):
+    """A trial without velocity gets chapter 1's velocity from position: at 1000 Hz the
+    conditioning's velocity_from_position (the oracle), at any rate a ramp's speed, with
+    the streams of trial_signals on one time base."""
+    from types import SimpleNamespace
+
+    from contactlab.conditioning import velocity_from_position
+    from contactlab.signals import derived_velocity, factor_for
+
+    n = int(3 * fs)
+    t = np.arange(n) / fs
+    rng = np.random.default_rng(5)
+    p = np.column_stack([0.02 * t, -0.01 * t, 1e-6 * rng.normal(size=n)])
+    trial = SimpleNamespace(id="r", rate_hz=fs, time=t, position=p, velocity=None,
+                            wrench=rng.normal(size=(n, 6)), strain=None, labels=None)
+    v = derived_velocity(trial)
+    if fs == 1000.0:
+        np.testing.assert_allclose(v, velocity_from_position(p, fs=fs), atol=1e-12)
+    np.testing.assert_allclose(np.median(v[len(v) // 2:, :2], axis=0), [0.02, -0.01], rtol=1e-6)
+    data, index, fs_out = trial_signals(trial, ["wrench", "velocity"])
+    assert fs_out == fs / factor_for(fs) and len(data["velocity"]) == len(data["wrench"])
+    np.testing.assert_array_equal(data["velocity"], v[index // factor_for(fs)])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactlab.progress import progress
-from contactlab.signals import FACTOR
+from contactlab.signals import factor_for
 
 __all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups", "consecutive_blocks",
            "random_blocks"]
@@ -91,7 +91,7 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
         d["v"].append(condition(r, "velocity").y)
         n = len(d["p"][-1])
         d["run"].append(np.full(n, j))
-        d["c"].append(np.asarray(r.contact).reshape(len(r.time), -1).sum(axis=1)[::FACTOR][:n])
+        d["c"].append(np.asarray(r.contact).reshape(len(r.time), -1).sum(axis=1)[::factor_for(r.rate_hz)][:n])
         if g.name not in normals:
             normals[g.name] = true_normals(r)
     groups = {name: GroupData(name, np.concatenate(d["p"]), np.concatenate(d["f"]),

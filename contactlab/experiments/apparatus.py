@@ -28,7 +28,7 @@ from contactlab.acquire.spec import load_spec
 from contactlab.experiments.apparatus_facts import FACTS
 from contactlab.fileio import write_text_atomic
 from contactlab.progress import bar
-from contactlab.signals import WINDOW, codes_at, condition_array
+from contactlab.signals import codes_at, condition_array, window_of
 from contactlab.temporal.blocks import mask_runs
 from contactlab.temporal.energy import normal_confusion_1d
 from contactlab.report.page import ReportPage
@@ -45,9 +45,10 @@ def channel_mean_yh(r) -> tuple[np.ndarray, np.ndarray]:
     return hf.y.mean(axis=1), hf.index
 
 
-def pure_codes(codes: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """The label of each y_h sample when every input sample it depends on carries it, else -1."""
-    return codes_at(codes, index, window=WINDOW["hf"])
+def pure_codes(codes: np.ndarray, index: np.ndarray, fs: float) -> np.ndarray:
+    """The label of each y_h sample (input rate ``fs``) when every input sample it depends
+    on carries it, else -1."""
+    return codes_at(codes, index, window=window_of("hf", fs))
 
 
 def unit_means(y: np.ndarray, codes: np.ndarray, *, unit: int = UNIT) -> dict[int, list[float]]:
@@ -85,7 +86,7 @@ def hf_measures(seed: int, *, trials=None) -> dict:
         plan, r = simulate_trial(spec, k, seed)
         y, idx = channel_mean_yh(r)
         codes, _ = labels_hf(r)
-        for c, v in unit_means(y, pure_codes(codes, idx)).items():
+        for c, v in unit_means(y, pure_codes(codes, idx, r.rate_hz)).items():
             units.setdefault(c, []).extend(v)
         touching = r.contact.any(axis=1) if r.contact.size else np.zeros(len(r.time), bool)
         move = plan.controller.moves[0]
@@ -111,7 +112,7 @@ def hf_measures(seed: int, *, trials=None) -> dict:
 def _texture_yh(r) -> dict[str, np.ndarray]:
     y, idx = channel_mean_yh(r)
     codes, names = labels_texture(r)
-    pc = pure_codes(codes, idx)
+    pc = pure_codes(codes, idx, r.rate_hz)
     return {names[c]: y[pc == c] for c in range(3, len(names))}
 
 
