@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from contactlab.errors import UsageError
@@ -70,32 +71,57 @@ def _check(loglik_runs, actions_runs, start, trans):
             raise UsageError(f"run {r}: no transition matrix for action(s) {sorted(missing)}")
 
 
-def _forward_backward(ll, acts, start, trans):
-    """Scaled forward-backward (Rabiner 1989, 91-93): gamma (T, K), xi sums per action, log p."""
-    T, K = ll.shape
-    m = ll.max(axis=1, keepdims=True)
-    b = np.exp(ll - m)
+def _stacked(trans: dict, acts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(A (n_actions, K, K), index (T,))``: the transition matrices stacked and each
+    sample's action as an index into them (sample 0 starts the run: its action is unused)."""
+    codes = sorted(trans)
+    lookup = {a: i for i, a in enumerate(codes)}
+    index = np.array([0] + [lookup[int(a)] for a in acts[1:]], np.int64)
+    return np.ascontiguousarray(np.stack([trans[a] for a in codes])), index
+
+
+@numba.njit(cache=True)
+def _forward_backward_kernel(b, acts, start, A):  # pragma: no cover - compiled
+    """Scaled forward-backward over scaled emissions ``b`` (T, K); returns alpha, beta, the
+    expected transitions per stacked action, the scales, and -1 or the first sample no
+    path explains."""
+    T, K = b.shape
     alpha = np.empty((T, K))
+    beta = np.ones((T, K))
+    xi = np.zeros((A.shape[0], K, K))
     c = np.empty(T)
     a0 = start * b[0]
     c[0] = a0.sum()
     alpha[0] = a0 / c[0]
     for t in range(1, T):
-        at = (alpha[t - 1] @ trans[acts[t]]) * b[t]
+        at = (alpha[t - 1] @ A[acts[t]]) * b[t]
         c[t] = at.sum()
         if c[t] <= 0:
-            raise UsageError(f"sample {t}: no path of the graph explains the run (all "
-                             "probabilities 0); allow candidate edges or check the models")
+            return alpha, beta, xi, c, t
         alpha[t] = at / c[t]
-    beta = np.empty((T, K))
-    beta[-1] = 1.0
-    xi = {a: np.zeros((K, K)) for a in trans}
     for t in range(T - 1, 0, -1):
+        a = acts[t]
         bb = b[t] * beta[t]
-        xi[acts[t]] += trans[acts[t]] * np.outer(alpha[t - 1], bb) / c[t]
-        beta[t - 1] = (trans[acts[t]] @ bb) / c[t]
-    gamma = alpha * beta
-    return gamma, xi, float(np.sum(np.log(c)) + m.sum())
+        for i in range(K):
+            w = alpha[t - 1, i] / c[t]
+            if w != 0.0:
+                for j in range(K):
+                    xi[a, i, j] += A[a, i, j] * w * bb[j]
+        beta[t - 1] = (A[a] @ bb) / c[t]
+    return alpha, beta, xi, c, -1
+
+
+def _forward_backward(ll, acts, start, trans):
+    """Scaled forward-backward (Rabiner 1989, 91-93): gamma (T, K), xi sums per action, log p."""
+    m = ll.max(axis=1, keepdims=True)
+    b = np.ascontiguousarray(np.exp(ll - m))
+    A, index = _stacked(trans, acts)
+    alpha, beta, xi, c, bad = _forward_backward_kernel(b, index, np.asarray(start, float), A)
+    if bad >= 0:
+        raise UsageError(f"sample {bad}: no path of the graph explains the run (all "
+                         "probabilities 0); allow candidate edges or check the models")
+    codes = sorted(trans)
+    return alpha * beta, {a: xi[i] for i, a in enumerate(codes)}, float(np.sum(np.log(c)) + m.sum())
 
 
 def baum_welch(loglik_runs, actions_runs, start, transitions, *, n_iter: int = 50,
@@ -183,20 +209,38 @@ def learned_edges(graph, result: EMResult, *, min_expected: float = 1.0,
     return out
 
 
-def viterbi(loglik, actions, start, transitions) -> np.ndarray:
-    """(T,) the most probable node sequence of one run (log domain), for scoring a learned chain."""
-    ll = np.asarray(loglik, float)
-    acts = np.asarray(actions, np.int64)
-    logs = {a: np.log(np.maximum(m, 1e-300)) + np.where(m > 0, 0.0, -np.inf) for a, m in transitions.items()}
+def _log(x) -> np.ndarray:
+    x = np.asarray(x, float)
+    return np.log(np.maximum(x, 1e-300)) + np.where(x > 0, 0.0, -np.inf)
+
+
+@numba.njit(cache=True)
+def _viterbi_kernel(ll, acts, log_start, log_A):  # pragma: no cover - compiled
     T, K = ll.shape
-    delta = np.log(np.maximum(start, 1e-300)) + np.where(np.asarray(start) > 0, 0.0, -np.inf) + ll[0]
-    back = np.empty((T, K), np.int64)
+    delta = log_start + ll[0]
+    back = np.zeros((T, K), np.int64)
+    new = np.empty(K)
     for t in range(1, T):
-        s = delta[:, None] + logs[acts[t]]
-        back[t] = np.argmax(s, axis=0)
-        delta = s[back[t], np.arange(K)] + ll[t]
+        a = acts[t]
+        for j in range(K):
+            best, arg = -np.inf, 0
+            for i in range(K):
+                v = delta[i] + log_A[a, i, j]
+                if v > best:
+                    best, arg = v, i
+            back[t, j] = arg
+            new[j] = best + ll[t, j]
+        delta[:] = new
     path = np.empty(T, np.int64)
-    path[-1] = int(np.argmax(delta))
+    path[-1] = np.argmax(delta)
     for t in range(T - 1, 0, -1):
         path[t - 1] = back[t, path[t]]
     return path
+
+
+def viterbi(loglik, actions, start, transitions) -> np.ndarray:
+    """(T,) the most probable node sequence of one run (log domain), for scoring a learned chain."""
+    ll = np.ascontiguousarray(np.asarray(loglik, float))
+    A, index = _stacked({int(a): m for a, m in transitions.items()},
+                        np.asarray(actions, np.int64))
+    return _viterbi_kernel(ll, index, _log(start), _log(A))
