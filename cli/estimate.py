@@ -42,7 +42,7 @@ from contactlab.constraints.archive import MODELS
 @parallel_options("trials")
 @json_option
 @quiet_option
-@checks_archive(values=False)   # run_stage checks the values it reads
+@checks_archive(values=False, walk_trials=False)   # run_stage checks each trial
 def estimate(archives, model, segments, block, sequential, motion, position_noise,
              force_noise, no_friction, trials, workers, scheduler, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of each ARCHIVE.

@@ -58,7 +58,7 @@ def label(archives, models, block, loo, loo_unit, labels, trials, workers, sched
     stage = LabelStage(models=models, block=block, loo=loo_unit if loo else False,
                        labels=labels, quiet=quiet)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
-                          scheduler=scheduler, quiet=quiet, check_values=False)  # checked
+                          scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
     if as_json:
         json_summaries(summaries)
         return

@@ -107,7 +107,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
                            write=not no_write, label_map=lmap)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
-                          scheduler=scheduler, quiet=quiet, check_values=False)  # checked
+                          scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
     if as_json:
         json_summaries(summaries)
         return

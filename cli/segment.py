@@ -60,7 +60,7 @@ def _thresholds(ctx, param, value):
 @parallel_options("trials")
 @json_option
 @quiet_option
-@checks_archive(values=False)   # run_stage checks the values it reads
+@checks_archive(values=False, walk_trials=False)   # run_stage checks each trial
 def segment(archives, signal, order, method, threshold, window_s, sweep_values, change_size,
             combine, tolerance, trials, workers, scheduler, as_json, quiet):
     """Segment every trial of each ARCHIVE into stretches of one AR model per channel.

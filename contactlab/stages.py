@@ -16,14 +16,16 @@ trials fail, the other trials' results are written and the run ends with one
 DataError line naming the archive and the first failed trial, its reason, and
 how many others failed.
 
-Bad input.  Before a trial runs, the schema's value checks of its
-measurements (:func:`contactlab.archive.validate.measurement_problems`: finite
-values, an increasing time base at the trial's rate, ...) run on the arrays
-the trial caches, which the stage then reads without decompressing them
-again; the commands check everything else up front
-(``check_archive(values=False)``).  A trial that fails them stops the whole
-run before anything is written, with the error ``contactlab validate``
-would give (file, field and what is wrong).
+Bad input.  Before a trial runs, it is checked where it runs
+(:func:`contactlab.archive.validate.trial_problems`): the schema walk over the
+trial (layout, dtypes, shapes, attributes), then the value checks of its
+measurements (finite values, an increasing time base at the trial's rate,
+...) on the arrays the trial caches, which the stage then reads without
+decompressing them again.  So the checks are shared among the workers; the
+commands check the rest of the archive up front
+(``check_archive(values=False, walk_trials=False)``).  A trial that fails
+them stops the whole run before anything is written, with the error
+``contactlab validate`` would give (file, field and what is wrong).
 
 Parallel work: ``workers=1`` (the default) runs in this process -- a stage
 over a few trials is faster without starting processes that each load the
@@ -118,14 +120,15 @@ def check_workers(workers: int, scheduler: str | None) -> None:
 def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
               trials: Sequence[str] | None = None, workers: int = 1,
               scheduler: str | None = None, quiet: bool = True,
-              check_values: bool = True) -> dict[Path, dict]:
+              check_trials: bool = True) -> dict[Path, dict]:
     """Run ``stage`` over the archives ``paths``; return ``{path: summary}``.
 
     ``trials``: ids to run in every archive (default all). Results of each
     archive are written in one atomic step once all its trials have run; a
     failed trial is left out of the write and reported in the DataError
-    raised at the end.  ``check_values``: check each trial's measurement
-    values first (see the module notes; False when the caller did).
+    raised at the end.  ``check_trials``: check each trial (layout and
+    measurement values) where it runs (see the module notes; False when the
+    caller checked the whole archive).
     """
     from contactlab.archive import open_archive
     from contactlab.archive.results import check_archive_writable, write_stage
@@ -143,7 +146,7 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
             ids = stage.select(archive, trials)
         tasks += [(path, tuple(ids))] if stage.per_archive else [(path, tid) for tid in ids]
     done = _map(stage, tasks, workers=workers, scheduler=scheduler, quiet=quiet,
-                check_values=check_values)
+                check_trials=check_trials)
     for path in paths:                        # bad input: nothing is written
         raise_problems(path, [p for task, got in done.items() if task[0] == path and
                               isinstance(got, TrialFailure) for p in got.problems])
@@ -188,18 +191,18 @@ def run_stage(stage: Stage, paths: Iterable[str | os.PathLike], *,
 
 
 def _run_one(stage: Stage, path: Path, tid, archive,
-             check_values: bool = True) -> TrialOutcome | TrialFailure:
+             check_trials: bool = True) -> TrialOutcome | TrialFailure:
     """Run one trial (``tid`` a tuple of ids: a per-archive stage's trials) of the open
     ``archive`` at ``path``; errors come back as values."""
     try:
         if isinstance(tid, tuple):
-            problems = _value_problems([archive.trial(t) for t in tid], check_values)
+            problems = _trial_problems([archive.trial(t) for t in tid], check_trials)
             if problems:
                 return TrialFailure(str(path), "*", problems[0].message, problems[0].path,
                                     problems)
             return stage.run_archive(archive, list(tid))
         trial = archive.trial(tid)
-        problems = _value_problems([trial], check_values)
+        problems = _trial_problems([trial], check_trials)
         if problems:
             return TrialFailure(str(path), tid, problems[0].message, problems[0].path, problems)
         return stage.run_trial(trial)         # the arrays checked are cached on ``trial``
@@ -218,16 +221,16 @@ def _run_one(stage: Stage, path: Path, tid, archive,
                             f"failed: {type(err).__name__}: {err}")
 
 
-def _value_problems(trials: list, check_values: bool) -> list:
-    if not check_values:
+def _trial_problems(trials: list, check_trials: bool) -> list:
+    if not check_trials:
         return []
-    from contactlab.archive.validate import measurement_problems
+    from contactlab.archive.validate import trial_problems
 
-    return [p for trial in trials for p in measurement_problems(trial)]
+    return [p for trial in trials for p in trial_problems(trial)]
 
 
 def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
-         scheduler: str | None, quiet: bool, check_values: bool = True) -> dict:
+         scheduler: str | None, quiet: bool, check_trials: bool = True) -> dict:
     """Run every task; ``{(path, tid): outcome or TrialFailure}``.
 
     In parallel, tasks go out in chunks of consecutive trials of one archive
@@ -242,8 +245,8 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
             mine = [task for task in tasks if task[0] == path]
             chunks += [mine[i:i + n] for i in range(0, len(mine), n)]
     if len(chunks) == 1:
-        return dict(zip(tasks, _run_chunk(stage, tasks, check_values, quiet=quiet)))
-    got = parallel_map(_run_chunk, [(stage, chunk, check_values) for chunk in chunks],
+        return dict(zip(tasks, _run_chunk(stage, tasks, check_trials, quiet=quiet)))
+    got = parallel_map(_run_chunk, [(stage, chunk, check_trials) for chunk in chunks],
                        workers=workers,
                        scheduler=scheduler, quiet=quiet, desc=stage.name or "stage")
     done: dict = {}
@@ -256,7 +259,7 @@ def _map(stage: Stage, tasks: list[tuple[Path, str]], *, workers: int,
     return done
 
 
-def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], check_values: bool = True, *,
+def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], check_trials: bool = True, *,
                quiet: bool = True) -> list:
     """Run ``tasks`` in order, each archive opened once; outcomes or TrialFailures."""
     from contactlab.archive import open_archive
@@ -269,7 +272,7 @@ def _run_chunk(stage: Stage, tasks: list[tuple[Path, str]], check_values: bool =
             with open_archive(path) as archive:
                 for p, t in tasks:
                     if p == path:
-                        done[(p, t)] = _run_one(stage, p, t, archive, check_values)
+                        done[(p, t)] = _run_one(stage, p, t, archive, check_trials)
                         progress.update(1)
     finally:
         progress.close()

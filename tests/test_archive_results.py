@@ -131,3 +131,22 @@ def test_write_results_to_a_non_archive_is_a_data_error(tmp_path):
     path.write_text("not hdf5")
     with pytest.raises(DataError, match="not an HDF5 file"):
         write_results(path, "t", "s", datasets={})
+
+
+@pytest.mark.parametrize("value", [
+    np.arange(5.0), np.zeros(0), np.array(3.5), np.arange(6, dtype=np.int8).reshape(2, 3),
+    np.array([True, False]), np.arange(4, dtype=">f8"), np.zeros((0, 3), np.int64),
+    np.float32(2), np.arange(12.0).reshape(3, 4)[:, 1],
+])
+def test_results_datasets_are_what_h5py_would_make(tmp_path, value):
+    """The results write's small numeric datasets (made with HDF5's own calls) equal
+    h5py's create_dataset of the same array: shape, dtype, layout, no timestamps, data."""
+    arr = np.asarray(value)
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        ours = results_module.create_dataset(f, "ours", arr)
+        theirs = f.create_dataset("theirs", data=arr)
+        assert (ours.shape, ours.dtype) == (theirs.shape, theirs.dtype)
+        a, b = ours.id.get_create_plist(), theirs.id.get_create_plist()
+        assert a.get_layout() == b.get_layout() == h5py.h5d.CONTIGUOUS
+        assert not a.get_obj_track_times() and not b.get_obj_track_times()
+        np.testing.assert_array_equal(ours[()], arr)

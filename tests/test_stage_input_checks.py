@@ -1,8 +1,10 @@
-"""Stages check the values of the measurements they read, once, with the validator's words.
+"""Stages check each trial where it runs, once, with the validator's words.
 
-The commands that run a stage check the archive's layout up front
-(``check_archive(values=False)``) and leave the value checks to the stage,
-which runs them on the arrays it reads: each measurement is decompressed once.
+The commands that run a stage check the archive outside its trials up front
+(``check_archive(values=False, walk_trials=False)``) and leave each trial's
+layout and value checks to the stage, which runs them where the trial runs
+(in a worker, with ``workers``) on the arrays it reads: each measurement is
+decompressed once.
 """
 
 from __future__ import annotations
@@ -85,3 +87,33 @@ def test_measurements_are_read_once_per_stage_run(archive, monkeypatch):
     assert reads == []
     run_archive(archive, quiet=True)
     assert len(reads) == len(set(reads)) == 3 * 6
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.parametrize("damage, fragment", [
+    ("del_attr", "missing attribute 'rate_hz'"),
+    ("bad_dtype", "dtype"),
+])
+def test_a_stage_reports_layout_problems_where_the_trial_runs(archive, workers, damage,
+                                                               fragment):
+    with h5py.File(archive, "r+") as f:
+        if damage == "del_attr":
+            del f["/trials/t02"].attrs["rate_hz"]
+        else:
+            data = f[f"{M}/strain"][()]
+            del f[f"{M}/strain"]
+            f[f"{M}/strain"] = data.astype(np.int32)
+    before = _digest(archive)
+    want = validate_archive(archive)[0]
+    assert fragment in want.message
+    check_archive(archive, values=False, walk_trials=False)   # only the trials hold it
+    with pytest.raises(DataError) as err:
+        run_archive(archive, quiet=True, workers=workers)
+    assert err.value.field == want.path and err.value.message.startswith(want.message)
+    assert _digest(archive) == before
+
+
+def test_the_up_front_check_still_names_missing_trials(archive):
+    with pytest.raises(DataError) as err:
+        check_archive(archive, trials=["t09"], values=False, walk_trials=False)
+    assert err.value.field == "/trials/t09" and "no such trial" in err.value.message

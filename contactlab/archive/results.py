@@ -42,6 +42,7 @@ Guarantees:
 from __future__ import annotations
 
 import contextlib
+import functools
 import fcntl
 import json
 import os
@@ -230,8 +231,30 @@ def create_dataset(group: h5py.Group, name: str, arr: np.ndarray) -> h5py.Datase
     """One results dataset: contiguous and uncompressed below :data:`CONTIGUOUS_BYTES`,
     else chunked and compressed like the measurements."""
     if arr.nbytes < CONTIGUOUS_BYTES:
+        if arr.dtype.kind in "biuf" and arr.dtype.isnative:
+            return h5py.Dataset(_contiguous(group.id, name, np.require(arr, requirements="C")))
         return group.create_dataset(name, data=arr)
     return writer.create_dataset(group, name, arr, chunk_rows=None)
+
+
+@functools.cache
+def _dcpl():
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_obj_track_times(False)      # as create_dataset: the same bytes on every run
+    return dcpl
+
+
+def _contiguous(gid, name: str, arr: np.ndarray):
+    """A contiguous numeric dataset through HDF5's own calls: what ``create_dataset``
+    makes for such an array, without its keyword handling (a stage writes several
+    per trial, so this is the results write's per-dataset cost)."""
+    space = h5py.h5s.create(h5py.h5s.SCALAR) if arr.ndim == 0 else \
+        h5py.h5s.create_simple(arr.shape)
+    dsid = h5py.h5d.create(gid, name.encode(), h5py.h5t.py_create(arr.dtype), space,
+                           dcpl=_dcpl())
+    if arr.size:
+        dsid.write(h5py.h5s.ALL, h5py.h5s.ALL, arr)
+    return dsid
 
 
 def _as_array(name: str, value) -> np.ndarray:

@@ -52,12 +52,15 @@ class Problem:
 
 
 def validate_archive(path: str | os.PathLike, *, trials=None,
-                     values: bool = True) -> list[Problem]:
+                     values: bool = True, walk_trials: bool = True) -> list[Problem]:
     """Every way the file at ``path`` departs from the archive format ([] = conforms).
 
     ``trials`` (ids) limits the walk under ``/trials`` to those trials; an id
     the archive does not hold is a problem.  ``values=False`` leaves out the
     value checks of the trials' measurements (see the module notes).
+    ``walk_trials=False`` leaves out the trials' own contents too (their ids are
+    still checked): a stage walks each trial where it runs
+    (:func:`trial_problems`), so the walk is shared among its workers.
     """
     name = str(path)
     path = Path(path)
@@ -78,7 +81,7 @@ def validate_archive(path: str | os.PathLike, *, trials=None,
             return [Problem(name, h5_reason(err))]
         if problem:
             return [Problem(name, problem)]
-        walker = _Walker(trials=trials, values=values)
+        walker = _Walker(trials=trials, values=values, walk_trials=walk_trials)
         try:
             walker.group(h5, spec.schema()["root"], scope=None)
         except _READ_ERRORS as err:  # a corrupt header the walk could not step past
@@ -86,15 +89,18 @@ def validate_archive(path: str | os.PathLike, *, trials=None,
         return walker.problems
 
 
-def check_archive(path: str | os.PathLike, *, trials=None, values: bool = True) -> None:
+def check_archive(path: str | os.PathLike, *, trials=None, values: bool = True,
+                  walk_trials: bool = True) -> None:
     """The up-front check every command runs on an archive it reads.
 
     Raises a :class:`DataError` naming the file, the first offending HDF5 path
     and what is wrong (the same words as ``contactlab validate``), with the
     number of further problems; returns None when the archive (or the trials
-    ``trials`` of it) conforms.  ``values`` as for :func:`validate_archive`.
+    ``trials`` of it) conforms.  ``values`` and ``walk_trials`` as for
+    :func:`validate_archive`.
     """
-    raise_problems(path, validate_archive(path, trials=trials or None, values=values))
+    raise_problems(path, validate_archive(path, trials=trials or None, values=values,
+                                          walk_trials=walk_trials))
 
 
 def raise_problems(path: str | os.PathLike, problems: list[Problem]) -> None:
@@ -316,6 +322,22 @@ def measurement_problems(trial) -> list[Problem]:
     return out
 
 
+def trial_problems(trial, *, values: bool = True) -> list[Problem]:
+    """The problems of one open archive trial (:class:`contactlab.archive.reader.Trial`):
+    the schema walk of :func:`validate_archive` over ``/trials/<id>`` (its layout,
+    in the same words), then, when that is clean and ``values``, the value checks
+    of :func:`measurement_problems`."""
+    group = trial.h5_group
+    walker = _Walker(values=False)
+    try:
+        walker.member(group.parent, group.name.rsplit("/", 1)[-1], _trial_node(), None)
+    except _READ_ERRORS as err:
+        walker.report(group.name, f"cannot be read: {h5_reason(err)}")
+    if walker.problems or not values:
+        return walker.problems
+    return measurement_problems(trial)
+
+
 def _trial_node() -> dict:
     return spec.schema()["root"]["members"]["trials"]["each"]
 
@@ -336,10 +358,11 @@ def _validator(aspec: dict) -> jsonschema.Draft202012Validator:
 class _Walker:
     """Walks an HDF5 tree beside the schema, collecting problems."""
 
-    def __init__(self, trials=None, values: bool = True):
+    def __init__(self, trials=None, values: bool = True, walk_trials: bool = True):
         self.problems: list[Problem] = []
         self.trials = None if trials is None else list(trials)
         self.values = values
+        self.walk_trials = walk_trials
 
     def report(self, path: str, message: str) -> None:
         self.problems.append(Problem(path, message))
@@ -362,6 +385,8 @@ class _Walker:
                     if name not in group:
                         self.report(f"/trials/{name}", "no such trial")
                 names = [n for n in self.trials if n in group]
+            if path == "/trials" and not self.walk_trials:
+                names = []
             for name in names:
                 if name not in members:
                     self.member(group, name, each, scope)
