@@ -1,5 +1,10 @@
 """Writing archives: atomic by default, incremental for acquisition.
 
+One module on purpose: :class:`ArchiveWriter` and its :class:`TrialWriter`
+share one temporary file, its space reserve and one abort path (a failed
+trial write releases the reserve, deletes the unfinished trial and keeps the
+closed ones); split, each would reach into the other's state.
+
 ::
 
     with create_archive("runs.h5", title="strokes") as archive:

@@ -1,5 +1,11 @@
 """The apparatus: robot mass, sensor spring, fingertip shell, contacts.
 
+One module on purpose: :func:`integrate` is one compiled (numba) time-stepping
+loop over one state -- robot, shell, every contact's stick/slip spring, the
+servo -- and the small compiled helpers it inlines (texture heights, the brush
+ripple, commutation, quantisation) are read beside it; the apparatus constants
+it runs with are the :class:`Apparatus` above it.
+
 Model (thesis 4.6-4.8, 4.12).  Two point masses in R^3:
 
 - the robot (PHANToM endpoint), mass ``robot_mass``, position x_r, driven by the
