@@ -48,7 +48,7 @@ def test_reproduce_list_json_names_every_experiment():
 
 @pytest.mark.parametrize("args, fragment", [
     (["reproduce", "no-such-experiment"], "unknown experiment"),
-    (["reproduce", "guarded-move-multi"], "not reproduced yet"),
+    (["reproduce", "guarded-move-actions"], "not reproduced yet"),
     (["reproduce"], "--all"),
 ])
 def test_reproduce_usage_errors_exit_2_in_one_line(args, fragment):

@@ -88,7 +88,8 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in [
                "3.3, 4.3, 7.2-7.3, 8.1.1.2, 9.1-9.2", _S, "contactlab.experiments.apparatus"),
     Experiment("guarded-move", "Guarded move onto a surface", "9.1.1, fig 9.1", _K,
                "contactlab.experiments.guarded_move"),
-    Experiment("guarded-move-multi", "Guarded move into a corner", "9.1.2, figs 9.2-9.3", _K),
+    Experiment("guarded-move-multi", "Guarded move into a corner", "9.1.2, figs 9.2-9.3", _K,
+               "contactlab.experiments.guarded_move_multi"),
     Experiment("guarded-move-actions", "Action-dependent guarded moves", "9.1.3, figs 9.4-9.5", _K),
     Experiment("maze", "The gear-shift maze", "9.2, figs 9.6-9.8", _K, "contactlab.experiments.maze"),
 ]}

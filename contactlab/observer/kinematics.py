@@ -76,6 +76,17 @@ def check_label_map(label_map: dict | None, graph: FeatureGraph,
                             file=graph.source or graph.name, field=field)
 
 
+#: Noise levels below these (1 nm, 1 uN) are no measurement noise: the runs are
+#: noiseless or their quantisation was smoothed away by the 7.1 lowpass (a quantised
+#: position that rests on one step has zero second differences).  Normalising by such
+#: a level would make every millimetre of contact compliance look like 10^6 noise
+#: units and the constraint forms' likelihoods be decided by their dimensions alone;
+#: the toolkit's accuracies (contactlab.constraints.cartesian.POSITION_SD, FORCE_SD)
+#: are used instead.
+NOISELESS_POSITION = 1e-9
+NOISELESS_FORCE = 1e-6
+
+
 def _noise_level(segments, columns) -> float:
     from contactlab.constraints.noise import raw_noise_sd
 
@@ -99,8 +110,8 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     contact_runs = [s for (sig, _), ss in runs.items() if sig == "contact" for s in ss]
     pos_sd = _noise_level(contact_runs, slice(0, K))
     frc_sd = _noise_level(contact_runs, slice(K, 2 * K))
-    pos_sd = pos_sd if np.isfinite(pos_sd) and pos_sd > 0 else POSITION_SD
-    frc_sd = frc_sd if np.isfinite(frc_sd) and frc_sd > 0 else FORCE_SD
+    pos_sd = pos_sd if np.isfinite(pos_sd) and pos_sd > NOISELESS_POSITION else POSITION_SD
+    frc_sd = frc_sd if np.isfinite(frc_sd) and frc_sd > NOISELESS_FORCE else FORCE_SD
     out: dict = {"constraint": {}, "velocity": {}}
     for (kind, label), spec in specs.items():
         where = f"models.{spec.name}.trained"
