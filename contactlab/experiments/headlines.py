@@ -40,7 +40,7 @@ HEADLINES: dict[str, tuple[str, str]] = {
     'apparatus': ('22 statements of the thesis about its signals, measured on the simulator',
         "19 of 22 hold on seed 1 and on each of seeds 2-5; not: moving vs stationary (H0/H1 normal-fit error 0.037, free motion reaches the sensor only through the shell's inertia), pressed between stationary and moving (pressed +0.33 nats, above moving), sample A's textures on y_h alone (error 0.21, thesis 5e-4); criteria written before calibrating"),
     'guarded-move': ('guarded move onto a surface',
-        '7/10 runs correct (thesis 10/10): 3 leave the surface node while the exploration slides the finger; spurious impacts in every run; feature 4 rotated 5 deg 2/3, 1 deg 1/3 runs'),
+        "0/10 runs correct (thesis 10/10): with the constraint forms normalised by the encoder's accuracy (not by the 1e-15 m 'noise' of lowpassed simulated positions, which had hidden them), the fingers stuck and sliding on the surface go to the distractors 4/5 -- a stuck finger is constrained in every direction, and 9.1.1's graph has no node for moving on the surface; feature 4 rotated 5 deg 0/3, 1 deg 0/3"),
     'guarded-move-multi': ('guarded move into a corner: force vs position control, the XZ alternative',
         'integral force 2/5 runs tracked exactly, 5/5 reading a finger stuck on the wall as (S,3,F) (thesis: reliably; friction holds the simulated finger short of the corner); position control with stick-slip transitions 1/5; XZ alternative visited 0/5 (thesis: often)'),
     'guarded-move-actions': ('action-dependent guarded moves',
