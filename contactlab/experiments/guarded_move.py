@@ -30,8 +30,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from contactlab.fileio import write_text_atomic
+from contactlab.observer.draw import plot_node_path
 from contactlab.observer.graph import FeatureGraph, bundled_graphs, parse_graph
-from contactlab.observer.recognize import RecognizeStage
+from contactlab.observer.recognize import RecognizeStage, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
@@ -139,7 +140,7 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 rot[deg] = recognize_runs(test, guarded_graph(deg), gm, trials=ROTATED_RUNS)
                 secs[f"rotated {deg:g} deg"] = time.perf_counter() - t0
                 pbar.update(1)
-            signals = _typical_signals(test, res)
+            signals = typical_run(test, res)
             slips = surface_points(test, res)
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, rot, gm, signals, slips, secs, graph, out_dir=out_dir,
@@ -170,20 +171,6 @@ def surface_points(archive, res) -> dict:
     return out
 
 
-def _typical_signals(archive, res) -> dict:
-    """Force and velocity of the first correctly marked run (else the first run)."""
-    from contactlab.archive import open_archive
-
-    recs = {r.trial_id: r for r in res["_runs"]}
-    tid = next((t for t, e in res["trials"].items() if e["score"]["correct"]), next(iter(recs)))
-    with open_archive(archive) as arch:
-        trial = arch.trial(tid)
-        data, index, _ = trial_signals(trial, ["contact", "velocity"], path=archive)
-        t = np.asarray(trial.time, np.float64)[index]
-    return {"id": tid, "t": t - t[0], "force": data["contact"][:, 3:6],
-            "velocity": data["velocity"], "rec": recs[tid]}
-
-
 # ---------------------------------------------------------------------------
 # report
 # ---------------------------------------------------------------------------
@@ -202,16 +189,8 @@ def fig_trial(sig, graph: FeatureGraph):
         ax[1].plot(t[:n], 1e3 * sig["velocity"][:n, k], lw=0.8, label=f"v{axis}")
     ax[0].set_ylabel("force (N)")
     ax[1].set_ylabel("velocity (mm/s)")
-    names = list(graph.node_names)
-    ax[2].step(t[:n], rec.result.labels[:n], where="post", lw=1.2, label="final MAP path")
-    if rec.truth is not None:
-        tr = np.where(rec.truth[:n] >= 0, rec.truth[:n], np.nan)
-        ax[2].step(t[:n], tr, where="post", lw=1.0, ls="--", label="simulator truth")
-    ax[2].set_yticks(range(len(names)))
-    ax[2].set_yticklabels([f"{nm}: {nd.label}" for nm, nd in zip(names, graph.nodes)],
-                          fontsize=7)
-    ax[2].set_ylabel("node")
-    ax[2].set_xlabel("time (s)")
+    plot_node_path(ax[2], t, rec.result.labels, graph, truth=rec.truth,
+                   truth_label="simulator truth")
     for a in ax:
         a.legend(loc="upper right", fontsize=7)
         a.grid(alpha=0.3)

@@ -42,8 +42,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from contactlab.fileio import write_text_atomic
+from contactlab.observer.draw import plot_node_path
 from contactlab.observer.graph import FeatureGraph, bundled_graphs, parse_graph
-from contactlab.observer.recognize import RecognizeStage, merge_path
+from contactlab.observer.recognize import RecognizeStage, merge_path, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
@@ -225,26 +226,11 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 pbar.update(1)
             expl = {g: table_exploration(test, groups[g]) for g in GROUPS}
             pbar.update(1)
-            sig = _typical_signals(test, res["force"])
+            sig = typical_run(test, res["force"])
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, expl, sig, secs, out_dir=out_dir, seed=seed)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _typical_signals(archive, res) -> dict:
-    """Force, velocity and the path of the first correctly scored run (else the first)."""
-    from contactlab.archive import open_archive
-    from contactlab.signals import trial_signals
-
-    recs = {r.trial_id: r for r in res["_runs"]}
-    tid = next((t for t, e in res["trials"].items() if e["score"]["correct"]), next(iter(recs)))
-    with open_archive(archive) as arch:
-        trial = arch.trial(tid)
-        data, index, _ = trial_signals(trial, ["contact", "velocity"], path=archive)
-        t = np.asarray(trial.time, np.float64)[index]
-    return {"id": tid, "t": t - t[0], "force": data["contact"][:, 3:6],
-            "position": data["contact"][:, :3], "rec": recs[tid]}
 
 
 # ---------------------------------------------------------------------------
@@ -265,16 +251,7 @@ def fig_trial(sig, graph: FeatureGraph):
         ax[1].plot(t[:n], sig["force"][:n, k], lw=0.8, label=f"F{axis}")
     ax[0].set_ylabel("position (mm)")
     ax[1].set_ylabel("force (N)")
-    names = list(graph.node_names)
-    ax[2].step(t[:n], rec.result.labels[:n], where="post", lw=1.2, label="final MAP path")
-    if rec.truth is not None:
-        tr = np.where(rec.truth[:n] >= 0, rec.truth[:n], np.nan)
-        ax[2].step(t[:n], tr, where="post", lw=1.0, ls="--", label="simulator labels")
-    ax[2].set_yticks(range(len(names)))
-    ax[2].set_yticklabels([f"{nm}: {nd.label}" for nm, nd in zip(names, graph.nodes)],
-                          fontsize=6)
-    ax[2].set_ylabel("node")
-    ax[2].set_xlabel("time (s)")
+    plot_node_path(ax[2], t, rec.result.labels, graph, truth=rec.truth, fontsize=6)
     for a in ax:
         a.legend(loc="upper right", fontsize=7)
         a.grid(alpha=0.3)

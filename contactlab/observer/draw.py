@@ -13,7 +13,25 @@ from contactlab.errors import UsageError
 from contactlab.fileio import atomic_path
 from contactlab.observer.graph import FeatureGraph
 
-__all__ = ["draw_graph", "plot_graph"]
+__all__ = ["draw_graph", "plot_graph", "plot_node_path"]
+
+
+def plot_node_path(ax, t, labels, graph: FeatureGraph, *, truth=None,
+                   truth_label: str = "simulator labels", fontsize: float = 7) -> None:
+    """A recognised node sequence over time on ``ax``: the final MAP path's node index
+    per sample (``labels``) and, dashed, ``truth`` (node indices, < 0 unknown), the
+    y axis labelled with each node's name and description."""
+    n = min(len(t), len(labels))
+    ax.step(t[:n], labels[:n], where="post", lw=1.2, label="final MAP path")
+    if truth is not None:
+        tr = np.where(truth[:n] >= 0, truth[:n], np.nan)
+        ax.step(t[:n], tr, where="post", lw=1.0, ls="--", label=truth_label)
+    names = list(graph.node_names)
+    ax.set_yticks(range(len(names)))
+    ax.set_yticklabels([f"{nm}: {nd.label}" for nm, nd in zip(names, graph.nodes)],
+                       fontsize=fontsize)
+    ax.set_ylabel("node")
+    ax.set_xlabel("time (s)")
 
 
 def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:

@@ -306,3 +306,22 @@ def recognize_archive(archive, *, graph, models, action=None,
                            delay_window=delay_window, write=write, keep=keep)
     return run_stage(stage, [archive], trials=trials, workers=workers, scheduler=scheduler,
                      quiet=quiet)[Path(archive)]
+
+
+def typical_run(archive, summary: dict) -> dict:
+    """The measurements beside the recognition of one run of a kept stage ``summary``
+    (:class:`RecognizeStage` with ``keep=True``): the first run whose ``score`` is
+    ``correct`` (else the first run).  ``{"id", "t" (s from its start), "position",
+    "force", "velocity" (at the conditioned rate), "rec"}``."""
+    from contactlab.archive import open_archive
+    from contactlab.signals import trial_signals
+
+    recs = {r.trial_id: r for r in summary["_runs"]}
+    tid = next((t for t, e in summary["trials"].items()
+                if e.get("score", {}).get("correct")), next(iter(recs)))
+    with open_archive(archive) as arch:
+        trial = arch.trial(tid)
+        data, index, _ = trial_signals(trial, ["contact", "velocity"], path=archive)
+        t = np.asarray(trial.time, np.float64)[index]
+    return {"id": tid, "t": t - t[0], "position": data["contact"][:, :3],
+            "force": data["contact"][:, 3:6], "velocity": data["velocity"], "rec": recs[tid]}
