@@ -48,7 +48,6 @@ def test_reproduce_list_json_names_every_experiment():
 
 @pytest.mark.parametrize("args, fragment", [
     (["reproduce", "no-such-experiment"], "unknown experiment"),
-    (["reproduce", "guarded-move-actions"], "not reproduced yet"),
     (["reproduce"], "--all"),
 ])
 def test_reproduce_usage_errors_exit_2_in_one_line(args, fragment):
@@ -56,6 +55,17 @@ def test_reproduce_usage_errors_exit_2_in_one_line(args, fragment):
     assert result.exit_code == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0]
+
+
+def test_an_experiment_not_reproduced_yet_is_a_usage_error(monkeypatch):
+    from contactlab.experiments import EXPERIMENTS, Experiment
+
+    monkeypatch.setitem(EXPERIMENTS, "future-task", Experiment(
+        "future-task", "A task", "9.9", "Tasks"))
+    result = CliRunner().invoke(main, ["reproduce", "future-task"])
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "not reproduced yet" in lines[0]
 
 
 def test_missing_archive_is_a_one_line_data_error_without_traceback(tmp_path):

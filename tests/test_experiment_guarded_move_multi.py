@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 
 from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD
-from contactlab.experiments.guarded_move_multi import (
-    LABEL_NODES, SURFACE, THESIS_SEQUENCE, corner_graph, score_surfaces, surfaces, truth_nodes)
+from contactlab.experiments.guarded_move_multi import THESIS_SEQUENCE, corner_graph
+from contactlab.observer.corner import (CORNER_LABEL_NODES as LABEL_NODES,
+                                        CORNER_SURFACES as SURFACE, score_surfaces, surfaces,
+                                        truth_nodes)
 from contactlab.observer.graph import parse_graph
 from contactlab.observer.kinematics import fit_kinematic_models
 
@@ -87,3 +89,25 @@ def test_noiseless_runs_fall_back_to_the_toolkit_accuracies():
     m = out["constraint"]["floor"]
     assert m.position_sd == pytest.approx(2e-5, rel=0.3)
     assert m.force_sd == pytest.approx(0.01, rel=0.3)
+
+
+def test_the_action_graph_bounds_each_commands_transitions():
+    """9.1.3: under each command only its guarded move's transitions (and the end of an
+    impact) are possible; 'hold' connects nothing, so a tap cannot reach (S,Z,F)."""
+    from contactlab.experiments.guarded_move_actions import every_edge_graph
+    from contactlab.observer.graph import bundled_graphs, load_graph
+
+    g = load_graph(bundled_graphs()["guarded-move-actions"])
+    idx = {n: i for i, n in enumerate(g.node_names)}
+    impacts_end = {(idx["8"], idx["2"]), (idx["8"], idx["3"]), (idx["9"], idx["4"]),
+                   (idx["9"], idx["5"]), (idx["10"], idx["6"])}
+    assert set(g.edges) == impacts_end
+    assert set(g.active_edges("hold")) == impacts_end
+    reach = {a: {j for _, j in set(g.active_edges(a)) - impacts_end}
+             for a in ("down", "to-wall", "into-corner")}
+    assert reach["down"] == {idx["1"], idx["8"], idx["2"]}
+    assert idx["4"] not in reach["down"] and idx["6"] not in reach["to-wall"]
+    assert idx["6"] in reach["into-corner"] and idx["2"] not in reach["into-corner"]
+    every = every_edge_graph()
+    assert not every.action_edges
+    assert set(every.edges) == set().union(*(set(g.active_edges(a)) for a in g.actions))

@@ -90,7 +90,8 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in [
                "contactlab.experiments.guarded_move"),
     Experiment("guarded-move-multi", "Guarded move into a corner", "9.1.2, figs 9.2-9.3", _K,
                "contactlab.experiments.guarded_move_multi"),
-    Experiment("guarded-move-actions", "Action-dependent guarded moves", "9.1.3, figs 9.4-9.5", _K),
+    Experiment("guarded-move-actions", "Action-dependent guarded moves", "9.1.3, figs 9.4-9.5", _K,
+               "contactlab.experiments.guarded_move_actions"),
     Experiment("maze", "The gear-shift maze", "9.2, figs 9.6-9.8", _K, "contactlab.experiments.maze"),
 ]}
 

@@ -42,26 +42,17 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from contactlab.fileio import write_text_atomic
-from contactlab.observer.draw import plot_node_path
+from contactlab.observer.draw import plot_recognised_run
 from contactlab.observer.graph import FeatureGraph, bundled_graphs, parse_graph
-from contactlab.observer.recognize import RecognizeStage, merge_path, typical_run
+from contactlab.observer.corner import recognize_corner_runs
+from contactlab.observer.recognize import merge_path, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
-from contactlab.stages import run_stage
 
 SPEC = "guarded-move-multi"
-#: the simulated archive's labels -> the graph's nodes (truth for point accuracy)
-LABEL_NODES = {"free-fixed": "0", "free-moving": "1", "floor-fixed": "2", "floor-moving": "3",
-               "floor+wall_y-fixed": "4", "floor+wall_y-moving": "5",
-               "floor+wall_y+wall_x-fixed": "6", "floor+wall_y+wall_x-moving": "6"}
-#: node -> the surfaces it stands for
-SURFACE = {"0": "free", "1": "free", "8": "table", "2": "table", "3": "table", "9": "wall",
-           "4": "wall", "5": "wall", "10": "corner", "6": "corner", "7": "XZ wall"}
 THESIS_SEQUENCE = ("0", "1", "8", "2", "3", "9", "4", "5", "10", "6")
 GROUPS = ("position-control", "integral-force")
-#: truth runs shorter than this many samples (50 ms at 250 Hz) are contact chatter
-MIN_RUN = 12
 THESIS = {"force": "the sequence, with or without the impacts, reliably found",
           "position": "works reasonably well with stick-slip modelled as transitions",
           "xz": "often transitions to XZ while still moving on the table"}
@@ -88,68 +79,6 @@ def corner_graph(variant: str = "force") -> FeatureGraph:
     elif variant != "force":
         raise ValueError(f"variant must be force, position or xz; got {variant!r}")
     return parse_graph(doc, source=str(path))
-
-
-def surfaces(nodes, *, stick: bool = False) -> list[str]:
-    """The merged sequence of surfaces of a node sequence.  ``stick``: a corner node
-    followed later by table or wall nodes is a stick on the surface before it."""
-    seq = [SURFACE[n] for n in nodes]
-    if stick:
-        for i, s in enumerate(seq):
-            if s == "corner" and any(t in ("table", "wall") for t in seq[i + 1:]):
-                seq[i] = seq[i - 1] if i else "free"
-    out: list[str] = []
-    for s in seq:
-        if not out or out[-1] != s:
-            out.append(s)
-    return out
-
-
-def truth_nodes(truth: np.ndarray, names, *, min_run: int = 1) -> list[str]:
-    """The merged node sequence of a truth code array (codes < 0 dropped; runs shorter
-    than ``min_run`` samples -- contact chatter -- dropped)."""
-    codes = np.asarray([int(c) for c in truth if c >= 0], dtype=np.int64)
-    if not codes.size:
-        return []
-    edges = np.flatnonzero(np.diff(codes)) + 1
-    starts = np.r_[0, edges]
-    ends = np.r_[edges, codes.size]
-    out: list[str] = []
-    for a, b in zip(starts, ends):
-        if b - a >= min_run and (not out or out[-1] != names[codes[a]]):
-            out.append(names[codes[a]])
-    return out
-
-
-def score_surfaces(ours: list[str], truth: list[str] | None) -> dict:
-    """``correct``: the same surfaces in the same order; ``stuck_ok``: correct, or the
-    run ended still on the wall and the path ends in (S, 3, F) -- the thesis's own model
-    of a stuck finger (9.1.2), which a finger held by friction on the wall is."""
-    if truth is None:
-        return {"correct": False, "stuck_ok": False}
-    correct = ours == truth
-    stuck = (len(ours) == len(truth) + 1 and ours[:-1] == truth and ours[-1] == "corner"
-             and truth[-1] == "wall")
-    return {"correct": correct, "stuck_ok": correct or stuck}
-
-
-def recognize_group(archive, graph: FeatureGraph, models, trials, *, stick: bool = False,
-                    quiet: bool = True) -> dict:
-    """The observer over ``trials`` of ``archive``; each trial scored by :func:`surfaces`
-    against its simulator labels (``trials.ID.score``)."""
-    stage = RecognizeStage(graph=graph, models=models, write=False, keep=True,
-                           label_map=LABEL_NODES)
-    res = run_stage(stage, [archive], trials=trials, quiet=quiet)[Path(archive)]
-    names = list(graph.node_names)
-    recs = {r.trial_id: r for r in res["_runs"]}
-    for tid, e in res["trials"].items():
-        ours = surfaces([n for n, _ in e["merged_path"]], stick=stick)
-        rec = recs[tid]
-        truth = (surfaces(truth_nodes(rec.truth, names, min_run=MIN_RUN))
-                 if rec.truth is not None else None)
-        e["score"] = {"ours": ours, "truth": truth, **score_surfaces(ours, truth),
-                      "visits_xz": "XZ wall" in ours}
-    return res
 
 
 def table_exploration(archive, trials, *, block: int = 25) -> dict:
@@ -221,7 +150,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 graph = corner_graph(variant)
                 models = gm if variant != "xz" else train_graph(train, graph)
                 t0 = time.perf_counter()
-                res[key] = recognize_group(test, graph, models, groups[group], stick=stick)
+                res[key] = recognize_corner_runs(test, graph, models, groups[group],
+                                                 stick=stick)
                 secs[key] = time.perf_counter() - t0
                 pbar.update(1)
             expl = {g: table_exploration(test, groups[g]) for g in GROUPS}
@@ -238,28 +168,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
 # ---------------------------------------------------------------------------
 def _count(res, key="correct") -> int:
     return sum(bool(e["score"][key]) for e in res["trials"].values())
-
-
-def fig_trial(sig, graph: FeatureGraph):
-    """Fig 9.3 (ours): position, force and the final MAP node of one run."""
-    rec = sig["rec"]
-    t = sig["t"]
-    n = min(len(t), len(rec.result.labels))
-    fig, ax = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
-    for k, axis in enumerate("xyz"):
-        ax[0].plot(t[:n], 1e3 * sig["position"][:n, k], lw=0.8, label=axis)
-        ax[1].plot(t[:n], sig["force"][:n, k], lw=0.8, label=f"F{axis}")
-    ax[0].set_ylabel("position (mm)")
-    ax[1].set_ylabel("force (N)")
-    plot_node_path(ax[2], t, rec.result.labels, graph, truth=rec.truth, fontsize=6)
-    for a in ax:
-        a.legend(loc="upper right", fontsize=7)
-        a.grid(alpha=0.3)
-    path = " ".join(n for n, _ in merge_path(rec.result.map_path))
-    ax[0].set_title(f"Guarded move into the corner, {sig['id']} (integral force control): "
-                    f"path {path}", fontsize=9)
-    fig.tight_layout()
-    return fig
 
 
 def _row_paths(res) -> list[list]:
@@ -329,7 +237,10 @@ def _report(res, expl, sig, secs, *, out_dir: Path, seed: int) -> dict:
     page.table([[k, f"{v:.1f} s"] for k, v in secs.items()],
                columns=["graph", "recognition of the test runs"],
                caption="Runtime on this machine (one core).")
-    page.figure(fig_trial(sig, corner_graph("force")), name="fig-9-3",
+    path = " ".join(nd for nd, _ in merge_path(sig["rec"].result.map_path))
+    page.figure(plot_recognised_run(sig, corner_graph("force"), title=(
+                    f"Guarded move into the corner, {sig['id']} (integral force control): "
+                    f"path {path}")), name="fig-9-3",
                 caption=f"Fig 9.3 (ours): test run {sig['id']} under the integral force "
                         "controller: position, force and the final MAP node beside the "
                         "simulator's labels mapped to nodes.")

@@ -13,7 +13,7 @@ from contactlab.errors import UsageError
 from contactlab.fileio import atomic_path
 from contactlab.observer.graph import FeatureGraph
 
-__all__ = ["draw_graph", "plot_graph", "plot_node_path"]
+__all__ = ["draw_graph", "plot_graph", "plot_node_path", "plot_recognised_run"]
 
 
 def plot_node_path(ax, t, labels, graph: FeatureGraph, *, truth=None,
@@ -32,6 +32,28 @@ def plot_node_path(ax, t, labels, graph: FeatureGraph, *, truth=None,
                        fontsize=fontsize)
     ax.set_ylabel("node")
     ax.set_xlabel("time (s)")
+
+
+def plot_recognised_run(run: dict, graph: FeatureGraph, *, title: str):
+    """Position, force and the final MAP node of one recognised run beside its labels
+    (``run`` as :func:`contactlab.observer.recognize.typical_run` returns it)."""
+    import matplotlib.pyplot as plt
+
+    rec, t = run["rec"], run["t"]
+    n = min(len(t), len(rec.result.labels))
+    fig, ax = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
+    for k, axis in enumerate("xyz"):
+        ax[0].plot(t[:n], 1e3 * run["position"][:n, k], lw=0.8, label=axis)
+        ax[1].plot(t[:n], run["force"][:n, k], lw=0.8, label=f"F{axis}")
+    ax[0].set_ylabel("position (mm)")
+    ax[1].set_ylabel("force (N)")
+    plot_node_path(ax[2], t[:n], rec.result.labels, graph, truth=rec.truth, fontsize=6)
+    for a in ax:
+        a.legend(loc="upper right", fontsize=7)
+        a.grid(alpha=0.3)
+    ax[0].set_title(title, fontsize=9)
+    fig.tight_layout()
+    return fig
 
 
 def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
