@@ -286,6 +286,11 @@ def _headline(res, rot, ntr) -> str:
             f"spurious impacts; thesis 10/10); feature 4 rotated: {r}")
 
 
+def _share_still(slips) -> str:
+    still, moving = slips["floor-fixed"]["points"], slips["floor-moving"]["points"]
+    return "-" if still + moving == 0 else f"{100 * still / (still + moving):.0f} %"
+
+
 def _differences(res, rot, slips, ntr) -> list[str]:
     wrong = [tid for tid, e in res["trials"].items() if not e["score"]["correct"]]
     via = {k: sum(any(n == k for n, _ in res["trials"][t]["merged_path"]) for t in wrong)
@@ -296,7 +301,10 @@ def _differences(res, rot, slips, ntr) -> list[str]:
         + (f"Of the runs marked wrongly ({', '.join(wrong)}), {via['4']} visit the "
            f"distractor 4 (XZ), {via['5']} the distractor 5 (YZ) and {via['2']} free motion "
            "(2) while the finger is on the surface. The exploration slides the finger on the "
-           "plane and friction sticks it between slides: a stuck finger is constrained in "
+           "plane and friction sticks it between slides -- the finger is still in "
+           f"{_share_still(slips)} of the samples on the surface, where the thesis's "
+           "exploration gave its constraint models motion to decide by: a stuck finger is "
+           "constrained in "
            "every direction, so a distractor with two normals explains the friction force "
            "along its second normal as constraint force, which the surface model (one "
            "normal) must explain as noise; and a finger sliding on the surface moves, which "
