@@ -44,12 +44,19 @@ from contactlab.cli.inputs import checks_archive
 @click.option("--reduce", type=click.Choice(["none", "mean"]), default=None,
               help="With --graph: model every channel of the signal (none) or their mean.  "
                    f"[default: {D.GRAPH_REDUCE}]")
-@click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
+@click.option("--em", "em", is_flag=True,
+              help="With --graph: then learn the edges the graph lacks, and the transition "
+                   "probabilities, with EM over every run of ARCHIVE (labels not needed; "
+                   "10.1.3) and write the graph with them to --graph-out.")
+@click.option("--graph-out", "graph_out", default=None, metavar="FILE.toml",
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="With --em: the learned graph file.  [default: --out with .toml]")
+@click.option("--force", is_flag=True, help="Overwrite --out (and --graph-out) if they exist.")
 @json_option
 @quiet_option
 @checks_archive
 def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file,
-          label_map, reduce, force, as_json, quiet):
+          label_map, reduce, em, graph_out, force, as_json, quiet):
     """Train one temporal model per class of ARCHIVE and write them to --out.
 
     Every labelled run of the conditioned signal is cut into blocks; per
@@ -67,6 +74,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
       contactlab train hf.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
           --out hf-models.h5
       contactlab train wrist.h5 --graph free-contact --out fc-models.h5
+      contactlab train hf.h5 --graph hf-context-free --em --out em.h5 --graph-out learned.toml
 
     --classes takes label names as the archive spells them ('contactlab info'
     lists them), e.g. sanded_aluminium_80,polished_aluminium for stroke-a.
@@ -83,6 +91,13 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
     labels onto the graph's (free-contact's: free, contact), e.g. integer
     labels with --label-map "1=free,2=contact,3=free"; unmapped labels are
     ignored.
+
+    --em (10.1.3): with the trained models, every run's per-sample node
+    likelihoods feed Baum-Welch over the graph's nodes, every absent edge a
+    candidate; an absent edge with at least one expected transition is added.
+    The learned graph (the graph's edges, the added ones and, in edge sets
+    with probabilities, their learned probabilities) goes to --graph-out, for
+    'contactlab recognize --graph'.
     """
     from contactlab.fileio import check_writable
     from contactlab.temporal import train_temporal
@@ -94,11 +109,21 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
         raise click.BadParameter(f"must be >= 1; got {order}", param_hint="'--order'")
     if block < 1:
         raise click.BadParameter(f"must be >= 1; got {block}", param_hint="'--block'")
+    if (em or graph_out is not None) and graph_file is None:
+        raise click.UsageError(f"{'--em' if em else '--graph-out'} needs --graph")
+    if graph_out is not None and not em:
+        raise click.UsageError("--graph-out needs --em")
+    if em:
+        graph_out = graph_out if graph_out is not None else out.with_suffix(".toml")
+        if Path(graph_out).resolve() == Path(out).resolve():
+            raise click.UsageError("--graph-out must differ from --out")
+        check_writable(graph_out, force=force, inputs=(archive, graph_file))
     check_writable(out, force=force, inputs=(archive, graph_file))
     if graph_file is not None:
         _train_graph(archive, graph_file, out=out, labels=labels, signal=signal, order=order,
                      mean=mean, block=block, classes=classes, trials=trials, reduce=reduce,
-                     force=force, as_json=as_json, quiet=quiet, label_map=label_map)
+                     force=force, as_json=as_json, quiet=quiet, label_map=label_map,
+                     graph_out=graph_out if em else None)
         return
     if label_map is not None:
         raise click.UsageError("--label-map needs --graph")
@@ -128,7 +153,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
 
 
 def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block, classes,
-                 trials, reduce, force, as_json, quiet, label_map=None):
+                 trials, reduce, force, as_json, quiet, label_map=None, graph_out=None):
     """``train --graph``: every model the graph names, one models file."""
     from contactlab.observer.graph import load_graph
     from contactlab.observer.kinematics import check_label_map, parse_label_map
@@ -160,6 +185,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                "velocity": {k: m.params() for k, m in gm.kinematic.get("velocity", {}).items()},
                "label_map": lmap,
                "order": order, "mean": mean, "block": block}
+    if graph_out is not None:
+        summary["em"] = _learn(archive, graph, gm, graph_out, trials=trials, quiet=quiet)
     if as_json:
         echo_json(summary)
         return
@@ -174,3 +201,28 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
     for k, p in summary["velocity"].items():
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     click.echo(f"models written to {out}")
+    if graph_out is not None:
+        em = summary["em"]
+        for e in em["added"]:
+            where = f" (action {e['action']})" if e["action"] else ""
+            click.echo(f"EM added {e['edge']}{where}: {e['expected_transitions']:.1f} expected "
+                       f"transitions, jump probability {e['jump_probability']:.3f}")
+        if not em["added"]:
+            click.echo("EM added no edge")
+        click.echo(f"learned graph written to {graph_out}")
+
+
+def _learn(archive, graph, gm, graph_out, *, trials, quiet) -> dict:
+    """``train --em``: EM over the archive's runs with the trained models; the graph file."""
+    from contactlab.observer.graph_toml import write_graph
+    from contactlab.observer.learning import learn_graph
+    from contactlab.observer.recognize import bind_models
+
+    graph, gm, built = bind_models(graph, gm)
+    doc, summary = learn_graph(archive, graph, built, reduce=gm.reduce,
+                               trials=list(trials) or None, quiet=quiet)
+    doc["name"] = f"{graph.name}-em"
+    write_graph(doc, graph_out, header=f"{graph.name} with edges learned by EM (10.1.3) "
+                                      f"from {Path(archive).name}")
+    summary["graph_out"] = str(graph_out)
+    return summary

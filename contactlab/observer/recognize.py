@@ -147,7 +147,11 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
     return TrialRecognition(trial.id, res, times, truth, fs)
 
 
-def _load(graph, models):
+def bind_models(graph, models):
+    """``(graph, models, built)``: a graph (or graph file), its trained models (a
+    :class:`GraphModels` or models file) and the model objects the graph's declarations
+    build from them (:func:`build_models`), with a one-line DataError naming the models
+    file when the graph names a model it lacks."""
     if not isinstance(graph, FeatureGraph):
         graph = load_graph(graph)
     if not isinstance(models, GraphModels):
@@ -199,7 +203,7 @@ class RecognizeStage(Stage):
                  p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None):
-        self.graph, self.models, self.built = _load(graph, models)
+        self.graph, self.models, self.built = bind_models(graph, models)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
