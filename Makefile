@@ -29,7 +29,7 @@ env: $(STAMP)
 ## four-node feature graph, recognise the contact state of the test runs with the
 ## observer (6.4), report the archive with its results (reports/demo/), then reproduce
 ## two experiments (build/demo/reports/). Every output is untracked: the demo leaves
-## `git status` clean. About 1 minute on 2 cores once .venv exists.
+## `git status` clean. 1-2 minutes on 2 cores once .venv exists.
 GRAPH := datasets_spec/graphs/hf-context-free.toml
 DEMO  := build/demo
 demo: $(STAMP)
