@@ -52,11 +52,18 @@ def test_a_small_projection_finds_the_thesis_route_and_its_return(small, tmp_pat
         for (i, j), q in g.edge_probabilities[g.action_index(f"action-{a}")].items():
             ni, nj = int(g.node_names[i]), int(g.node_names[j])
             assert q == pytest.approx(fp.counts[a][ni - 1, nj - 1] / fp.counts[a][ni - 1].sum(), abs=1e-4)
-    # impacts: only into contact partitions, and each is followed by that partition's node
+    # impacts: each between two partitions that gain a surface (9.2) or lose a wall (the
+    # loss impact of 4.3.2), and each followed by its partition's node
+    surf = parts.cspace.surfaces
     for num, p in fp.impact_of.items():
-        assert parts.by_number(p).kind != "free"
         nxt = np.flatnonzero(fp.counts[1][num - 1] + fp.counts[5][num - 1]) + 1
         assert all(node_kind(fp, int(n))[1] == p for n in nxt)
+        new = set(parts.by_number(p).surfaces)
+        prev = np.flatnonzero(fp.counts[1][:, num - 1] + fp.counts[5][:, num - 1]) + 1
+        assert len(prev)
+        for n in prev:
+            old = set(parts.by_number(node_kind(fp, int(n))[1]).surfaces)
+            assert new - old or any(surf[k].kind == "segment" for k in old - new)
 
 
 def test_the_shipped_graph_holds_the_small_projections_common_edges(small):

@@ -17,10 +17,12 @@ feature nodes as 9.2 builds them:
   and not moving, and one feature is for being in the partition and moving"): node ``p`` is
   partition p fixed, node ``P + p`` partition p moving (P partitions; fig 9.8 numbers its
   features the same way, 57 and 5 fixed, 108, 109, 90 ... moving);
-- an impact node (``2P + q``) precedes a contact partition q entered with a new
-  contact (9.2: "impacts were introduced when the motion from one partition to a second
-  partition would involve an abrupt change in constraint"); its models are the constraint
-  and velocity of the node it terminates in.
+- an impact node (``2P + q``) precedes a partition q entered with a new contact (9.2:
+  "impacts were introduced when the motion from one partition to a second partition would
+  involve an abrupt change in constraint") or entered by leaving a wall, over its end edge
+  or out of a corner (the loss impact of 4.3.2, which the simulator's finger makes and a
+  rigid disc rolling round the arc would not); its models are the constraint and velocity
+  of the node it terminates in.
 
 Every change of node is counted per action; the transition probability of ``i -> j`` under
 ``a`` is its count over all changes out of ``i`` under ``a``.  The counts, not just the
@@ -94,7 +96,7 @@ def feature_traces(parts: MazePartitions, paths: np.ndarray, step_m: float, *,
         part[k:k + len(blk)] = parts.classify(blk.reshape(-1, 2)).reshape(len(blk), n)
     step = np.linalg.norm(np.diff(paths, axis=0), axis=2)
     moving = np.concatenate([np.zeros((1, n), bool), step > MOVING_FRACTION * step_m])
-    impact = _impact_table(parts)
+    impact, loss = _impact_table(parts)
     is_free = np.array([False] + [p.kind == "free" for p in parts.partitions])
     traces = []
     for s in range(n):
@@ -111,7 +113,7 @@ def feature_traces(parts: MazePartitions, paths: np.ndarray, step_m: float, *,
         for k in range(1, len(rp)):
             if rp[k] == rp[k - 1] and rm[k] == rm[k - 1]:
                 continue
-            if impact[rp[k - 1], rp[k]] and rm[k - 1]:
+            if (impact[rp[k - 1], rp[k]] and rm[k - 1]) or loss[rp[k - 1], rp[k]]:
                 impact_number[int(rp[k])] = 2 * P + int(rp[k])
                 out.append(2 * P + int(rp[k]))
             out.append(int(rp[k] + P * rm[k]))
@@ -119,15 +121,30 @@ def feature_traces(parts: MazePartitions, paths: np.ndarray, step_m: float, *,
     return traces
 
 
-def _impact_table(parts: MazePartitions) -> np.ndarray:
-    """(P + 1, P + 1) boolean: moving from partition i into j is an impact (index = number)."""
+def _impact_table(parts: MazePartitions) -> tuple[np.ndarray, np.ndarray]:
+    """Two (P + 1, P + 1) booleans (index = partition number): going from i into j while
+    moving is an impact (a new contact), and going from i into j at all is one (a wall left:
+    breaking away from a corner too)."""
     P = len(parts)
-    out = np.zeros((P + 1, P + 1), bool)
+    new = np.zeros((P + 1, P + 1), bool)
+    loss = np.zeros((P + 1, P + 1), bool)
     for j in range(1, P + 1):
-        if parts.by_number(j).surfaces:
-            for i in range(1, P + 1):
-                out[i, j] = i != j and _new_contact(parts, i, j)
-    return out
+        for i in range(1, P + 1):
+            if i != j:
+                new[i, j] = _new_contact(parts, i, j)
+                loss[i, j] = _lost_wall(parts, i, j)
+    return new, loss
+
+
+def _lost_wall(parts: MazePartitions, p_old: int, p_new: int) -> bool:
+    """Entering ``p_new`` from ``p_old`` leaves a wall: the finger crosses the wall's end edge
+    or backs out of a corner, and the wrench the wall carried is released at once (4.3.2: "When
+    the orientation of the surface discontinuously changes (i.e. we cross an edge) ... a loss
+    impact results"; 4.52).  Leaving an arc is not: its normal has already turned away."""
+    old = set(parts.by_number(p_old).surfaces)
+    new = set(parts.by_number(p_new).surfaces)
+    surf = parts.cspace.surfaces
+    return any(surf[k].kind == "segment" for k in old - new)
 
 
 def _new_contact(parts: MazePartitions, p_old: int, p_new: int) -> bool:
@@ -245,7 +262,7 @@ with {samples} starts per partition, {steps} steps of 0.25 mm, seed {seed} ({tra
 Partitions (contactlab.maze.partitions): 1-16 the walls' c-space segments (wall_NN = edge NN
 of maze_outline()), 17-22 the arcs about the convex corners, 23-32 the concave corners,
 33-{P} free space divided by back-projection under the 8 commands.  Nodes: p = partition p
-fixed (velocity F), {P} + p = partition p moving (M), {P2} + q an impact into contact
+fixed (velocity F), {P} + p = partition p moving (M), {P2} + q an impact into
 partition q.  Edge sets: one per force command, with the counted transition probabilities."""
 
 

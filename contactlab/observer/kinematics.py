@@ -124,6 +124,11 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
         try:
             if kind == "constraint":
                 m, N = parse_constraint(spec.params["constraint"])
+                if N is not None and "rotate_deg" in spec.params:   # the graph's frame, as bound
+                    from scipy.spatial.transform import Rotation
+
+                    N = Rotation.from_euler("xyz", spec.params["rotate_deg"],
+                                            degrees=True).as_matrix() @ N
                 model = ConstraintFeature.from_segments(segs, name=label, degree=m, normals=N,
                                               mode=spec.params.get("mode", "fixed"),
                                               position_sd=pos_sd, force_sd=frc_sd)

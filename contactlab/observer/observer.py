@@ -91,6 +91,8 @@ __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from
 SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
               "mean": ("increase", "up", "down"), "all": ("increase", "decrease", "up", "down")}
 SIDES = D.OBSERVER_SIDE_CHOICES
+#: how transitions weigh a successor's start (:class:`Observer` ``transitions``)
+TRANSITIONS = ("graph", "none")
 #: samples the model banks advance at a time within a chunk: a path spawned at an event
 #: is run to the end of its window, so events cost O(WINDOW) (results do not depend on it)
 WINDOW = 128
@@ -246,6 +248,12 @@ class Observer:
         ``sqrt(q - 1)``; the default, best on the switching suite) or ``"all"``.
     max_paths : optional beam width cap after pruning.
     initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
+    transitions : ``"graph"`` (default): where the graph's edge set for the current action
+        carries transition probabilities (a forward projection's counts, 5.3.5, or EM's,
+        10.1.3), a successor starts from its predecessor's log-likelihood plus
+        ``log p(i -> j | a)``; ``"none"``: every allowed transition is free, as in 6.4
+        (the thesis had no probabilities, 6.2).  Graphs without probabilities are the same
+        either way.
 
     State: ``n_seen_`` samples processed; ``events_`` all events so far;
     ``buffer_len_`` samples in the measurement buffer; :meth:`paths` the
@@ -256,7 +264,7 @@ class Observer:
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
                  gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
-                 initial=None):
+                 initial=None, transitions: str = "graph"):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
         if not change_size > 1:
@@ -269,6 +277,9 @@ class Observer:
             raise ValueError(f"sides must be one of {SIDES}; got {sides!r}")
         if max_paths is not None and int(max_paths) < 1:
             raise ValueError(f"max_paths must be >= 1; got {max_paths!r}")
+        if transitions not in TRANSITIONS:
+            raise ValueError(f"transitions must be one of {TRANSITIONS}; got {transitions!r}")
+        self.transitions = transitions
         self.graph = graph if initial is None else graph.with_initial(initial)
         self.nodes = node_models(self.graph, models)
         self.models = {name: models[name] for name in self.graph.models}
@@ -289,6 +300,7 @@ class Observer:
                           for k, m in enumerate(self.models.values())]
         self._membership = np.zeros((0, self.graph.n_nodes))
         self._succ: dict = {}
+        self._log_edge: dict = {}
         self.reset()
 
     # -- state -----------------------------------------------------------------------
@@ -597,9 +609,22 @@ class Observer:
         row = self._hist.rows(r, r + 1)[0]
         best, prev = -np.inf, None
         for p in self._paths:
-            if p.start <= r and row[p.slot] > best and j in self._successors(p.node, action):
-                best, prev = float(row[p.slot]), p.seg
+            if p.start <= r and j in self._successors(p.node, action):
+                v = float(row[p.slot]) + self._log_transition(p.node, j, action)
+                if v > best:
+                    best, prev = v, p.seg
         return best, prev
+
+    def _log_transition(self, i: int, j: int, action) -> float:
+        """``log p(i -> j | action)`` from the graph's edge probabilities (0 where the graph
+        gives none, for self-transitions, or with ``transitions="none"``)."""
+        key = (i, j, action)
+        if key not in self._log_edge:
+            probs = (self.graph.edge_probabilities.get(action)
+                     if self.transitions == "graph" and action is not None and i != j else None)
+            p = probs.get((i, j)) if probs else None
+            self._log_edge[key] = math.log(p) if p else 0.0
+        return self._log_edge[key]
 
     def _spawn(self, new: list, ta: int, end: int) -> None:
         """Step 3: new paths initialised at the spawning path's log-likelihood and caught up."""
