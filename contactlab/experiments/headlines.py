@@ -46,5 +46,5 @@ HEADLINES: dict[str, tuple[str, str]] = {
     'guarded-move-actions': ('action-dependent guarded moves into a corner, beside every edge at once',
         "action graph 14/20 runs tracked exactly, 20/20 reading a finger stopped on the wall as (S,3,F) (thesis 20/20); every action's edges at once 13/20; the simulated finger reaches the corner in 13/20 (walls turned less than about 4 deg stop it; thesis: every angle in -10..45 deg)"),
     'maze': ('the gear-shift maze: c-space, forward-projected graph, the observer on simulated trials, EM-learned edges',
-        "74 partitions by Monte Carlo forward projection (thesis 62, hand-unified); the observer over the simulator's wrench and position ends in the leg's end corner 20 of 20, feature sequence exact 2 of 20 (thesis 20 of 20 correct), points right 67 % (63 % without the projection's transition probabilities); EM recovers 1 of 3 removed edges"),
+        "74 partitions by Monte Carlo forward projection (thesis 62, hand-unified); the observer over the simulator's wrench and position ends in the leg's end corner 20 of 20, feature sequence exact 2 of 20 (thesis 20 of 20 correct), points right 67 % (63 % without the projection's transition probabilities); EM recovers 1 of 3 removed edges (the others replaced by look-alike shortcuts)"),
 }

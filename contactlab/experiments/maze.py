@@ -57,6 +57,22 @@ def _in_order(truth, decoded) -> int:
     return int(m[-1, -1])
 
 
+def _reaches_without(graph, action: str, edge: tuple[int, int], start: int, goal: int) -> bool:
+    """Whether node ``goal`` is reachable from ``start`` under ``action`` without ``edge``."""
+    adj = graph.adjacency(action)
+    adj[graph.index(str(edge[0])), graph.index(str(edge[1]))] = False
+    i, j = graph.index(str(start)), graph.index(str(goal))
+    seen, todo = {i}, [i]
+    while todo:
+        for k in np.flatnonzero(adj[todo.pop()]):
+            if int(k) == j:
+                return True
+            if int(k) not in seen:
+                seen.add(int(k))
+                todo.append(int(k))
+    return False
+
+
 def _trials(parts, action, start, n, rng):
     turn = rng.uniform(-ANGLE_JITTER_DEG, ANGLE_JITTER_DEG, n)
     starts = np.repeat(np.asarray(parts.by_number(start).point)[None], n, axis=0)
@@ -156,7 +172,10 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     exact5 = [t["exact"] for t in trk5]
     # EM: remove edges of the typical route from the graph, learn them back from the runs
     route = list(zip(typical[:-1], typical[1:]))
-    removed = [route[0], route[len(route) // 2], route[-1]]
+    # only an edge every run to the goal needs is learnable from the runs (a route around it
+    # explains them otherwise): the first, middle and last such edges of the route are removed
+    needed = [e for e in route if not _reaches_without(g1, "action-1", e, START, GOAL)] or route
+    removed = [needed[0], needed[len(needed) // 2], needed[-1]]
     code1 = g1.action_index("action-1")
     cut_doc = json.loads(json.dumps(doc))
     es = next(e for e in cut_doc["edge_sets"] if e["actions"] == ["action-1"])
@@ -407,7 +426,7 @@ def _report(s, parts, fp, graph, paths1, paths5, typical, em, out_dir, obs):
     e = s["em"]
     page.figure(_em_figure(s, em), name="em-edges",
                 caption="EM (10.1.3) on 20 unlabelled action-1 runs with three edges of the "
-                        "typical route removed from the graph.")
+                        "typical route removed from the graph (edges every run to the goal needs).")
     page.table([[", ".join(e["removed"]), f"{e['recovered']} of 3", str(e["added_edges"]),
                  str(e["iterations"])]],
                columns=["removed edges", "recovered", "edges added in all", "iterations"],
@@ -460,7 +479,12 @@ def _differences(s) -> list[str]:
         "of a wall (4.3.2), which the forward projection now turns into impact nodes.",
         "EM is beyond the thesis (10.1.3 proposes it). The chain is per sample (stay probability "
         "1 - 1/20 to start); the node models are fixed and only transitions are learned. "
-        f"It recovers {s['em']['recovered']} of the 3 edges removed from the typical route: an "
-        "edge whose expected count stays 0 is one the runs can go around (the damper's runs "
-        "take other free partitions there).",
+        f"It recovers {s['em']['recovered']} of the 3 edges removed from the typical route. "
+        "Removed are only edges without which the graph has no route to the goal: where a "
+        "route around an edge exists the runs are explained without it and nothing tells EM "
+        f"it is missing. Every absent edge is a candidate, and EM adds {s['em']['added_edges']} "
+        "in all: a removed edge is often replaced by a shortcut between nodes whose "
+        "measurements look alike (the stand-in measurements are contact normal and speed: an "
+        "impact into a corner and the corner's moving node are the same there), which explains "
+        "the runs as well.",
     ]
