@@ -37,6 +37,12 @@ from contactlab.cli.inputs import checks_archive
                    "covariance increase, 6.14), 'both' (and a decrease), 'mean' (the "
                    "increase plus a two-sided mean change of sqrt(q-1) sd), 'all'.  "
                    f"[default: the graph's 'sides', else {D.OBSERVER_SIDES}]")
+@click.option("--transitions", type=click.Choice(list(D.OBSERVER_TRANSITION_CHOICES)),
+              default=D.OBSERVER_TRANSITIONS, show_default=True,
+              help="'graph': a successor starts from its predecessor's log-likelihood plus "
+                   "log p of the edge, where the graph's edge sets give probabilities (a "
+                   "forward projection's or EM's); 'none': every allowed transition alike, as "
+                   "in 6.4.  Graphs without probabilities are the same either way.")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
@@ -47,7 +53,7 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, label_map, trials, no_write, workers, scheduler, as_json, quiet):
+              sides, transitions, label_map, trials, no_write, workers, scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -105,7 +111,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     check_label_map(lmap, g)
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           write=not no_write, label_map=lmap)
+                           write=not no_write, label_map=lmap, transitions=transitions)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
     if as_json:

@@ -50,3 +50,7 @@ OBSERVER_GAP = 20.0
 OBSERVER_SIDES = "mean"
 #: the choices of ``sides`` (contactlab.observer.observer.SIDE_TESTS says what each tests)
 OBSERVER_SIDE_CHOICES = ("increase", "both", "mean", "all")
+#: how the observer weighs a transition: by the graph's edge probabilities where it has them
+#: ("graph"), or every allowed transition alike as in 6.4 ("none")
+OBSERVER_TRANSITIONS = "graph"
+OBSERVER_TRANSITION_CHOICES = ("graph", "none")

@@ -216,3 +216,27 @@ def test_recognize_on_two_workers_matches_a_serial_run(files):
     kw = dict(graph=files["graph"], models=files["models"], write=False)
     serial = recognize_archive(files["test"], **kw)
     assert recognize_archive(files["test"], workers=2, **kw) == serial
+
+
+def test_recognize_transitions_option_weighs_edge_probabilities(files, tmp_path):
+    """An action graph whose edge set carries probabilities: ``--transitions graph`` (the
+    default) and ``none`` both run; each records its choice; a bad choice is refused."""
+    g = tmp_path / "abc-p.toml"
+    g.write_text(GRAPH.replace('edges = ["* -> *"]', 'actions = ["go"]\n'
+                               '[[edge_sets]]\nactions = ["go"]\n'
+                               'edges = ["A -> B", "A -> C", "B -> A", "B -> C", "C -> A", "C -> B"]\n'
+                               'probabilities = [0.5, 0.5, 0.5, 0.5, 0.5, 0.5]'))
+    seen = {}
+    for mode in ("graph", "none"):
+        r = run_cli("recognize", files["test"], "--graph", g, "--models", files["models"],
+                    "--action", "go", "--transitions", mode, "--no-write", "--json", "--quiet")
+        assert r.exit_code == 0, r.output
+        obj = one_json_object(r.stdout)
+        assert obj["parameters"]["transitions"] == mode
+        seen[mode] = obj["accuracy"]
+    # equal probabilities out of every node: log p is the same for every successor, so the
+    # paths rank the same and the labels agree
+    assert seen["graph"] == pytest.approx(seen["none"])
+    r = run_cli("recognize", files["test"], "--graph", g, "--models", files["models"],
+                "--action", "go", "--transitions", "hmm", "--no-write")
+    assert r.exit_code != 0 and "Traceback" not in r.output

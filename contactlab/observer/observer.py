@@ -92,7 +92,7 @@ SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
               "mean": ("increase", "up", "down"), "all": ("increase", "decrease", "up", "down")}
 SIDES = D.OBSERVER_SIDE_CHOICES
 #: how transitions weigh a successor's start (:class:`Observer` ``transitions``)
-TRANSITIONS = ("graph", "none")
+TRANSITIONS = D.OBSERVER_TRANSITION_CHOICES
 #: samples the model banks advance at a time within a chunk: a path spawned at an event
 #: is run to the end of its window, so events cost O(WINDOW) (results do not depend on it)
 WINDOW = 128
@@ -264,7 +264,7 @@ class Observer:
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
                  gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
-                 initial=None, transitions: str = "graph"):
+                 initial=None, transitions: str = D.OBSERVER_TRANSITIONS):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
         if not change_size > 1:

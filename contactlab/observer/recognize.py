@@ -202,12 +202,13 @@ class RecognizeStage(Stage):
                  change_size: float = D.OBSERVER_CHANGE_SIZE,
                  p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
-                 keep: bool = False, label_map: dict | None = None):
+                 keep: bool = False, label_map: dict | None = None,
+                 transitions: str = D.OBSERVER_TRANSITIONS):
         self.graph, self.models, self.built = bind_models(graph, models)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
-                                p_prune=p_prune, gap=gap, sides=sides)
+                                p_prune=p_prune, gap=gap, sides=sides, transitions=transitions)
         try:
             Observer(self.graph, self.built, **self.observer_kw)
         except ValueError as exc:
@@ -293,7 +294,8 @@ def recognize_archive(archive, *, graph, models, action=None,
                       p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
                       sides: str | None = None, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
-                      workers: int = 1, scheduler: str | None = None) -> dict:
+                      workers: int = 1, scheduler: str | None = None,
+                      transitions: str = D.OBSERVER_TRANSITIONS) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
 
     Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),
@@ -307,7 +309,8 @@ def recognize_archive(archive, *, graph, models, action=None,
     """
     stage = RecognizeStage(graph=graph, models=models, action=action, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           delay_window=delay_window, write=write, keep=keep)
+                           delay_window=delay_window, write=write, keep=keep,
+                           transitions=transitions)
     return run_stage(stage, [archive], trials=trials, workers=workers, scheduler=scheduler,
                      quiet=quiet)[Path(archive)]
 
