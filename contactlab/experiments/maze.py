@@ -399,8 +399,8 @@ def _report(s, parts, fp, graph, paths1, paths5, typical, em, out_dir, obs):
     rows += [["trace (first trial)", THESIS_TRACE, " / ".join(o["typical_decoded"])],
              ["simulator's features", "", " / ".join(o["typical_truth"])],
              ["time", "real time on a 68040 (7.3.1)",
-              f"{o['seconds']} s for {o['observed_s']} s of trials, simulation and training "
-              "included"]]
+              f"{o['seconds']} s for {o['observed_s']} s of trials: simulation, training and "
+              "the observer twice (with and without the probabilities)"]]
     page.table(rows, columns=["", "thesis", "ours"],
                caption="The observer over the simulator's maze trials (features held under "
                        "0.1 s and impacts left out of the sequences)")
