@@ -165,9 +165,9 @@ class _Scope:
 
 
 def _file_size(obj) -> int:
-    try:
-        return os.path.getsize(obj.file.filename)
-    except OSError:
+    try:       # the file's name from HDF5 itself: ``obj.file`` builds a File object
+        return os.path.getsize(h5py.h5f.get_name(obj.id))
+    except (OSError, ValueError, RuntimeError):
         return 0
 
 
@@ -396,6 +396,10 @@ class _Walker:
         kind = node["kind"]
         try:
             link = parent.get(name, getlink=True)
+            if link is None:                       # no such link (one lookup, not two)
+                if node.get("required"):
+                    self.report(path, f"missing {kind}")
+                return
             if isinstance(link, h5py.ExternalLink):
                 self.report(path, f"is an external link to {link.filename}:{link.path} "
                                   "(an archive holds its data itself)")
@@ -443,7 +447,7 @@ class _Walker:
                 self.report(path, too_big)
                 ok = False
         if ok and node.get("checks") and (
-                self.values or ds.parent.name.rsplit("/", 1)[-1] != spec.MEASUREMENTS):
+                self.values or path.rsplit("/", 2)[-2:-1] != [spec.MEASUREMENTS]):
             data = ds[()]
             for check in node["checks"]:
                 for message in CHECKS[check](ds, data, scope):
