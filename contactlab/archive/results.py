@@ -128,11 +128,7 @@ def write_stage(path: str | os.PathLike, stage: str,
             else:
                 shutil.copyfile(path, tmp)       # raw bytes: measurements never decoded
                 with h5py.File(tmp, "r+") as dst:
-                    for tid in prepared:     # freed space is reused by the new results
-                        old = f"/trials/{tid}/{spec.RESULTS}/{stage}"
-                        if old in dst:
-                            del dst[old]
-                    _write_stage_groups(dst, stage, prepared)
+                    _write_stage_groups(dst, stage, prepared, replace=True)
                     if not isinstance(compacted, int):
                         dst.attrs[COMPACTED_ATTR] = size
             if rebuild:
@@ -210,10 +206,25 @@ def _prepare(result: TrialResults):
     return arrays, {k: _attr_value(k, v) for k, v in attrs.items()}, params_json
 
 
-def _write_stage_groups(dst: h5py.File, stage: str, prepared: dict) -> None:
+def _write_stage_groups(dst: h5py.File, stage: str, prepared: dict, *,
+                        replace: bool = False) -> None:
+    """``results/<stage>`` of every prepared trial; ``replace``: delete an old one first
+    (its freed space is reused by the new results).  Each trial's group is looked up
+    once and its members by link name (path lookups cost several times more)."""
+    trials = dst["trials"]
+    results, name = spec.RESULTS.encode(), stage.encode()
     for tid, (arrays, attrs, params_json) in prepared.items():
-        results_group = dst.require_group(f"/trials/{tid}/{spec.RESULTS}")
-        _write_group(results_group.create_group(stage), arrays, attrs, params_json)
+        trial = trials[tid]
+        if trial.id.links.exists(results):
+            group = trial[spec.RESULTS]
+            if not isinstance(group, h5py.Group):
+                raise TypeError(f"/trials/{tid}/{spec.RESULTS} is a "
+                                f"{type(group).__name__.lower()}, not a group")
+            if replace and group.id.links.exists(name):
+                del group[stage]
+        else:
+            group = trial.create_group(spec.RESULTS)
+        _write_group(group.create_group(stage), arrays, attrs, params_json)
 
 
 def _write_group(group: h5py.Group, arrays: dict, attrs: dict, params_json: str) -> None:

@@ -329,6 +329,8 @@ def trial_problems(trial, *, values: bool = True) -> list[Problem]:
     of :func:`measurement_problems`."""
     group = trial.h5_group
     walker = _Walker(values=False)
+    # the trial's own attributes were read (and decoded) when the trial was opened
+    walker.preread[group.name] = trial.attrs
     try:
         walker.member(group.parent, group.name.rsplit("/", 1)[-1], _trial_node(), None)
     except _READ_ERRORS as err:
@@ -363,6 +365,8 @@ class _Walker:
         self.trials = None if trials is None else list(trials)
         self.values = values
         self.walk_trials = walk_trials
+        #: object path -> its attributes already read and decoded (``spec.to_plain``)
+        self.preread: dict[str, dict] = {}
 
     def report(self, path: str, message: str) -> None:
         self.problems.append(Problem(path, message))
@@ -512,12 +516,16 @@ class _Walker:
                 self.report(path, f"attribute '{name}' cannot be read: {h5_reason(err)}")
 
     def attribute(self, obj, path: str, name: str, aspec: dict, symbols: dict) -> None:
-        if name not in obj.attrs:
+        known = self.preread.get(path) if "shape" not in aspec else None   # raw arrays
+        if name not in (obj.attrs if known is None else known):
             if aspec.get("required"):
                 self.report(path, f"missing attribute '{name}'")
             return
-        raw = obj.attrs[name]
-        value = spec.to_plain(raw)
+        if known is None:
+            raw = obj.attrs[name]
+            value = spec.to_plain(raw)
+        else:
+            raw = value = known[name]
         if "schema" in aspec:
             validator = _validator(aspec)
             err = None if validator.is_valid(value) else \
