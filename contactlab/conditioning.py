@@ -48,6 +48,7 @@ which keeps the zeros from dragging the block averages to -27.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,7 +93,18 @@ def butter_sos(*, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2) 
     _check_positive_int(order, "order")
     if not (fs > 0 and 0 < cutoff_hz < fs / 2):
         raise ValueError(f"cutoff_hz must be between 0 and fs/2 = {fs / 2}; got {cutoff_hz!r}")
-    return signal.butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
+    return _designed(float(fs), float(cutoff_hz), int(order))[0].copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _designed(fs: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Butterworth sections and their unit-step initial state (``sosfilt_zi``),
+    designed once per setting: a batch of trials conditions each with the same filter,
+    and the design costs as much as filtering a 10-s trial."""
+    sos = signal.butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
+    zi = signal.sosfilt_zi(sos)
+    sos.flags.writeable = zi.flags.writeable = False
+    return sos, zi
 
 
 def lowpass_delay(*, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2) -> float:
@@ -161,6 +173,7 @@ class LowpassDecimator:
             raise ValueError(f"initial must be one of {_INITIAL}; got {initial!r}")
         _check_positive_int(factor, "factor")
         self.sos_ = butter_sos(fs=fs, cutoff_hz=cutoff_hz, order=order)
+        self._zi_unit = _designed(float(fs), float(cutoff_hz), int(order))[1]
         self.reset()
 
     def reset(self) -> "LowpassDecimator":
@@ -173,7 +186,7 @@ class LowpassDecimator:
         if len(x) == 0:
             return _out(np.empty((0, x.shape[1])), squeeze)
         if self.zi_ is None:
-            zi = signal.sosfilt_zi(self.sos_)[:, :, None]          # (sections, 2, 1)
+            zi = self._zi_unit[:, :, None]                          # (sections, 2, 1)
             scale = x[0][None, None, :] if self.initial == "steady" else 0.0
             self.zi_ = np.ascontiguousarray(zi * scale * np.ones((1, 1, x.shape[1])))
         z, self.zi_ = signal.sosfilt(self.sos_, x, axis=0, zi=self.zi_)

@@ -11,7 +11,7 @@ import pytest
 from conftest import LABEL_NAMES, RATE_HZ, synthetic_measurements, write_archive
 
 from contactlab import __version__
-from contactlab.archive import create_archive, open_archive, validate_archive
+from contactlab.archive import create_archive, open_archive, validate_archive, writer
 from contactlab.errors import DataError, UsageError
 
 FIELDS = ("time", "strain", "wrench", "position", "velocity", "action", "command")
@@ -56,14 +56,31 @@ def test_round_trip_values_dtypes_and_attributes(tmp_path):
             assert trial.result_stages() == []
 
 
-def test_datasets_are_chunked_compressed_and_appendable(archive_path):
+def test_datasets_are_chunked_compressed_where_it_pays_and_appendable(archive_path):
     with h5py.File(archive_path, "r") as f:
         for name in FIELDS:
             ds = f[f"trials/t01/measurements/{name}"]
             assert ds.chunks is not None and ds.chunks[0] == 1024
-            assert ds.compression == "gzip"
+            packed = writer.compresses(ds[:1024])
+            assert ds.compression == ("gzip" if packed else None)
+            assert ds.fletcher32 == (not packed)       # raw chunks carry a checksum
             assert ds.maxshape[0] is None and ds.maxshape[1:] == ds.shape[1:]
         assert f["trials/t01/ground_truth/labels"].compression == "gzip"
+
+
+@pytest.mark.parametrize("kind", ["noise", "quantised", "ramp", "labels"])
+def test_compression_test_agrees_with_hdf5s_own_filters(tmp_path, kind):
+    """``compresses`` emulates shuffle + deflate; HDF5's filters are the oracle."""
+    rng = np.random.default_rng(3)
+    data = {"noise": np.round(rng.standard_normal((1024, 8)), 6),
+            "quantised": np.round(rng.standard_normal((1024, 8)) * 20) / 2 ** 15,
+            "ramp": np.arange(1024) / 1000.0,
+            "labels": np.repeat(np.arange(4, dtype=np.int16), 256)}[kind]
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        ds = f.create_dataset("d", data=data, chunks=data.shape, **writer.COMPRESSION)
+        ratio = ds.id.get_storage_size() / data.nbytes
+    assert writer.compresses(data) == (ratio <= writer.COMPRESS_BELOW)
+    assert writer.compresses(data) == (kind != "noise")
 
 
 def test_appending_in_chunks_equals_one_big_write(tmp_path):

@@ -150,3 +150,20 @@ def test_results_datasets_are_what_h5py_would_make(tmp_path, value):
         assert a.get_layout() == b.get_layout() == h5py.h5d.CONTIGUOUS
         assert not a.get_obj_track_times() and not b.get_obj_track_times()
         np.testing.assert_array_equal(ours[()], arr)
+
+
+@pytest.mark.parametrize("value", ["strain", "", "é ü {\"a\": [1, 2]}", "x" * 5000])
+def test_results_string_attributes_are_what_h5py_would_make(tmp_path, value):
+    """The results write's string attributes (made with HDF5's own calls) equal h5py's
+    ``attrs[name] = value``: variable-length UTF-8, scalar, the same value and type."""
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        ours, theirs = f.create_group("ours"), f.create_group("theirs")
+        results_module._new_string_attr(ours.id, "a", value)
+        theirs.attrs["a"] = value
+        a, b = ours.attrs.get_id("a"), theirs.attrs.get_id("a")
+        assert a.shape == b.shape == ()
+        ta, tb = a.get_type(), b.get_type()
+        assert ta.is_variable_str() and tb.is_variable_str()
+        assert ta.get_cset() == tb.get_cset() == h5py.h5t.CSET_UTF8
+        assert ours.attrs["a"] == theirs.attrs["a"] == value
+        assert type(ours.attrs["a"]) is type(theirs.attrs["a"]) is str

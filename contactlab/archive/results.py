@@ -128,11 +128,7 @@ def write_stage(path: str | os.PathLike, stage: str,
             else:
                 shutil.copyfile(path, tmp)       # raw bytes: measurements never decoded
                 with h5py.File(tmp, "r+") as dst:
-                    for tid in prepared:     # freed space is reused by the new results
-                        old = f"/trials/{tid}/{spec.RESULTS}/{stage}"
-                        if old in dst:
-                            del dst[old]
-                    _write_stage_groups(dst, stage, prepared)
+                    _write_stage_groups(dst, stage, prepared, replace=True)
                     if not isinstance(compacted, int):
                         dst.attrs[COMPACTED_ATTR] = size
             if rebuild:
@@ -210,21 +206,54 @@ def _prepare(result: TrialResults):
     return arrays, {k: _attr_value(k, v) for k, v in attrs.items()}, params_json
 
 
-def _write_stage_groups(dst: h5py.File, stage: str, prepared: dict) -> None:
+def _write_stage_groups(dst: h5py.File, stage: str, prepared: dict, *,
+                        replace: bool = False) -> None:
+    """``results/<stage>`` of every prepared trial; ``replace``: delete an old one first
+    (its freed space is reused by the new results).  Each trial's group is looked up
+    once and its members by link name (path lookups cost several times more)."""
+    trials = dst["trials"]
+    results, name = spec.RESULTS.encode(), stage.encode()
     for tid, (arrays, attrs, params_json) in prepared.items():
-        results_group = dst.require_group(f"/trials/{tid}/{spec.RESULTS}")
-        _write_group(results_group.create_group(stage), arrays, attrs, params_json)
+        trial = trials[tid]
+        if trial.id.links.exists(results):
+            group = trial[spec.RESULTS]
+            if not isinstance(group, h5py.Group):
+                raise TypeError(f"/trials/{tid}/{spec.RESULTS} is a "
+                                f"{type(group).__name__.lower()}, not a group")
+            if replace and group.id.links.exists(name):
+                del group[stage]
+        else:
+            group = trial.create_group(spec.RESULTS)
+        _write_group(group.create_group(stage), arrays, attrs, params_json)
 
 
 def _write_group(group: h5py.Group, arrays: dict, attrs: dict, params_json: str) -> None:
     for name, arr in arrays.items():
         parent, _, leaf = name.rpartition("/")
         create_dataset(group.require_group(parent) if parent else group, leaf, arr)
-    for key, value in attrs.items():
-        group.attrs[key] = value
-    group.attrs["created"] = utc_now()
-    group.attrs["software_version"] = __version__
-    group.attrs["parameters"] = params_json
+    for key, value in {**attrs, "created": utc_now(), "software_version": __version__,
+                       "parameters": params_json}.items():
+        if isinstance(value, str):
+            _new_string_attr(group.id, key, value)
+        else:
+            group.attrs[key] = value
+
+
+@functools.cache
+def _string_types():
+    """HDF5's variable-length UTF-8 string type (file and memory) and a scalar space."""
+    dtype = h5py.string_dtype()
+    return (dtype, h5py.h5t.py_create(dtype, logical=True), h5py.h5t.py_create(dtype),
+            h5py.h5s.create(h5py.h5s.SCALAR))
+
+
+def _new_string_attr(gid, name: str, value: str) -> None:
+    """A scalar string attribute on an object that has none of that name: what
+    ``obj.attrs[name] = value`` stores, through HDF5's own calls (a third of the time;
+    a stage writes several per trial)."""
+    dtype, file_type, mem_type, scalar = _string_types()
+    attr = h5py.h5a.create(gid, name.encode(), file_type, scalar)
+    attr.write(np.array(value, dtype=dtype), mtype=mem_type)
 
 
 def create_dataset(group: h5py.Group, name: str, arr: np.ndarray) -> h5py.Dataset:

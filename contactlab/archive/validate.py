@@ -165,9 +165,9 @@ class _Scope:
 
 
 def _file_size(obj) -> int:
-    try:
-        return os.path.getsize(obj.file.filename)
-    except OSError:
+    try:       # the file's name from HDF5 itself: ``obj.file`` builds a File object
+        return os.path.getsize(h5py.h5f.get_name(obj.id))
+    except (OSError, ValueError, RuntimeError):
         return 0
 
 
@@ -329,6 +329,8 @@ def trial_problems(trial, *, values: bool = True) -> list[Problem]:
     of :func:`measurement_problems`."""
     group = trial.h5_group
     walker = _Walker(values=False)
+    # the trial's own attributes were read (and decoded) when the trial was opened
+    walker.preread[group.name] = trial.attrs
     try:
         walker.member(group.parent, group.name.rsplit("/", 1)[-1], _trial_node(), None)
     except _READ_ERRORS as err:
@@ -363,6 +365,8 @@ class _Walker:
         self.trials = None if trials is None else list(trials)
         self.values = values
         self.walk_trials = walk_trials
+        #: object path -> its attributes already read and decoded (``spec.to_plain``)
+        self.preread: dict[str, dict] = {}
 
     def report(self, path: str, message: str) -> None:
         self.problems.append(Problem(path, message))
@@ -396,6 +400,10 @@ class _Walker:
         kind = node["kind"]
         try:
             link = parent.get(name, getlink=True)
+            if link is None:                       # no such link (one lookup, not two)
+                if node.get("required"):
+                    self.report(path, f"missing {kind}")
+                return
             if isinstance(link, h5py.ExternalLink):
                 self.report(path, f"is an external link to {link.filename}:{link.path} "
                                   "(an archive holds its data itself)")
@@ -443,7 +451,7 @@ class _Walker:
                 self.report(path, too_big)
                 ok = False
         if ok and node.get("checks") and (
-                self.values or ds.parent.name.rsplit("/", 1)[-1] != spec.MEASUREMENTS):
+                self.values or path.rsplit("/", 2)[-2:-1] != [spec.MEASUREMENTS]):
             data = ds[()]
             for check in node["checks"]:
                 for message in CHECKS[check](ds, data, scope):
@@ -508,12 +516,16 @@ class _Walker:
                 self.report(path, f"attribute '{name}' cannot be read: {h5_reason(err)}")
 
     def attribute(self, obj, path: str, name: str, aspec: dict, symbols: dict) -> None:
-        if name not in obj.attrs:
+        known = self.preread.get(path) if "shape" not in aspec else None   # raw arrays
+        if name not in (obj.attrs if known is None else known):
             if aspec.get("required"):
                 self.report(path, f"missing attribute '{name}'")
             return
-        raw = obj.attrs[name]
-        value = spec.to_plain(raw)
+        if known is None:
+            raw = obj.attrs[name]
+            value = spec.to_plain(raw)
+        else:
+            raw = value = known[name]
         if "schema" in aspec:
             validator = _validator(aspec)
             err = None if validator.is_valid(value) else \

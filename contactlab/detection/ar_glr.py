@@ -302,6 +302,9 @@ def _rss_kernel(prefix, starts, ends, out):
     block in ``M = prefix[end] - prefix[start]`` by Gaussian elimination (the last
     pivot); pivots below ``1e-12`` of the Gram trace count as zero (flat windows)."""
     k1 = prefix.shape[2]
+    if k1 == 4:                        # AR(2), the default: the same steps on scalars
+        _rss_kernel_ar2(prefix, starts, ends, out)
+        return
     m = np.empty((k1, k1))
     for i in range(starts.shape[0]):
         hi, lo = prefix[ends[i]], prefix[starts[i]]
@@ -323,6 +326,47 @@ def _rss_kernel(prefix, starts, ends, out):
                         m[r, s] -= f * m[j, s]
             yy = prefix[ends[i], c, k1 - 1, k1 - 1] - prefix[starts[i], c, k1 - 1, k1 - 1]
             out[i, c] = max(m[k1 - 1, k1 - 1], 1e-12 * max(yy, 1e-300))
+
+
+@njit(cache=True, fastmath=True)
+def _rss_kernel_ar2(prefix, starts, ends, out):  # pragma: no cover - compiled
+    """:func:`_rss_kernel` for 4 x 4 moments (AR(2) with an intercept), the elimination
+    written out on scalars in the same order, so the moments stay in registers."""
+    for i in range(starts.shape[0]):
+        e, b = ends[i], starts[i]
+        for c in range(prefix.shape[1]):
+            m00 = prefix[e, c, 0, 0] - prefix[b, c, 0, 0]
+            m01 = prefix[e, c, 0, 1] - prefix[b, c, 0, 1]
+            m02 = prefix[e, c, 0, 2] - prefix[b, c, 0, 2]
+            m03 = prefix[e, c, 0, 3] - prefix[b, c, 0, 3]
+            m11 = prefix[e, c, 1, 1] - prefix[b, c, 1, 1]
+            m12 = prefix[e, c, 1, 2] - prefix[b, c, 1, 2]
+            m13 = prefix[e, c, 1, 3] - prefix[b, c, 1, 3]
+            m22 = prefix[e, c, 2, 2] - prefix[b, c, 2, 2]
+            m23 = prefix[e, c, 2, 3] - prefix[b, c, 2, 3]
+            m33 = prefix[e, c, 3, 3] - prefix[b, c, 3, 3]
+            yy = m33
+            tiny = 1e-12 * (m00 + m11 + m22)
+            if m00 > tiny:
+                f = m01 / m00
+                m11 -= f * m01
+                m12 -= f * m02
+                m13 -= f * m03
+                f = m02 / m00
+                m22 -= f * m02
+                m23 -= f * m03
+                f = m03 / m00
+                m33 -= f * m03
+            if m11 > tiny:
+                f = m12 / m11
+                m22 -= f * m12
+                m23 -= f * m13
+                f = m13 / m11
+                m33 -= f * m13
+            if m22 > tiny:
+                f = m23 / m22
+                m33 -= f * m23
+            out[i, c] = max(m33, 1e-12 * max(yy, 1e-300))
 
 
 def _min_rows(order: int) -> int:
