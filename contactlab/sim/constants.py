@@ -85,7 +85,8 @@ pressed, still finger is louder than a free one (7.3.3's "extra vibration sensed
 robot is touching an object", the apparatus experiment's pressed-louder fact)."""
 
 PRESLIDING_DAMPING_RATIO = 0.5
-"""physics: damping of the pre-sliding deflection as a ratio of critical on the robot mass,
+"""physics: damping of the pre-sliding deflection as a ratio of critical on the mass the friction
+holds (DRIVE_MASS; the whole robot for a rigid drive),
 the value of the LuGre model's reference parameter set (Canudas de Wit et al. 1995:
 sigma_1 = sqrt(sigma_0) on a unit mass): micro-slip at the junctions' edges dissipates
 (pre-sliding hysteresis)."""
@@ -130,6 +131,48 @@ HEDS-5540 class then resolves 2 pi / 2000 / 80 = 0.039 mm at the tip, the datash
 treats each Cartesian axis as driven by one motor through this ratio (the real linkage
 mixes the three motors by its Jacobian, which is near-diagonal with entries of this
 order at the workspace centre)."""
+
+LINK_LENGTH = 0.14
+"""datasheet-level: length of the PHANToM 1.0's links, m (MOTOR_RAD_PER_TIP_M's ~0.14 m)."""
+
+LINK_STIFFNESS = 2.2e4
+"""physics, checked against two signal facts: bending stiffness of the distal link at the tip,
+N/m per axis.  The link is a thin-walled aluminium tube (E = 70 GPa) of LINK_LENGTH, a
+cantilever of tip stiffness 3 E I / L^3: 2.2e4 N/m for a 10 mm tube with a 1 mm wall
+(I = 2.9e-10 m^4; a 12.7 mm tube would give 4.8e4 N/m; the joints and cables in series only
+lower it).  The links are where the sensor's base meets the drive: the sensor's mount and the
+link's end (LINK_TIP_MASS) ring on this stiffness against the rest of the robot (motors,
+capstans, drums, proximal links), the drive's first structural mode that moves the sensor,
+sqrt(k (1/m_tip + 1/(ROBOT_MASS - m_tip))) / 2 pi ~ 180 Hz with the shell riding on the tip.
+Cable-driven arms of this size have their first structural modes at 100-300 Hz (Gil et al.
+2010 identified two vibration modes on one axis of a PHANToM 1.0 from its frequency
+response).  This is the path by which a turning drive's brush and cable friction ripple
+(BRUSH_FRICTION_VARIATION), the force DAC's steps and the commutation ripple shake the
+sensor's base at its resonance; a still drive, held by its stuck friction, has only the
+amplifiers' force noise to excite it.  Two signal facts bound the value (the apparatus
+experiment measures both): moving is "never confused with the stationary vibration level"
+(7.3.3) needs >= ~2e4 N/m (at 1.1e4 N/m, a 126 Hz mode, the normal-fit error is 0.044); the
+integral force loop holding the finger on the maze's Lexan walls (9.2) needs <= ~3e4 N/m
+(stiffer, the drive rings on the link against the held tip at 115-130 Hz, where the servo's
+lowpassed damping term pumps it, and the finger chatters on the wall).  The capstan cables'
+own mode (the motor rotors, 1.05e-6 kg m^2 reflected to ~7 g at the tip, vibrating on the
+cable against the links) moves the rotors, not the tip, and is left rigid.
+``[apparatus] link_stiffness_n_per_m = 0`` makes the drive rigid (one robot mass)."""
+
+LINK_TIP_MASS = 0.015
+"""physics: the mass that rings on LINK_STIFFNESS at the tip, kg (the shell rides on it as
+well): the sensor's body and its mount on the gimbal, ~12 g of aluminium and steel for a
+fingertip-sized six-axis sensor, plus the modal mass of the cantilevered tube, 0.24 x its
+~11 g."""
+
+DRIVE_MASS = ROBOT_MASS - LINK_TIP_MASS  # (Apparatus.drive_mass)
+"""physics: the rest of ROBOT_MASS, where the motors' force, their friction and commutation
+ripple and the encoders (on the motor shafts) act, kg."""
+
+LINK_DAMPING_RATIO = 0.03
+"""physics: damping of the link mode as a ratio of critical: bolted aluminium links on
+capstan drives are lightly damped, 2-5 % (joint bearings, strand friction of the cables);
+3 %."""
 
 COMMUTATOR_SEGMENTS = 11
 """datasheet: number of commutator segments of the PHANToM's brushed motors, Maxon RE 25
