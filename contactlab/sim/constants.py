@@ -86,7 +86,7 @@ robot is touching an object", the apparatus experiment's pressed-louder fact).""
 
 PRESLIDING_DAMPING_RATIO = 0.5
 """physics: damping of the pre-sliding deflection as a ratio of critical on the mass the friction
-holds (DRIVE_MASS; the whole robot for a rigid drive),
+holds (the drive, Apparatus.drive_mass; the whole robot for a rigid drive),
 the value of the LuGre model's reference parameter set (Canudas de Wit et al. 1995:
 sigma_1 = sqrt(sigma_0) on a unit mass): micro-slip at the junctions' edges dissipates
 (pre-sliding hysteresis)."""
@@ -136,38 +136,36 @@ LINK_LENGTH = 0.14
 """datasheet-level: length of the PHANToM 1.0's links, m (MOTOR_RAD_PER_TIP_M's ~0.14 m)."""
 
 LINK_STIFFNESS = 2.2e4
-"""physics, checked against two signal facts: bending stiffness of the distal link at the tip,
-N/m per axis.  The link is a thin-walled aluminium tube (E = 70 GPa) of LINK_LENGTH, a
-cantilever of tip stiffness 3 E I / L^3: 2.2e4 N/m for a 10 mm tube with a 1 mm wall
-(I = 2.9e-10 m^4; a 12.7 mm tube would give 4.8e4 N/m; the joints and cables in series only
-lower it).  The links are where the sensor's base meets the drive: the sensor's mount and the
-link's end (LINK_TIP_MASS) ring on this stiffness against the rest of the robot (motors,
-capstans, drums, proximal links), the drive's first structural mode that moves the sensor,
-sqrt(k (1/m_tip + 1/(ROBOT_MASS - m_tip))) / 2 pi ~ 180 Hz with the shell riding on the tip.
-Cable-driven arms of this size have their first structural modes at 100-300 Hz (Gil et al.
-2010 identified two vibration modes on one axis of a PHANToM 1.0 from its frequency
-response).  This is the path by which a turning drive's brush and cable friction ripple
-(BRUSH_FRICTION_VARIATION), the force DAC's steps and the commutation ripple shake the
-sensor's base at its resonance; a still drive, held by its stuck friction, has only the
-amplifiers' force noise to excite it.  Two signal facts bound the value (the apparatus
-experiment measures both): moving is "never confused with the stationary vibration level"
-(7.3.3) needs >= ~2e4 N/m (at 1.1e4 N/m, a 126 Hz mode, the normal-fit error is 0.044); the
-integral force loop holding the finger on the maze's Lexan walls (9.2) needs <= ~3e4 N/m
-(stiffer, the drive rings on the link against the held tip at 115-130 Hz, where the servo's
-lowpassed damping term pumps it, and the finger chatters on the wall).  The capstan cables'
-own mode (the motor rotors, 1.05e-6 kg m^2 reflected to ~7 g at the tip, vibrating on the
-cable against the links) moves the rotors, not the tip, and is left rigid.
-``[apparatus] link_stiffness_n_per_m = 0`` makes the drive rigid (one robot mass)."""
+"""physics: bending stiffness of the PHANToM's distal link at the tip, N/m per axis, for the
+link mode (dynamics module docstring, "The link mode"; ``[apparatus] link_stiffness_n_per_m``).
+The link is a thin-walled aluminium tube (E = 70 GPa) of LINK_LENGTH, a cantilever of tip
+stiffness 3 E I / L^3: 2.2e4 N/m for a 10 mm tube with a 1 mm wall (I = 2.9e-10 m^4; a
+12.7 mm tube would give 4.8e4 N/m; joints and cables in series only lower it).  With
+LINK_TIP_MASS and the shell on the tip against the rest of the robot this is a ~180 Hz mode;
+cable-driven arms of this size have their first structural modes at 100-300 Hz (Gil et al.
+2010 identified two vibration modes on one axis of a PHANToM 1.0 from its frequency response).
+
+The default apparatus keeps the drive rigid (``Apparatus.link_stiffness = 0``), because a
+lumped tip cannot be what the sensor's base is at both frequencies the thesis measured.
+Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (seeds 1-4): the
+drive's brush ripple reaches the sensor through the mode, moving separates from stationary
+(7.3.3; H0/H1 normal-fit error 0.0015-0.0066) and pressed falls between them (the link
+filters the amplifiers' noise on its way to a pressed sensor; H2 - H0 +0.03-0.04 nats,
+H0/H2 the largest confusion) -- but the sensor then rings on a 15 g base: 890 Hz in flight,
+its in-contact mode at ~600 Hz dominates after impacts (580-615 Hz), the impacts' bounce
+trains settle sooner (median impact 0.087-0.092 s), and an impact rings the 180 Hz link mode
+so hard that it is the ringing the impact-spectrogram experiment fits, where 3.3 and fig 7.1
+show the shell's ~690 Hz.  A base heavy enough for 3.3's ringing (>= 32 g for <= 800 Hz in
+flight, as on the rigid robot's 75 g) makes the pressed tip ring on the sensor at ~380 Hz,
+louder than a moving drive (at 35 g: H2 - H0 +0.15 nats, H1/H2 error 0.43).  The real link
+is a distributed beam, heavy at the sensor's frequencies and resonant at a few hundred Hz;
+one lumped mass is either one or the other."""
 
 LINK_TIP_MASS = 0.015
 """physics: the mass that rings on LINK_STIFFNESS at the tip, kg (the shell rides on it as
 well): the sensor's body and its mount on the gimbal, ~12 g of aluminium and steel for a
 fingertip-sized six-axis sensor, plus the modal mass of the cantilevered tube, 0.24 x its
 ~11 g."""
-
-DRIVE_MASS = ROBOT_MASS - LINK_TIP_MASS  # (Apparatus.drive_mass)
-"""physics: the rest of ROBOT_MASS, where the motors' force, their friction and commutation
-ripple and the encoders (on the motor shafts) act, kg."""
 
 LINK_DAMPING_RATIO = 0.03
 """physics: damping of the link mode as a ratio of critical: bolted aluminium links on

@@ -67,9 +67,11 @@ stiffness and damping (``constants.LINK_STIFFNESS``, ``LINK_TIP_MASS``,
 In free space the tip with the shell rings against the drive at ~180 Hz: the friction
 ripple of a turning drive and the force DAC's steps while the command changes reach the
 sensor amplified by the mode (7.3.3: moving is louder than stationary), where a rigid robot
-passed them on only through the shell's inertia.  Pressed against an object, the link's
+passes them on only through the shell's inertia.  Pressed against an object, the link's
 spring lies between the drive's force noise and the sensor and filters it above the drive's
-own ~100 Hz mode on it.  ``link_stiffness = 0`` is the rigid robot (x_l = x_r).
+own ~100 Hz mode on it.  ``link_stiffness = 0``, the default, is the rigid robot (x_l = x_r):
+a lumped tip light enough for the mode puts the sensor's own ringing on a 15 g base
+(``constants.LINK_STIFFNESS`` gives what that does to the thesis's signal facts).
 
 The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
@@ -163,9 +165,10 @@ class Apparatus:
     robot_presliding: float = C.ROBOT_PRESLIDING_DISPLACEMENT
     presliding_damping_ratio: float = C.PRESLIDING_DAMPING_RATIO
     # the drive's structure: the link's tip (link_tip_mass of robot_mass, carrying the sensor)
-    # on the link's bending stiffness link_stiffness (0: a rigid drive, one robot mass)
+    # on the link's bending stiffness link_stiffness; 0 (the default) is a rigid drive, one
+    # robot mass (constants.LINK_STIFFNESS says why; C.LINK_STIFFNESS turns the mode on)
     link_tip_mass: float = C.LINK_TIP_MASS
-    link_stiffness: float = C.LINK_STIFFNESS
+    link_stiffness: float = 0.0
     link_damping_ratio: float = C.LINK_DAMPING_RATIO
 
     @property

@@ -10,7 +10,7 @@ or :class:`~contactlab.sim.sensor.Encoders` (defaults and sources in
     adc_bits = 12                      # the converter (default 16)
     amplifier_noise_nv_per_rthz = 10   # bridge amplifier input noise density
     commutation_ripple = false         # the motors' commutation torque ripple
-    link_stiffness_n_per_m = 0         # a rigid drive (no link mode)
+    link_stiffness_n_per_m = 22000     # the link mode (default 0: a rigid drive)
 
 :func:`check_apparatus` returns a one-line message per bad value (the spec loader names the
 file and the field); :func:`build_hardware` makes the three objects.
