@@ -52,8 +52,9 @@ vibrate, without lifting the finger off.  Across a texture boundary the two
 followed heights are blended over the width the sphere needs to roll over the
 step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
 
-The link mode.  The robot is not one rigid mass: the sensor's body sits on the end of the
-PHANToM's distal link, which bends.  The robot mass is split into the drive (motors,
+The link mode (``Apparatus.link_stiffness``, off by default).  The real robot is not one
+rigid mass: the sensor's body sits on the end of the PHANToM's distal link, which bends.
+With the mode on, the robot mass is split into the drive (motors,
 capstans, drums, proximal links: where the motors' force, the backdrive friction with its
 brush ripple, the commutation ripple and the encoders act, position x_r) and the link's tip
 (``link_tip_mass``, position x_l, carrying the sensor's base), joined by the link's bending
