@@ -147,19 +147,21 @@ cable-driven arms of this size have their first structural modes at 100-300 Hz (
 
 The default apparatus keeps the drive rigid (``Apparatus.link_stiffness = 0``), because a
 lumped tip cannot be what the sensor's base is at both frequencies the thesis measured.
-Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (seeds 1-4): the
-drive's brush ripple reaches the sensor through the mode, moving separates from stationary
-(7.3.3; H0/H1 normal-fit error 0.0015-0.0066) and pressed falls between them (the link
-filters the amplifiers' noise on its way to a pressed sensor; H2 - H0 +0.03-0.04 nats,
-H0/H2 the largest confusion) -- but the sensor then rings on a 15 g base: 890 Hz in flight,
-its in-contact mode at ~600 Hz dominates after impacts (580-615 Hz), the impacts' bounce
-trains settle sooner (median impact 0.087-0.092 s), and an impact rings the 180 Hz link mode
-so hard that it is the ringing the impact-spectrogram experiment fits, where 3.3 and fig 7.1
-show the shell's ~690 Hz.  A base heavy enough for 3.3's ringing (>= 32 g for <= 800 Hz in
-flight, as on the rigid robot's 75 g) makes the pressed tip ring on the sensor at ~380 Hz,
-louder than a moving drive (at 35 g: H2 - H0 +0.15 nats, H1/H2 error 0.43).  The real link
-is a distributed beam, heavy at the sensor's frequencies and resonant at a few hundred Hz;
-one lumped mass is either one or the other."""
+Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (its page measures
+every fact both ways; seeds 1-5): the drive's brush ripple reaches the sensor through the mode,
+moving separates from stationary (7.3.3; H0/H1 normal-fit error 0.0015-0.011) and pressed falls
+between them (the link filters the amplifiers' noise on its way to a pressed sensor; H2 - H0
++0.02-0.04 nats, H0/H2 the largest confusion) -- but the sensor then rings on a 15 g base: 890
+Hz in flight, its in-contact mode at ~600 Hz dominates after impacts (580-650 Hz), the impacts'
+bounce trains settle sooner (median impact 0.087-0.10 s), an impact rings the 180 Hz link mode
+so hard that it is the ringing the impact-spectrogram experiment fits (176 Hz on seed 0), where
+3.3 and fig 7.1 show the shell's ~690 Hz, and the polished half of sample A, stroked at 9 mm/s
+where the brush ripple lies below 250 Hz, carries the drive's vibration at the mode (sample A's
+unit-mean normal-fit error 0.21-0.30). A base heavy enough for 3.3's ringing (>= 32 g for <=
+800 Hz in flight, as on the rigid robot's 75 g) makes the pressed tip ring on the sensor at
+~380 Hz, louder than a moving drive (at 35 g: post-impact ringing 772-789 Hz on seeds 1-3; on
+seed 2 H2 - H0 +0.15 nats, H1/H2 error 0.43). The real link is a distributed beam, heavy at the sensor's
+frequencies and resonant at a few hundred Hz; one lumped mass is either one or the other."""
 
 LINK_TIP_MASS = 0.015
 """physics: the mass that rings on LINK_STIFFNESS at the tip, kg (the shell rides on it as
