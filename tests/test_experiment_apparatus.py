@@ -83,6 +83,10 @@ def test_a_12_bit_board_hides_the_moving_drive_that_16_bits_show():
     ("robot_friction_n = 0.1", "apparatus.robot_static_friction_n"),
     ("robot_presliding_m = 0.01", "apparatus.robot_presliding_m"),
     ("force_resolution_n = -0.01", "apparatus.force_resolution_n"),
+    ("link_stiffness_n_per_m = -1", "apparatus.link_stiffness_n_per_m"),
+    ("link_tip_mass_kg = 0.2", "apparatus.link_tip_mass_kg"),
+    ("link_tip_mass_kg = 0", "apparatus.link_tip_mass_kg"),
+    ("link_damping_ratio = 2", "apparatus.link_damping_ratio"),
 ])
 def test_bad_apparatus_values_are_one_line_errors_naming_file_and_field(tmp_path, line, field):
     text = load_spec("stroke-a").path.read_text()
@@ -98,9 +102,11 @@ def test_apparatus_table_reaches_the_simulated_hardware(tmp_path):
     text = load_spec("stroke-a").path.read_text()
     path = tmp_path / "x.toml"
     path.write_text(text.replace("[environment]", "[apparatus]\nadc_bits = 12\ncommutation_ripple = false\n"
-                                                  "\n[environment]", 1))
+                                                  "link_stiffness_n_per_m = 22000\n\n[environment]", 1))
     spec = load_spec(path)
     from contactlab.acquire.sim import hardware
     hw = hardware(spec)
     assert hw["sensor"].adc_bits == 12 and hw["apparatus"].commutation_events == 0
+    assert hw["apparatus"].link_stiffness == 22000.0 and not hw["apparatus"].rigid_drive
+    assert hardware(load_spec("stroke-a"))["apparatus"].rigid_drive
     assert hardware(load_spec("stroke-a"))["sensor"].adc_bits == 16

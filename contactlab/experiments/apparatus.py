@@ -9,13 +9,15 @@ measures one number per statement and says whether its criterion holds.
 
 Signals are conditioned as in 7.1 by :mod:`contactlab.signals` (y_h: block-averaged
 log|strain difference|, log floor at half a converter step, averaged over the 8 strains);
-states come from the simulator's ground truth through the acquire label functions.
+states come from the simulator's ground truth through the acquire label functions.  States
+and textures are compared, as 7.2.2 and 7.3 compare them, on unit means of 100 y_h samples.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -32,9 +34,12 @@ from contactlab.signals import codes_at, condition_array, window_of
 from contactlab.temporal.blocks import mask_runs
 from contactlab.temporal.energy import normal_confusion_1d
 from contactlab.report.page import ReportPage
+from contactlab.sim.hardware import build_hardware
 
 UNIT = 100            # 7.3: "segmented into units of 100 measurements"
 MOVING = sim.constants.MOVING_SPEED_THRESHOLD
+# the arm's link mode, off in the default apparatus (constants.LINK_STIFFNESS)
+LINK_MODE = {"link_stiffness_n_per_m": sim.constants.LINK_STIFFNESS}
 
 
 # -- signals ---------------------------------------------------------------------------------
@@ -76,9 +81,15 @@ def normal_fit_error(a, b) -> float:
 
 
 # -- dataset-spec trials -----------------------------------------------------------------------
-def hf_measures(seed: int, *, trials=None) -> dict:
+def _spec(name: str, apparatus: dict | None):
+    """The dataset spec ``name``, its ``[apparatus]`` table updated by ``apparatus``."""
+    spec = load_spec(name)
+    return replace(spec, apparatus={**spec.apparatus, **apparatus}) if apparatus else spec
+
+
+def hf_measures(seed: int, *, trials=None, apparatus: dict | None = None) -> dict:
     """Facts of the 7.3 runs (hf-train): state levels, impact timing, length and bounces."""
-    spec = load_spec("hf-train")
+    spec = _spec("hf-train", apparatus)
     trials = range(spec.n_trials) if trials is None else trials
     units: dict[int, list[float]] = {}
     frac, lengths, bounces = [], [], []
@@ -110,16 +121,19 @@ def hf_measures(seed: int, *, trials=None) -> dict:
 
 
 def _texture_yh(r) -> dict[str, np.ndarray]:
+    """y_h unit means (:func:`unit_means`) of each texture the finger slides over: 7.2.2
+    subdivides the steady strokes into "sections of length 100" (67 blocks for sample A) and
+    fits its normals (fig 7.8) to their energies, as 7.3 does with its units."""
     y, idx = channel_mean_yh(r)
     codes, names = labels_texture(r)
-    pc = pure_codes(codes, idx, r.rate_hz)
-    return {names[c]: y[pc == c] for c in range(3, len(names))}
+    units = unit_means(y, pure_codes(codes, idx, r.rate_hz))
+    return {names[c]: np.asarray(units.get(c, []), float) for c in range(3, len(names))}
 
 
-def stroke_measures(seed: int, *, trials=None) -> dict:
+def stroke_measures(seed: int, *, trials=None, apparatus: dict | None = None) -> dict:
     """Facts of the 7.2 strokes of sample A: burst, friction hold, stop, resting wrench,
     texture separation."""
-    spec = load_spec("stroke-a")
+    spec = _spec("stroke-a", apparatus)
     trials = range(spec.n_trials) if trials is None else trials
     burst, hold, drop, rest, tex = [], [], [], [], {}
     trace = None
@@ -157,9 +171,9 @@ def stroke_measures(seed: int, *, trials=None) -> dict:
             "_textures_a": {n: v.tolist() for n, v in tex.items()}}
 
 
-def sample_b_measures(seed: int, err_a: float, *, trials=None) -> dict:
+def sample_b_measures(seed: int, err_a: float, *, trials=None, apparatus: dict | None = None) -> dict:
     """Facts of the 7.2 strokes of sample B: wood louder than polished aluminium, harder than A."""
-    spec = load_spec("stroke-b")
+    spec = _spec("stroke-b", apparatus)
     trials = range(spec.n_trials) if trials is None else trials
     tex: dict[str, list] = {}
     for k in trials:
@@ -174,9 +188,9 @@ def sample_b_measures(seed: int, err_a: float, *, trials=None) -> dict:
             "_textures_b": {n: v.tolist() for n, v in t.items()}, "_err_b": err_b}
 
 
-def shell_mode(seed: int) -> dict:
+def shell_mode(seed: int, *, apparatus: dict | None = None) -> dict:
     """Dominant frequency of the strain difference in the 0.1 s after the first impact (2700 Hz)."""
-    spec = load_spec("impact-spectrogram")
+    spec = _spec("impact-spectrogram", apparatus)
     _, r = simulate_trial(spec, 0, seed)
     if not len(r.impact_intervals):
         return {"shell-mode": math.nan}
@@ -190,9 +204,9 @@ def shell_mode(seed: int) -> dict:
     return {"shell-mode": float(f[band][np.argmax(spec_[band])])}
 
 
-def velocity_range(seed: int, *, trials=(0, 3, 6)) -> dict:
+def velocity_range(seed: int, *, trials=(0, 3, 6), apparatus: dict | None = None) -> dict:
     """Fraction of the moving guarded-move samples with |v| <= 0.01 m/s on every axis (9.1.1)."""
-    spec = load_spec("guarded-move")
+    spec = _spec("guarded-move", apparatus)
     inside, total = 0, 0
     for k in trials:
         _, r = simulate_trial(spec, k, seed)
@@ -202,9 +216,9 @@ def velocity_range(seed: int, *, trials=(0, 3, 6)) -> dict:
     return {"velocity-range": inside / total if total else math.nan}
 
 
-def wood_slope(seed: int) -> dict:
+def wood_slope(seed: int, *, apparatus: dict | None = None) -> dict:
     """Largest slope (deg) of planes fitted to the recorded positions of the cartesian plane runs."""
-    spec = load_spec("cartesian")
+    spec = _spec("cartesian", apparatus)
     first = sum(g.trials for g in spec.groups[:1])
     slopes = []
     for k in range(first, first + spec.groups[1].trials):
@@ -220,12 +234,13 @@ def wood_slope(seed: int) -> dict:
 
 
 # -- small setups ------------------------------------------------------------------------------
-def _sim(env, ctrl, duration, seed, start, **kw):
+def _sim(env, ctrl, duration, seed, start, apparatus: dict | None = None):
+    app, sen, enc = build_hardware(apparatus)
     return sim.simulate(environment=env, controller=ctrl, duration_s=duration, seed=seed,
-                        start=np.asarray(start, float), **kw)
+                        start=np.asarray(start, float), apparatus=app, sensor=sen, encoders=enc)
 
 
-def loss_impact(seed: int) -> dict:
+def loss_impact(seed: int, *, apparatus: dict | None = None) -> dict:
     """A 0.5 N contact lost abruptly (4.3.2): the finger, pressed sideways into a block's
     aluminium face (100 N/m position control, 5 mm into it), is dragged up at 20 mm/s over the
     face's top edge; peak y_h within 0.1 s of the loss minus the median y_h while pressed still."""
@@ -233,7 +248,7 @@ def loss_impact(seed: int) -> dict:
     env = sim.block(floor=False, face_y=0.0, block_height=0.0, block_material="polished_aluminium")
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.006, 0.0), 0.3, 0.1),
                                          sim.Move((0.0, 0.0, 0.016), 0.8, 0.8, "constant_velocity")))
-    r = _sim(env, ctrl, 2.0, seed, (0.0, -radius - 0.001, -0.008))
+    r = _sim(env, ctrl, 2.0, seed, (0.0, -radius - 0.001, -0.008), apparatus=apparatus)
     y, idx = channel_mean_yh(r)
     ty = r.time[idx]
     touching = r.contact.any(axis=1)
@@ -245,13 +260,13 @@ def loss_impact(seed: int) -> dict:
     return {"loss-impact": float(y[np.abs(ty - tl) < 0.1].max() - base)}
 
 
-def texture_speed(seed: int) -> dict:
+def texture_speed(seed: int, *, apparatus: dict | None = None) -> dict:
     """Strain-difference variance ratio stroking sanded aluminium at 20 vs 10 mm/s (4.40)."""
     env = sim.plane(material="sanded_aluminium_80")
     var = []
     for cs in (4.0, 2.0):
         ctrl = sim.StrokeController(stroke_length=0.04, command_start_s=0.3, command_s=cs)
-        r = _sim(env, ctrl, 0.3 + cs + 0.2, seed, (0.0, 0.0, 0.0099))
+        r = _sim(env, ctrl, 0.3 + cs + 0.2, seed, (0.0, 0.0, 0.0099), apparatus=apparatus)
         fs = r.rate_hz
         sl = slice(int((0.3 + 0.3 * cs) * fs), int((0.3 + 0.7 * cs) * fs))
         d = np.diff(r.strain[sl], axis=0)
@@ -259,20 +274,20 @@ def texture_speed(seed: int) -> dict:
     return {"texture-speed": var[1] / var[0] if var[0] > 0 else math.inf}
 
 
-def stick_slip_position(seed: int) -> dict:
+def stick_slip_position(seed: int, *, apparatus: dict | None = None) -> dict:
     """Stick-to-slip transitions of the 100 N/m position controller dragging the finger 30 mm
     over wood (9.1.2); and the integral force controller's stuck fraction (9.1.3)."""
     env = sim.plane(material="rough_wood")
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.0, -0.003), 0.3, 0.1),
                                          sim.Move((0.030, 0.0, 0.0), 3.0, 0.6)))
-    r = _sim(env, ctrl, 3.8, seed, (0.0, 0.0, 0.0099))
+    r = _sim(env, ctrl, 3.8, seed, (0.0, 0.0, 0.0099), apparatus=apparatus)
     fs = r.rate_hz
     sl = slice(int(0.8 * fs), int(3.6 * fs))
     stuck = ~r.moving[sl]
     episodes = [(a, b) for a, b in mask_runs(stuck) if b - a >= 5]
     # the thesis's command of 9.1.2, (100, -100, 200) mN: 141 mN along the surface
     f = sim.IntegralForceController(forces=((0.0, (0.0, 0.0, -0.2)), (0.3, (0.1, -0.1, -0.2))))
-    r2 = _sim(env, f, 2.5, seed, (0.0, 0.0, 0.0099))
+    r2 = _sim(env, f, 2.5, seed, (0.0, 0.0, 0.0099), apparatus=apparatus)
     fs = r2.rate_hz
     mv = r2.moving[int(0.3 * fs):]
     first = np.argmax(mv) if mv.any() else len(mv)
@@ -281,24 +296,24 @@ def stick_slip_position(seed: int) -> dict:
             "no-stick-slip-force": float(1.0 - after.mean()) if len(after) else 1.0}
 
 
-def force_loop(seed: int) -> dict:
+def force_loop(seed: int, *, apparatus: dict | None = None) -> dict:
     """Contact kept while the integral force controller presses 0.2 N into a Lexan wall and
     0.2 N into the floor (the maze's walls, 9.2)."""
     env = sim.wall(material="lexan", wall_material="lexan", wall_y=0.020)
     f = sim.IntegralForceController(forces=((0.0, (0.0, 0.2, -0.2)),))
-    r = _sim(env, f, 2.0, seed, (0.0, 0.0105, 0.0099))
+    r = _sim(env, f, 2.0, seed, (0.0, 0.0105, 0.0099), apparatus=apparatus)
     sl = slice(int(0.7 * r.rate_hz), None)
     return {"force-loop-holds-contact": float(r.contact[sl].all(axis=1).mean())}
 
 
-def kinematic_error(seed: int) -> dict:
+def kinematic_error(seed: int, *, apparatus: dict | None = None) -> dict:
     """Largest deviation (mm) of the recorded x-y positions from their straight-line fit along
     an 80 mm slide against a wall (8.1.1.2)."""
     env = sim.wall(material="rough_wood", wall_material="polished_aluminium", wall_y=0.020)
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.003, -0.003), 0.3, 0.1),
                                          sim.Move((0.080, 0.0, 0.0), 4.0, 0.5)),
                                   stiffness=(300.0, 300.0, 300.0))
-    r = _sim(env, ctrl, 4.7, seed, (-0.040, 0.0105, 0.0099))
+    r = _sim(env, ctrl, 4.7, seed, (-0.040, 0.0105, 0.0099), apparatus=apparatus)
     fs = r.rate_hz
     p = r.position[int(0.6 * fs):int(4.4 * fs), :2]
     c = p - p.mean(axis=0)
@@ -308,18 +323,20 @@ def kinematic_error(seed: int) -> dict:
 
 
 # -- all of them -------------------------------------------------------------------------------
-def measure(seed: int, *, quiet: bool = True) -> dict:
-    """Every fact's measured value on ``seed`` (keys of :data:`FACTS`, plus ``_`` details)."""
-    steps = [lambda: hf_measures(seed), lambda: stroke_measures(seed), None,
-             lambda: shell_mode(seed), lambda: velocity_range(seed), lambda: wood_slope(seed),
-             lambda: loss_impact(seed), lambda: texture_speed(seed),
-             lambda: stick_slip_position(seed), lambda: force_loop(seed),
-             lambda: kinematic_error(seed)]
+def measure(seed: int, *, apparatus: dict | None = None, quiet: bool = True) -> dict:
+    """Every fact's measured value on ``seed`` (keys of :data:`FACTS`, plus ``_`` details), on the
+    hardware an ``[apparatus]`` table describes (default: the thesis's)."""
+    hw = {"apparatus": apparatus}
+    steps = [lambda: hf_measures(seed, **hw), lambda: stroke_measures(seed, **hw), None,
+             lambda: shell_mode(seed, **hw), lambda: velocity_range(seed, **hw),
+             lambda: wood_slope(seed, **hw), lambda: loss_impact(seed, **hw),
+             lambda: texture_speed(seed, **hw), lambda: stick_slip_position(seed, **hw),
+             lambda: force_loop(seed, **hw), lambda: kinematic_error(seed, **hw)]
     out: dict = {}
     with bar(total=len(steps), desc="apparatus", quiet=quiet) as pb:
         for step in steps:
             out.update(step() if step is not None else
-                       sample_b_measures(seed, out["sample-a-separates"]))
+                       sample_b_measures(seed, out["sample-a-separates"], **hw))
             pb.update(1)
     return out
 
@@ -341,6 +358,7 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     out_dir = Path(out_dir)
     measured = measure(seed, quiet=quiet)
     facts = facts_table(measured)
+    link = facts_table(measure(seed, apparatus=LINK_MODE, quiet=quiet))
     held = sum(f["holds"] for f in facts)
     page = ReportPage(title="apparatus: the thesis's signal facts on the simulator", out_dir=out_dir)
     page.paragraph(
@@ -358,7 +376,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 caption="y_h of one stroke of sample A: resting, the burst at the command start, "
                         "the textures, the stop.")
     page.figure(fig_textures(measured), name="textures",
-                caption="y_h while stroking each texture of samples A and B, with normal fits.")
+                caption="y_h unit means (100 samples at 250 Hz, as 7.2.2 divides its strokes) while "
+                        "stroking each texture of samples A and B, with normal fits.")
     page.heading("How the simulator was calibrated")
     page.paragraph(
         "System identification from these signal facts, never from the thesis's accuracies: the "
@@ -372,14 +391,29 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
         "100:1 range) and the current amplifiers' force noise, brush ripple and commutation ripple "
         "are physical or datasheet-level values, each with its source in "
         "contactlab/sim/constants.py. A spec's [apparatus] table simulates other hardware (e.g. "
-        "adc_bits = 12, robot_presliding_m = 0 for a rigid stick).")
+        "adc_bits = 12, robot_presliding_m = 0 for a rigid stick, link_stiffness_n_per_m = 22000 "
+        "for the arm's link mode).")
     page.heading("Where ours differ and why")
     for text in _differences(facts, measured):
         page.note(text)
+    page.heading("With the arm's link mode")
+    page.paragraph(
+        "The default robot is rigid: the drive and the sensor's base are one mass. With [apparatus] "
+        f"link_stiffness_n_per_m = {sim.constants.LINK_STIFFNESS:g} the sensor's base sits on the "
+        f"distal link's {sim.constants.LINK_TIP_MASS * 1e3:g} g tip, which rings against the drive at "
+        f"{sim.Apparatus(link_stiffness=sim.constants.LINK_STIFFNESS).drive_mode_hz:.0f} Hz "
+        "(contactlab/sim/constants.py, LINK_STIFFNESS). Every fact measured both ways on the same "
+        f"seed: {sum(f['holds'] for f in link)} of {len(link)} hold with the link mode.")
+    page.table([[f["name"], _fmt(f["measured"]), "yes" if f["holds"] else "NO", _fmt(g["measured"]),
+                 "yes" if g["holds"] else "NO"] for f, g in zip(facts, link)],
+               columns=["fact", "rigid (default)", "holds", "link mode", "holds"],
+               caption="Every fact measured with the rigid robot and with the arm's link mode.")
     page.write()
     summary = {"experiment": "apparatus", "seed": seed, "facts": facts, "held": held,
                "total": len(facts),
-               "hf_errors": measured.get("_errors"), "sample_b_error": measured.get("_err_b")}
+               "hf_errors": measured.get("_errors"), "sample_b_error": measured.get("_err_b"),
+               "link_mode": {"apparatus": LINK_MODE, "held": sum(f["holds"] for f in link),
+                             "facts": {f["name"]: f["measured"] for f in link}}}
     write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
     return summary
 
@@ -407,25 +441,34 @@ def _differences(facts: list[dict], measured: dict) -> list[str]:
 
 
 _WHY = {
-    "moving-vs-stationary": "A free, moving PHANToM reaches the sensor only through the shell's "
-                            "inertia: the drive's force noise (the DAC's steps while the command "
-                            "changes, brush/cable friction ripple, commutation ripple) accelerates "
-                            "robot and shell together, and the sensor feels the shell's 12 % of "
-                            "it, so y_h of H1 is only ~0.14 nats above the electronic floor of H0 "
-                            "with a spread of ~0.07 between units (slow starts and ends of the "
-                            "sinusoidal moves). The link and cable modes of the real arm, which "
-                            "would shake the sensor's base directly, are not modelled.",
+    "moving-vs-stationary": "A free, moving PHANToM on a rigid drive reaches the sensor only "
+                            "through the shell's inertia: the drive's force noise (the DAC's steps "
+                            "while the command changes, brush/cable friction ripple, commutation "
+                            "ripple) accelerates robot and shell together, and the sensor feels "
+                            "the shell's 12 % of it, so y_h of H1 is only ~0.15 nats above the "
+                            "electronic floor of H0 with a spread of ~0.08 between units (slow "
+                            "starts and ends of the sinusoidal moves). The arm's link mode shakes "
+                            "the sensor's base directly and this fact then holds (table below); "
+                            "it is off by default because a lumped 15 g base moves the sensor's "
+                            "own ringing (post-impact ~600 Hz, 890 Hz in flight, where 3.3 has "
+                            "690 Hz) and shortens the impacts, and a base heavy enough for the "
+                            "ringing (>= 32 g) rings on the pressed sensor at ~380 Hz, louder than "
+                            "a moving drive (contactlab/sim/constants.py, LINK_STIFFNESS).",
     "pressed-main-confusion": "Pressed is louder than stationary for the right reason (the "
                               "current amplifiers' ~1 mN of force noise goes through the "
-                              "sensor to the contact instead of into the shell's inertia), but "
+                              "sensor to the contact instead of into the shell's inertia, and "
+                              "rings the ~250 Hz mode of the robot on the pressed sensor), but "
                               "free motion is so quiet here (see moving-vs-stationary) that "
-                              "pressed lands above moving, so H1/H2 overlap more than H0/H2.",
+                              "pressed lands above moving, so H1/H2 overlap more than H0/H2. "
+                              "With the link mode the link filters that noise on its way to a "
+                              "pressed sensor and the order is the thesis's (table below).",
     "sample-a-separates": "The 80-grit lay is ridden over on its supporting crests ~0.37 mm "
                           "apart: each hand-over is a micro-impact that rings the sensor, but "
                           "between them the finger follows a smooth arc, so y_h over sanded "
-                          "aluminium is bursty (sd ~0.46) and only ~0.5 nats above polished. "
-                          "Shorter-scale relief under the ~30 um Hertz patch averages out of the "
-                          "friction, and sliding on either half carries the same drive noise.",
+                          "aluminium is bursty (sd ~0.46 between 250 Hz samples, ~0.09 between "
+                          "unit means) and only ~0.5 nats above polished. Shorter-scale relief "
+                          "under the ~30 um Hertz patch averages out of the friction, and "
+                          "sliding on either half carries the same drive noise.",
     "sample-b-wood-louder": "Rough wood's relief is bridged and acts only through friction "
                             "(rms flank slope 0.11 after patch averaging), its stuck spells under "
                             "the 100 N/m stroke are quiet; it comes out only a little louder than "
@@ -476,10 +519,10 @@ def fig_textures(measured: dict):
             v = np.asarray(v)
             if len(v) < 2:
                 continue
-            ax.hist(v, bins=40, density=True, alpha=0.5, label=name)
+            ax.hist(v, bins=15, density=True, alpha=0.5, label=name)
             x = np.linspace(v.min(), v.max(), 200)
             ax.plot(x, scipy_stats.norm.pdf(x, v.mean(), v.std()), lw=1.0)
-        ax.set_xlabel("y_h (log V)")
+        ax.set_xlabel("unit mean of y_h (log V)")
         ax.set_ylabel("density")
         ax.set_title(f"{title}: y_h while stroking")
         ax.legend(fontsize=7)

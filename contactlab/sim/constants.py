@@ -85,7 +85,8 @@ pressed, still finger is louder than a free one (7.3.3's "extra vibration sensed
 robot is touching an object", the apparatus experiment's pressed-louder fact)."""
 
 PRESLIDING_DAMPING_RATIO = 0.5
-"""physics: damping of the pre-sliding deflection as a ratio of critical on the robot mass,
+"""physics: damping of the pre-sliding deflection as a ratio of critical on the mass the friction
+holds (the drive, Apparatus.drive_mass; the whole robot for a rigid drive),
 the value of the LuGre model's reference parameter set (Canudas de Wit et al. 1995:
 sigma_1 = sqrt(sigma_0) on a unit mass): micro-slip at the junctions' edges dissipates
 (pre-sliding hysteresis)."""
@@ -130,6 +131,48 @@ HEDS-5540 class then resolves 2 pi / 2000 / 80 = 0.039 mm at the tip, the datash
 treats each Cartesian axis as driven by one motor through this ratio (the real linkage
 mixes the three motors by its Jacobian, which is near-diagonal with entries of this
 order at the workspace centre)."""
+
+LINK_LENGTH = 0.14
+"""datasheet-level: length of the PHANToM 1.0's links, m (MOTOR_RAD_PER_TIP_M's ~0.14 m)."""
+
+LINK_STIFFNESS = 2.2e4
+"""physics: bending stiffness of the PHANToM's distal link at the tip, N/m per axis, for the
+link mode (dynamics module docstring, "The link mode"; ``[apparatus] link_stiffness_n_per_m``).
+The link is a thin-walled aluminium tube (E = 70 GPa) of LINK_LENGTH, a cantilever of tip
+stiffness 3 E I / L^3: 2.2e4 N/m for a 10 mm tube with a 1 mm wall (I = 2.9e-10 m^4; a
+12.7 mm tube would give 4.8e4 N/m; joints and cables in series only lower it).  With
+LINK_TIP_MASS and the shell on the tip against the rest of the robot this is a ~180 Hz mode;
+cable-driven arms of this size have their first structural modes at 100-300 Hz (Gil et al.
+2010 identified two vibration modes on one axis of a PHANToM 1.0 from its frequency response).
+
+The default apparatus keeps the drive rigid (``Apparatus.link_stiffness = 0``), because a
+lumped tip cannot be what the sensor's base is at both frequencies the thesis measured.
+Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (its page measures
+every fact both ways; seeds 1-5): the drive's brush ripple reaches the sensor through the mode,
+moving separates from stationary (7.3.3; H0/H1 normal-fit error 0.0015-0.011) and pressed falls
+between them (the link filters the amplifiers' noise on its way to a pressed sensor; H2 - H0
++0.02-0.04 nats, H0/H2 the largest confusion) -- but the sensor then rings on a 15 g base: 890
+Hz in flight, its in-contact mode at ~600 Hz dominates after impacts (580-650 Hz), the impacts'
+bounce trains settle sooner (median impact 0.087-0.10 s), an impact rings the 180 Hz link mode
+so hard that it is the ringing the impact-spectrogram experiment fits (176 Hz on seed 0), where
+3.3 and fig 7.1 show the shell's ~690 Hz, and the polished half of sample A, stroked at 9 mm/s
+where the brush ripple lies below 250 Hz, carries the drive's vibration at the mode (sample A's
+unit-mean normal-fit error 0.21-0.30). A base heavy enough for 3.3's ringing (>= 32 g for <=
+800 Hz in flight, as on the rigid robot's 75 g) makes the pressed tip ring on the sensor at
+~380 Hz, louder than a moving drive (at 35 g: post-impact ringing 772-789 Hz on seeds 1-3; on
+seed 2 H2 - H0 +0.15 nats, H1/H2 error 0.43). The real link is a distributed beam, heavy at the sensor's
+frequencies and resonant at a few hundred Hz; one lumped mass is either one or the other."""
+
+LINK_TIP_MASS = 0.015
+"""physics: the mass that rings on LINK_STIFFNESS at the tip, kg (the shell rides on it as
+well): the sensor's body and its mount on the gimbal, ~12 g of aluminium and steel for a
+fingertip-sized six-axis sensor, plus the modal mass of the cantilevered tube, 0.24 x its
+~11 g."""
+
+LINK_DAMPING_RATIO = 0.03
+"""physics: damping of the link mode as a ratio of critical: bolted aluminium links on
+capstan drives are lightly damped, 2-5 % (joint bearings, strand friction of the cables);
+3 %."""
 
 COMMUTATOR_SEGMENTS = 11
 """datasheet: number of commutator segments of the PHANToM's brushed motors, Maxon RE 25

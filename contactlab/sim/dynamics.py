@@ -52,6 +52,28 @@ vibrate, without lifting the finger off.  Across a texture boundary the two
 followed heights are blended over the width the sphere needs to roll over the
 step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
 
+The link mode (``Apparatus.link_stiffness``, off by default).  The real robot is not one
+rigid mass: the sensor's body sits on the end of the PHANToM's distal link, which bends.
+With the mode on, the robot mass is split into the drive (motors,
+capstans, drums, proximal links: where the motors' force, the backdrive friction with its
+brush ripple, the commutation ripple and the encoders act, position x_r) and the link's tip
+(``link_tip_mass``, position x_l, carrying the sensor's base), joined by the link's bending
+stiffness and damping (``constants.LINK_STIFFNESS``, ``LINK_TIP_MASS``,
+``LINK_DAMPING_RATIO``):
+
+  m_d x_r'' = w_r + k_l (x_l - x_r) + c_l (x_l' - x_r') + m_d g + friction
+  m_l x_l'' = w_m - k_l (x_l - x_r) - c_l (x_l' - x_r') + m_l g
+  w_m = K (x - x_l) + B (x' - x_l')
+
+In free space the tip with the shell rings against the drive at ~180 Hz: the friction
+ripple of a turning drive and the force DAC's steps while the command changes reach the
+sensor amplified by the mode (7.3.3: moving is louder than stationary), where a rigid robot
+passes them on only through the shell's inertia.  Pressed against an object, the link's
+spring lies between the drive's force noise and the sensor and filters it above the drive's
+own ~100 Hz mode on it.  ``link_stiffness = 0``, the default, is the rigid robot (x_l = x_r):
+a lumped tip light enough for the mode puts the sensor's own ringing on a 15 g base
+(``constants.LINK_STIFFNESS`` gives what that does to the thesis's signal facts).
+
 The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
 that mode), and a resting finger would ring on control noise forever.  The robot
@@ -143,6 +165,56 @@ class Apparatus:
     # pre-sliding displacement of the backdrive friction at breakaway, m (0: a rigid stick)
     robot_presliding: float = C.ROBOT_PRESLIDING_DISPLACEMENT
     presliding_damping_ratio: float = C.PRESLIDING_DAMPING_RATIO
+    # the drive's structure: the link's tip (link_tip_mass of robot_mass, carrying the sensor)
+    # on the link's bending stiffness link_stiffness; 0 (the default) is a rigid drive, one
+    # robot mass (constants.LINK_STIFFNESS says why; C.LINK_STIFFNESS turns the mode on)
+    link_tip_mass: float = C.LINK_TIP_MASS
+    link_stiffness: float = 0.0
+    link_damping_ratio: float = C.LINK_DAMPING_RATIO
+
+    @property
+    def rigid_drive(self) -> bool:
+        return self.link_stiffness <= 0.0
+
+    @property
+    def friction_mass(self) -> float:
+        """The mass the drive's friction and motors act on, kg: the drive, or the whole robot for
+        a rigid drive."""
+        return self.robot_mass if self.rigid_drive else self.drive_mass
+
+    @property
+    def drive_mass(self) -> float:
+        """The rest of the robot (motors, capstans, drums, proximal links), kg."""
+        return self.robot_mass - self.link_tip_mass
+
+    @property
+    def link_mass(self) -> float:
+        """The link's tip (carrying the sensor's base), kg."""
+        return self.link_tip_mass
+
+    @property
+    def link_damping(self) -> float:
+        """Damping of the link's bending, N s/m (LINK_DAMPING_RATIO on the mode's reduced mass)."""
+        if self.rigid_drive:
+            return 0.0
+        tip = self.link_mass + self.shell_mass
+        mu = self.drive_mass * tip / (self.drive_mass + tip)
+        return 2.0 * self.link_damping_ratio * math.sqrt(self.link_stiffness * mu)
+
+    @property
+    def drive_mode_hz(self) -> float:
+        """The link mode (the link's tip with the shell against the drive), Hz (0: rigid)."""
+        if self.rigid_drive:
+            return 0.0
+        tip = self.link_mass + self.shell_mass
+        return math.sqrt(self.link_stiffness * (1.0 / self.drive_mass + 1.0 / tip)) / (2.0 * math.pi)
+
+    @property
+    def drive_sag(self) -> float:
+        """Static bending of the link under the weight of its tip and the shell, m."""
+        if self.rigid_drive:
+            return 0.0
+        return (self.link_mass + self.shell_mass) * self.gravity / self.link_stiffness
 
     @property
     def presliding_stiffness(self) -> float:
@@ -154,7 +226,7 @@ class Apparatus:
     @property
     def presliding_damping(self) -> float:
         """Damping of the pre-sliding deflection, N s/m."""
-        return 2.0 * self.presliding_damping_ratio * math.sqrt(self.presliding_stiffness * self.robot_mass)
+        return 2.0 * self.presliding_damping_ratio * math.sqrt(self.presliding_stiffness * self.friction_mass)
 
     @property
     def total_mass(self) -> float:
@@ -347,6 +419,8 @@ def _ratchet(mu, slope):
 def integrate(n_out, n_sub, dt,
               # apparatus
               mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
+              # drive structure: motor-side mass, link stiffness and damping (kc = 0: rigid)
+              md, kc, cc,
               # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
               n_comm, motor_gain, comm_phase,
               # environment
@@ -381,6 +455,18 @@ def integrate(n_out, n_sub, dt,
     xr = xr0.copy(); vr = vr0.copy(); x = x0.copy(); v = v0.copy()
     gvec = np.array([0.0, 0.0, -grav])
     gcomp = -(mr + mf) * gvec
+    # the drive's structure (module docstring, "The link mode"): the drive (mass m_d: motors'
+    # force, friction, encoders) joined to the link's tip (m_l, carrying the sensor's base at
+    # xl) by the link's bending spring kc; a rigid drive is one mass, xl = xr
+    rigid = kc <= 0.0
+    m_d = mr if rigid else md
+    m_l = mr - md
+    # at rest the link's tip hangs below the drive by the weight it carries
+    xl = xr0.copy(); vl = vr0.copy()
+    if not rigid:
+        for a in range(3):
+            xl[a] += (m_l + mf) * gvec[a] / kc
+    fcab = np.zeros(3)
     wr = np.zeros(3)
     xi_int = xr0.copy()          # integral force controller state (desired position)
     x_hold = xr0.copy()
@@ -412,7 +498,7 @@ def integrate(n_out, n_sub, dt,
     last_fn = np.zeros(npl)
     kn_imp = np.zeros(npl); cn_imp = np.zeros(npl); kt_imp = np.zeros(npl); ct_imp = np.zeros(npl)
     nrm = np.zeros((npl, 3))
-    fs = ks * (x - xr) + bs * (v - vr)
+    fs = ks * (x - xl) + bs * (v - vl)
     f_lp = fs.copy()
     a_lp = dt / (tau_ring + dt)
     fc_tot = np.zeros(3)
@@ -452,7 +538,7 @@ def integrate(n_out, n_sub, dt,
                 for a in range(3):
                     xm[a] = xr[a]
                     vm[a] = vr[a]
-            fs_now = ks * (x - xr) + bs * (v - vr)
+            fs_now = ks * (x - xl) + bs * (v - vl)
             if hold_arr[k] != 0:
                 if not holding:
                     holding = True
@@ -595,7 +681,7 @@ def integrate(n_out, n_sub, dt,
 
         # ---------------- sensor ----------------------------------------
         for a in range(3):
-            fs[a] = ks * (x[a] - xr[a]) + bs * (v[a] - vr[a])
+            fs[a] = ks * (x[a] - xl[a]) + bs * (v[a] - vl[a])
             f_lp[a] += a_lp * (fs[a] - f_lp[a])
         ring = math.sqrt((fs[0] - f_lp[0]) ** 2 + (fs[1] - f_lp[1]) ** 2 + (fs[2] - f_lp[2]) ** 2)
         if ring > o_ring[j]:
@@ -628,7 +714,12 @@ def integrate(n_out, n_sub, dt,
             fm = wr[a]
             if n_comm > 0:
                 fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
-            vr[a] += dt * ((fm + fs[a]) / mr + gvec[a])
+            if rigid:
+                vr[a] += dt * ((fm + fs[a]) / m_d + gvec[a])
+            else:
+                fcab[a] = kc * (xl[a] - xr[a]) + cc * (vl[a] - vr[a])
+                vr[a] += dt * ((fm + fcab[a]) / m_d + gvec[a])
+                vl[a] += dt * ((fs[a] - fcab[a]) / m_l + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
         # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
         # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
@@ -636,7 +727,7 @@ def integrate(n_out, n_sub, dt,
         # the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse)
         if br > 0.0:
             for a in range(3):
-                vr[a] /= 1.0 + dt * br / mr
+                vr[a] /= 1.0 + dt * br / m_d
         # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
         # shaft angle while sliding: module docstring, "Motors")
         if fr > 0.0:
@@ -666,11 +757,11 @@ def integrate(n_out, n_sub, dt,
                 else:
                     rstuck = True
                 for a in range(3):
-                    vr[a] += dt * ftr[a] / mr
-            elif rstuck and sp <= dt * frs / mr:
+                    vr[a] += dt * ftr[a] / m_d
+            elif rstuck and sp <= dt * frs / m_d:
                 vr[:] = 0.0
             else:
-                cap = dt * fr * ripple / mr
+                cap = dt * fr * ripple / m_d
                 if sp <= cap:
                     vr[:] = 0.0
                     rstuck = True
@@ -700,6 +791,11 @@ def integrate(n_out, n_sub, dt,
                     o_fc[j, p, a] += (vtn - vt) * mf / dt / n_sub
         for a in range(3):
             xr[a] += dt * vr[a]
+            if rigid:
+                xl[a] = xr[a]
+                vl[a] = vr[a]
+            else:
+                xl[a] += dt * vl[a]
             x[a] += dt * v[a]
         if first:
             for p in range(n_planes):

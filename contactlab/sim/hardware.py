@@ -10,6 +10,7 @@ or :class:`~contactlab.sim.sensor.Encoders` (defaults and sources in
     adc_bits = 12                      # the converter (default 16)
     amplifier_noise_nv_per_rthz = 10   # bridge amplifier input noise density
     commutation_ripple = false         # the motors' commutation torque ripple
+    link_stiffness_n_per_m = 22000     # the link mode (default 0: a rigid drive)
 
 :func:`check_apparatus` returns a one-line message per bad value (the spec loader names the
 file and the field); :func:`build_hardware` makes the three objects.
@@ -73,6 +74,12 @@ FIELDS: dict[str, Field] = {
                                 doc="force DAC step at the tip, N (0: exact)"),
     "robot_presliding_m": Field("apparatus", "robot_presliding", float, 1.0, 0.0, 1e-3,
                                 doc="pre-sliding displacement of the drive friction, m (0: rigid stick)"),
+    "link_stiffness_n_per_m": Field("apparatus", "link_stiffness", float, 1.0, 0.0, 1e8,
+                                    doc="bending stiffness of the link at the tip, N/m (0: rigid drive)"),
+    "link_tip_mass_kg": Field("apparatus", "link_tip_mass", float, 1.0, 0.0, 0.9 * C.ROBOT_MASS, True,
+                              "mass of the link's tip carrying the sensor, kg (below the robot mass)"),
+    "link_damping_ratio": Field("apparatus", "link_damping_ratio", float, 1.0, 0.0, 1.0,
+                                doc="damping of the link mode, ratio of critical"),
     "commutation_ripple": Field("apparatus", "commutation_events", bool,
                                 doc="motors' commutation torque ripple on/off"),
 }

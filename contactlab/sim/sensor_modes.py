@@ -19,15 +19,18 @@ def mode_prediction(apparatus=None) -> dict:
     """The sensor mode the simulator's constants imply, fixed base and free base.
 
     Fixed base (thesis 3.3: the shell on a fixed base): ``w^2 = K/m_s``, decay
-    ``B/(2 m_s)``.  Free base (a fingertip in flight: robot mass m_r and shell
+    ``B/(2 m_s)``.  Free base (a fingertip in flight: the sensor's base m_r and shell
     m_s joined by K, B; the 1 kHz servo and the backdrive friction are far below
     this mode): relative motion with the reduced mass ``mu = m_s m_r/(m_s+m_r)``,
     ``w^2 = K/mu``, decay ``B/(2 mu)``.  ``f_damped_hz`` is ``sqrt(w^2 - s^2)/2pi``.
+    The sensor's base is the robot mass, or the link's tip with the arm's link mode
+    (its bending spring is soft at these frequencies).
     """
     from contactlab.sim import Apparatus
 
     app = apparatus or Apparatus()
-    K, B, ms, mr = app.sensor_stiffness, app.sensor_damping, app.shell_mass, app.robot_mass
+    K, B, ms = app.sensor_stiffness, app.sensor_damping, app.shell_mass
+    mr = app.robot_mass if app.rigid_drive else app.link_mass
     out = {}
     for name, m in (("fixed_base", ms), ("free_base", ms * mr / (ms + mr))):
         w, s = math.sqrt(K / m), B / (2 * m)

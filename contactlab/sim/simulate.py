@@ -154,7 +154,8 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
     gvec = np.array([0.0, 0.0, -app.gravity])
     v0 = np.asarray(initial_velocity, float)
     xr0 = start.copy()
-    x0 = start + app.shell_mass * gvec / app.sensor_stiffness  # hanging at rest on the spring
+    # hanging at rest on the sensor spring, below the link's static bending
+    x0 = start + app.shell_mass * gvec / app.sensor_stiffness + app.drive_sag * gvec / app.gravity
     ring_tau = 1.0 / (2.0 * math.pi * C.RING_LOWPASS_HZ)
     vb, va = enc.velocity_filter(app.servo_rate_hz, enc.servo_velocity_lowpass_hz)
     vfilt = np.array([vb[0], vb[1], vb[2], va[1], va[2]]) / va[0]
@@ -166,6 +167,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
                     app.robot_friction, app.robot_damping, app.robot_static_friction,
                     brush_ripple_table(app.brush_friction_variation),
                     app.presliding_stiffness, app.presliding_damping, float(app.force_resolution),
+                    float(app.drive_mass), float(max(app.link_stiffness, 0.0)), float(app.link_damping),
                     int(app.commutation_events), float(app.motor_rad_per_m), comm_phase,
                     pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
