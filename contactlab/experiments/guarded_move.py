@@ -421,7 +421,7 @@ def _differences(res, rot, still, rates, gm, ntr) -> list[str]:
                  f"{np.sqrt(vn * (1 + np.log(vx / vn))):.1f} units "
                  f"({1e6 * cz.position_sd * np.sqrt(vn * (1 + np.log(vx / vn))):.0f} um) rms "
                  "about the segment's mean: a few encoder steps, which the simulated stuck "
-                 "finger's encoders never show.")
+                 "finger's encoders do not show (they hold one count while it sticks).")
     out = [
         f"{_count(res, 'correct')} of {ntr} runs are marked correctly against the thesis's "
         "10 of 10"
@@ -438,7 +438,8 @@ def _differences(res, rot, still, rates, gm, ntr) -> list[str]:
         "PHANToM's 0.04 N backdrive friction under the 100 N/m position loop (stick-slip at "
         f"the few mm/s of the move and the exploration): {free['points']} points of the test "
         f"runs are still between the start and the contact, and {f45} of them are marked "
-        "4 or 5: the graph of 9.1.1 has no way back to the still free node 0, a still "
+        "4 or 5: the graph (9.1.1's description: 0 -> 1 -> 2 -> 1 -> 3 and the "
+        "distractors) has no way back to the still free node 0, a still "
         "finger in free space shows no motion along any constraint's normals, and F scores "
         f"its velocity {_nats(vel_gain)} nats a sample above M." + zeroed,
         f"The finger is stuck on the surface. It is still in "
