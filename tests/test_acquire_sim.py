@@ -301,22 +301,3 @@ def test_validator_checks_truth_shapes_and_writer_checks_lengths(spec, tmp_path)
             trial = archive.add_trial("t", rate_hz=1000.0)
             trial.set_truth(contact=np.zeros((4, 2), bool), surfaces=["floor"])
     assert not (tmp_path / "w.h5").exists()
-
-
-def test_guarded_move_exploration_is_added_onto_the_downward_command():
-    """9.1.1: the exploration "was added onto the downward command" and the robot "starts
-    out fixed in free space": the command holds the start until the move begins, then the
-    exploration starts from phase 0 with the move."""
-    from contactlab.acquire.sim import plan_trial
-
-    plan = plan_trial(load_spec("guarded-move"), 0, seed=1)
-    ctrl = plan.controller
-    (move,) = ctrl.moves
-    assert ctrl.exploration.start_s == pytest.approx(move.start_s) and move.start_s > 0
-    t = np.arange(0.0, 1.0, 0.001)
-    arrays = ctrl.servo_arrays(plan.start, t)
-    before = t < move.start_s
-    assert np.allclose(arrays.xd[before], plan.start) and np.allclose(arrays.vd[before], 0.0)
-    k = int(np.searchsorted(t, move.start_s))
-    w = 2.0 * np.pi * np.asarray(ctrl.exploration.frequencies_hz)
-    assert np.allclose(arrays.vd[k], ctrl.exploration.amplitude * w, rtol=1e-3)

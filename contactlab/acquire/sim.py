@@ -104,8 +104,7 @@ def _controller(group: Group, rng, scale: float, move_duration: float | None, du
     exploration = None
     if c.get("exploration_m"):
         hz = tuple(c.get("exploration_hz", (1.0, 1.4, 1.8)))
-        exploration = sim.Exploration(amplitude=float(c["exploration_m"]), frequencies_hz=hz,
-                                      start_s=float(c.get("exploration_start_s", 0.0)))
+        exploration = sim.Exploration(amplitude=float(c["exploration_m"]), frequencies_hz=hz)
     if kind == "position":
         moves = []
         for m in c["moves"]:

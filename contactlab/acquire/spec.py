@@ -58,8 +58,7 @@ from contactlab.errors import DataError, UsageError
 CONTROLLER_KEYS = {
     "stroke": {"normal_force_n", "stroke_length_m", "command_start_s", "command_s",
                "stiffness_n_per_m", "shape"},
-    "position": {"moves", "stiffness_n_per_m", "exploration_m", "exploration_hz",
-                 "exploration_start_s"},
+    "position": {"moves", "stiffness_n_per_m", "exploration_m", "exploration_hz"},
     "integral_force": {"forces", "integral_gain", "stiffness_n_per_m", "exploration_m"},
     "hand": {"amplitude_m", "press_m", "segment_s", "stiffness_n_per_m"},
 }
@@ -333,11 +332,9 @@ class _Checker:
                                               f"(known: {', '.join(CONTROLLER_KEYS)})")
         self.unknown(ctrl, CONTROLLER_KEYS[kind] | {"kind"}, where)
         for key in ("normal_force_n", "stroke_length_m", "command_start_s", "command_s",
-                    "stiffness_n_per_m", "integral_gain", "exploration_m", "segment_s",
-                    "exploration_start_s"):
+                    "stiffness_n_per_m", "integral_gain", "exploration_m", "segment_s"):
             if key in ctrl:
-                self.get(ctrl, key, float, where,
-                         positive=key not in ("command_start_s", "exploration_start_s"))
+                self.get(ctrl, key, float, where, positive=key != "command_start_s")
         if "shape" in ctrl:
             from contactlab.sim.controllers import PROFILES
             if ctrl["shape"] not in PROFILES:

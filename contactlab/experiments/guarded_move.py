@@ -271,8 +271,7 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, *, out_dir: Path,
         f"Training: the {ntr} runs of datasets_spec/guarded-move.toml simulated with seed "
         f"{seed}; test: the same spec with seed {seed + 1} (3 wood, 3 aluminium, 4 hard "
         "plastic; a position-controlled move 15 mm down over about 4 s onto a plane 10 mm "
-        "below the start, with 2 mm sinusoidal exploration in x, y, z added onto the move's "
-        "command from its start). Models from "
+        "below the start, with 2 mm sinusoidal exploration in x, y, z). Models from "
         "train_graph on the training runs' labels, as the graph file names them; the observer "
         "of 6.4 with the toolkit's defaults and detectors on both sides (the graph's "
         "'sides'). Expected path 0 -> 1 -> 2 -> 1 -> 3 (9.1.1).")

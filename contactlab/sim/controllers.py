@@ -101,15 +101,13 @@ class Move:
 @dataclass(frozen=True)
 class Exploration:
     """Small sinusoidal exploratory motion added to the command (9.1.1: amplitude 2 mm in
-    all three directions).  Distinct frequencies per axis so the motion spans 3-D.
-    ``start_s``: the time it starts (each sine from phase 0)."""
+    all three directions).  Distinct frequencies per axis so the motion spans 3-D."""
 
     amplitude: float = 0.002
     frequencies_hz: tuple[float, float, float] = (1.0, 1.4, 1.8)
-    start_s: float = 0.0
 
     def offset(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        t = np.asarray(t, float)[:, None] - self.start_s
+        t = np.asarray(t, float)[:, None]
         w = 2.0 * math.pi * np.asarray(self.frequencies_hz, float)
         on = (t >= 0.0)
         return on * self.amplitude * np.sin(w * t), on * self.amplitude * w * np.cos(w * t)
