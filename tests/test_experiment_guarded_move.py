@@ -82,3 +82,7 @@ def test_three_simulated_runs_train_every_model_of_the_graph(tmp_path):
     cos = abs(float(built["CXZ"].normals[:, 0] @ built["CZ"].normals[:, 0]))
     assert np.degrees(np.arccos(min(cos, 1.0))) == pytest.approx(5.0, abs=1e-6)
     assert np.allclose(built["CXZ"].V, built["CZ"].V)
+    # 9.1.1: S is the moving model with the standard deviation of the mean raised to 2.5
+    assert np.hypot.reduce(built["S"].theta_sqrt[0, 0]) == pytest.approx(2.5)
+    trained_sd = np.sqrt(np.asarray(gm.temporal["free-moving"].theta_cov)[..., 0, 0]).ravel()[0]
+    assert trained_sd < 0.5

@@ -149,3 +149,36 @@ def test_observer_tracks_free_to_contact_with_triples():
     assert path[0] == "free" and path[-1] == "Z"
     start = dict((n, s) for n, s in res.map_path)["Z"]
     assert 295 <= start <= 320
+
+
+@pytest.mark.parametrize("slides", [False, True])
+def test_a_stuck_finger_is_likelier_under_two_normals_than_under_the_plane(slides):
+    """A finger on a Z plane, the exploration pulling on it (9.1.1), with the floor's noise
+    (normal motion v_n, friction along x and y v_x, v_y).  Z and XZ share the z normal and
+    the y force, so their difference is XZ's x normal (scipy marginal, the surface point
+    integrated out) minus Z's x force (scipy normal).  Stuck (x still), XZ wins by about
+    1/2 ln(v_x / v_n) a sample -- sticking is a constraint (9.1.2 models it as (S,3,F));
+    sliding 1 mm along x, Z wins."""
+    vn, vx, vy = 1.4, 6000.0, 2800.0
+    Z = ConstraintFeature.named("Z", "Z", V=np.diag([vn, vx, vy]), offset_sd=0.02)
+    XZ = ConstraintFeature.named("XZ", "XZ", V=np.diag([vn, vn, vy]), offset_sd=0.02)
+    n = 200
+    t = np.arange(n) / 250.0
+    x = np.zeros((n, 6))
+    x[:, 0] = 1e-3 + (1e-3 * np.sin(2 * np.pi * 0.8 * t) if slides else 0.0)
+    x[:, 2] = -0.01
+    x[:, 3] = 0.15 * np.sin(2 * np.pi * 0.3 * t + 0.4)           # friction force, N
+    x[:, 4] = 0.10 * np.sin(2 * np.pi * 0.25 * t)
+    x[:, 5] = 0.5 + 0.2 * np.sin(2 * np.pi * 0.35 * t)
+    (llz, _), _ = _run(Z, x)
+    (llxz, _), _ = _run(XZ, x)
+    xs = x[:, 0] * XZ.scaling.beta[0]
+    C = vn * np.eye(n) + vn / XZ.kappa0 * np.ones((n, n))
+    want = (stats.multivariate_normal(np.zeros(n), C).logpdf(xs)
+            - stats.norm(0, np.sqrt(vx)).logpdf(x[:, 3] * Z.scaling.alpha[0]).sum())
+    diff = llxz.sum() - llz.sum()
+    assert diff == pytest.approx(want, rel=1e-6)       # scipy's factor of C limits it
+    if slides:
+        assert diff < -100 * n
+    else:
+        assert diff > 0.8 * n * 0.5 * np.log(vx / vn)

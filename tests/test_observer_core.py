@@ -275,3 +275,43 @@ def test_trained_feature_objects_take_the_graph_model_names():
     built = _build(graph.models["I"], {"H3": impact}, graph, "m.h5")
     assert built.name == "I" and built.signal == "hf"
     assert impact.name == "H3"                      # the trained object is not mutated
+
+
+def test_mean_sd_rescales_the_prior_of_the_first_parameter():
+    """with_mean_sd (9.1.1's S model): the prior covariance becomes D P0 D with
+    D = diag(mean_sd / sd_0, 1); the path log-likelihood is the Gaussian marginal under it."""
+    rng = np.random.default_rng(8)
+    n = 120
+    y = -4.0 + 0.4 * rng.normal(size=n)
+    S0 = np.array([[0.05, 0.0], [0.02, 0.1]])
+    model = TemporalFeature(name="A", order=1, mean=True, theta_mean=[-7.0, 0.0],
+                            theta_sqrt=S0, noise_var=0.2, structure="plain")
+    wide = model.with_mean_sd(2.5)
+    D = np.diag([2.5 / np.hypot(*S0[0]), 1.0])
+    P0 = D @ S0 @ S0.T @ D
+    assert np.sqrt(P0[0, 0]) == pytest.approx(2.5)
+    g = graph(["A"], edges=(), self_transition=False)
+    Psi = np.c_[np.ones(n - 1), y[:-1]]
+    for m, P in ((model, S0 @ S0.T), (wide, P0)):
+        obs = Observer(g, {"A": m}, threshold=1e9)
+        observe(obs, y, chunk=50)
+        oracle = stats.multivariate_normal(Psi @ [-7.0, 0.0],
+                                           Psi @ P @ Psi.T + 0.2 * np.eye(n - 1)).logpdf(y[1:])
+        assert obs.paths()[0].loglik == pytest.approx(oracle, rel=1e-9)
+    # the original is untouched
+    assert np.allclose(model.theta_sqrt[0], S0)
+    with pytest.raises(ValueError, match="mean_sd"):
+        model.with_mean_sd(0.0)
+
+
+def test_first_orthogonal_parameter_is_the_level():
+    """The premise of mean_sd: with the constant regressor first, the first orthogonal
+    parameter of an AR(1)-with-mean fit is the block's sample mean (numpy)."""
+    from contactlab.estimators.models import ARModel, estimate
+
+    rng = np.random.default_rng(9)
+    y = np.zeros(400)
+    for t in range(1, 400):
+        y[t] = -3.0 + 0.5 * y[t - 1] + rng.normal()
+    fit = estimate(ARModel(order=1, mean=True), y[:, None])
+    assert fit.orthogonal[0, 0] == pytest.approx(y[1:].mean(), rel=1e-9)

@@ -30,7 +30,7 @@ __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MO
 #: model kinds the observer implements, with the parameters each accepts
 #: (name -> required?); see contactlab.observer.models
 MODEL_KINDS: dict[str, dict[str, bool]] = {
-    "temporal": {"trained": False},
+    "temporal": {"trained": False, "mean_sd": False},
     "impact": {"trained": False, "theta_mean": False, "theta_sd": False, "noise_var": False},
     "velocity-fixed": {"sigma": False, "trained": False},
     "velocity-moving": {"low": False, "high": False, "sigma": False, "trained": False},
@@ -382,10 +382,10 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                 raise err(f"{where}.{k}", f"missing (required by kind {kind!r})")
         for k, v in params.items():
             if k in ("sigma", "low", "high", "noise_var", "noise_scale", "offset_sd",
-                     "prior_samples", "change_size"):
+                     "prior_samples", "change_size", "mean_sd"):
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                     raise err(f"{where}.{k}", f"must be a finite number; got {v!r}")
-        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size"):
+        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size", "mean_sd"):
             if k in params and params[k] <= 0:
                 raise err(f"{where}.{k}", f"must be > 0; got {params[k]!r}")
         if params.get("change_size") == 1:

@@ -99,9 +99,9 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
                             file=source or graph.source, field=f"{where}.trained")
         return _renamed(obj, spec)
     if spec.kind == "temporal":
-        if isinstance(obj, TemporalFeature):
-            return _renamed(obj, spec)
-        return TemporalFeature.from_trained(obj, name=spec.name, signal=spec.signal)
+        model = (_renamed(obj, spec) if isinstance(obj, TemporalFeature)
+                 else TemporalFeature.from_trained(obj, name=spec.name, signal=spec.signal))
+        return model.with_mean_sd(p["mean_sd"]) if "mean_sd" in p else model
     if isinstance(obj, ImpactFeature):
         return _renamed(obj, spec)
     if hasattr(obj, "order"):

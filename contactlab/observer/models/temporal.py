@@ -85,6 +85,32 @@ class TemporalFeature(FeatureModel):
                    noise_var=model.noise_var, structure=structure,
                    structure_sqrt=model.structure_sqrt, signal=signal, change_size=change_size)
 
+    def with_mean_sd(self, mean_sd: float) -> "TemporalFeature":
+        """A copy whose prior standard deviation of the mean is ``mean_sd`` (9.1.1: "the
+        expected standard deviation of the mean was increased to 2.5", so that one
+        stationary model covers every stationary level of y_h).
+
+        With the constant regressor first, the first orthogonal parameter is the
+        signal's level (A.42: ``k~_0 / R_00`` is the sample mean of the block), so its
+        row of the prior square root is rescaled to standard deviation ``mean_sd``:
+        ``S' = D S`` with ``D = diag(mean_sd / sd_0, 1, ...)`` keeps the prior's
+        correlations and its lower-triangular form.  (Under ``structure="plain"`` the
+        first parameter is the forcing term mu of the natural parameters instead.)
+        """
+        import copy
+
+        if not self.ar.mean:
+            raise ValueError(f"{self.name}: mean_sd needs a model with a mean (mean=True)")
+        if not (np.ndim(mean_sd) == 0 and np.isfinite(mean_sd) and mean_sd > 0):
+            raise ValueError(f"{self.name}: mean_sd must be a number > 0; got {mean_sd!r}")
+        out = copy.copy(self)
+        sd0 = np.sqrt(np.sum(self.theta_sqrt[:, 0, :] ** 2, axis=-1))          # (C,)
+        S = self.theta_sqrt.copy()
+        S[:, 0, :] *= (float(mean_sd) / sd0)[:, None]
+        out.theta_sqrt = S
+        out.__dict__.pop("_templates", None)
+        return out
+
     @property
     def channels(self) -> int:
         return self.theta_mean.shape[0]
