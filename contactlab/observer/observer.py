@@ -301,6 +301,7 @@ class Observer:
         self._membership = np.zeros((0, self.graph.n_nodes))
         self._succ: dict = {}
         self._log_edge: dict = {}
+        self._log_table: dict = {}
         self.reset()
 
     # -- state -----------------------------------------------------------------------
@@ -311,6 +312,7 @@ class Observer:
         self._started = False
         self._next_id = 0
         self._paths: list[_Path] = []
+        self._arrays = None                     # cached (node, slot, start) arrays of _paths
         self._free_slots: list[int] = []
         self._n_slots = 0
         init = self.graph.initial
@@ -338,7 +340,18 @@ class Observer:
         p = _Path(self._next_id, node, start, init, Segment(node, start, prev), slot)
         self._next_id += 1
         self._paths.append(p)
+        self._arrays = None
         return p
+
+    def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(P,) node, slot and start of the active paths and the (P, K) one-hot node matrix."""
+        if self._arrays is None:
+            nodes = np.array([p.node for p in self._paths], dtype=np.int64)
+            M = np.zeros((len(nodes), self.graph.n_nodes))
+            M[np.arange(len(nodes)), nodes] = 1.0
+            self._arrays = (nodes, np.array([p.slot for p in self._paths], dtype=np.int64),
+                            np.array([p.start for p in self._paths], dtype=np.int64), M)
+        return self._arrays
 
     def _start(self, data: dict[str, np.ndarray]) -> None:
         """First data: channel counts are known; build the banks and the initial instances."""
@@ -369,6 +382,16 @@ class Observer:
         self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
         self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
         self._side_tables()
+        # the prior state of one instance of each model, stacked per bank (``_prior_row[k]``:
+        # model k's row in its bank's stack); new instances are rows of it
+        self._prior_row = np.zeros(len(ms), dtype=np.int64)
+        stacks: list[list] = [[] for _ in self._banks]
+        for k, m in enumerate(ms):
+            b = bank_of[k]
+            self._prior_row[k] = len(stacks[b])
+            stacks[b].append(self._banks[b].new(np.zeros(1, dtype=np.int64), model=m)[1])
+        self._prior = [{key: np.concatenate([st[key] for st in sts]) for key in sts[0]}
+                       for sts in stacks]
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
@@ -492,17 +515,14 @@ class Observer:
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
-        nodes = np.array([p.node for p in self._paths], dtype=np.int64)
+        nodes, _, _, M = self._path_arrays()
         w = np.exp(ll - ll.max(axis=1, keepdims=True))
         w /= w.sum(axis=1, keepdims=True)
-        M = np.zeros((len(nodes), self.graph.n_nodes))
-        M[np.arange(len(nodes)), nodes] = 1.0
         return w @ M, nodes[np.argmax(ll, axis=1)]
 
     def _write_hist(self, t_first: int, trace: np.ndarray) -> None:
         if len(trace):
-            slots = np.array([p.slot for p in self._paths], dtype=np.int64)
-            self._hist.rows(t_first + 1, t_first + 1 + len(trace))[:, slots] = trace
+            self._hist.rows(t_first + 1, t_first + 1 + len(trace))[:, self._path_arrays()[1]] = trace
 
     def _x(self, model: FeatureModel, a: int, b: int) -> np.ndarray:
         return self._buf[model.signal].rows(a - model.lag, b)
@@ -566,14 +586,20 @@ class Observer:
             alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
                           for r in rs)
         # candidates (step 1) with the maximisation over (node, start) (step 2)
-        cands: dict[tuple[int, int], tuple[float, Segment]] = {}
+        by_start: dict[int, tuple] = {}           # start -> (action, [successor nodes])
+        order = {}                                # (node, start) in the order of the alarms
         for pi, _, r in alarms:
-            p = self._paths[pi]
-            a = int(self._act.rows(r, r + 1)[0, 0])
-            a = None if a < 0 else a
-            for j in self._successors(p.node, a):
-                if (j, r) not in cands:
-                    cands[(j, r)] = self._best_predecessor(j, r, a)
+            if r not in by_start:
+                a = int(self._act.rows(r, r + 1)[0, 0])
+                by_start[r] = (None if a < 0 else a, [])
+            a, js = by_start[r]
+            for j in self._successors(self._paths[pi].node, a):
+                if (j, r) not in order:
+                    order[(j, r)] = None
+                    js.append(j)
+        for r, (a, js) in by_start.items():
+            order.update(zip([(j, r) for j in js], self._best_predecessors(js, r, a)))
+        cands: dict[tuple[int, int], tuple[float, Segment]] = order
         tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
         spawned, merged = [], []
         new = []
@@ -601,19 +627,34 @@ class Observer:
             self._succ[key] = self.graph.successors(node, action)
         return self._succ[key]
 
-    def _best_predecessor(self, j: int, r: int, action) -> tuple[float, Segment]:
-        """The best tracked path into instance ``(j, r)``: the highest path log-likelihood
-        after sample ``r - 1`` over the tracked paths started by ``r`` whose node may go
-        to ``j`` (the maximisation of 6.1/6.5 over the predecessors of a feature
-        instance; the spawning path is one of them)."""
-        row = self._hist.rows(r, r + 1)[0]
-        best, prev = -np.inf, None
-        for p in self._paths:
-            if p.start <= r and j in self._successors(p.node, action):
-                v = float(row[p.slot]) + self._log_transition(p.node, j, action)
-                if v > best:
-                    best, prev = v, p.seg
-        return best, prev
+    def _best_predecessors(self, js: list, r: int, action) -> list[tuple[float, Segment]]:
+        """For each node j of ``js``, the best tracked path into instance ``(j, r)``: the
+        highest path log-likelihood after sample ``r - 1`` (plus ``log p(i -> j)``) over the
+        tracked paths started by ``r`` whose node may go to ``j`` (the maximisation of
+        6.1/6.5 over the predecessors of a feature instance; the spawning path is one of
+        them); the first such path on ties, ``(-inf, None)`` if none."""
+        nodes, slots, starts, _ = self._path_arrays()
+        row = self._hist.rows(r, r + 1)[0, slots]
+        v = row[:, None] + self._transition_table(action)[nodes][:, js]      # (P, J)
+        v[starts > r] = -np.inf
+        best = np.argmax(v, axis=0)
+        out = []
+        for c, i in enumerate(best.tolist()):
+            x = float(v[i, c])
+            out.append((x, self._paths[i].seg) if x > -np.inf else (-np.inf, None))
+        return out
+
+    def _transition_table(self, action) -> np.ndarray:
+        """(K, K) ``log p(i -> j | action)`` where i may go to j (:meth:`_log_transition`),
+        ``-inf`` elsewhere."""
+        if action not in self._log_table:
+            K = self.graph.n_nodes
+            T = np.full((K, K), -np.inf)
+            for i in range(K):
+                for j in self._successors(i, action):
+                    T[i, j] = self._log_transition(i, j, action)
+            self._log_table[action] = T
+        return self._log_table[action]
 
     def _log_transition(self, i: int, j: int, action) -> float:
         """``log p(i -> j | action)`` from the graph's edge probabilities (0 where the graph
@@ -627,94 +668,70 @@ class Observer:
         return self._log_edge[key]
 
     def _spawn(self, new: list, ta: int, end: int) -> None:
-        """Step 3: new paths initialised at the spawning path's log-likelihood and caught up."""
+        """Step 3: new paths initialised at their best predecessor's log-likelihood and
+        caught up: one bank run per (start, bank), one compiled catch-up per start."""
         S = self._df.shape[1]
-        first_unit = len(self._u_path)
-        unit_specs = []                          # (path index, model index, start) in unit order
-        paths = []
+        first_path = len(self._paths)
+        u_path, u_kind = [], []                      # new units: path index, model index
         for j, r, init, prev in new:
-            p = self._new_path(j, r, init, prev)
-            pi = len(self._paths) - 1
-            paths.append((pi, p))
-            for k in self._node_kinds[j]:
-                unit_specs.append((pi, k, r))
+            self._new_path(j, r, init, prev)
+            u_path.extend([len(self._paths) - 1] * len(self._node_kinds[j]))
+            u_kind.extend(self._node_kinds[j])
         self._hist.widen(self._n_slots)
-        n_new = len(unit_specs)
-        kinds = np.array([s[1] for s in unit_specs], dtype=np.int64)
-        # one vectorised run per (bank, start); bank rows appended in unit order
-        groups: dict = {}
-        for i, (_, k, r) in enumerate(unit_specs):
-            groups.setdefault(r, {}).setdefault(int(self._bank_of[k]), []).append(i)
-        parts: dict = {}                                 # bank -> [(unit indices, state)]
-        runs: dict = {}                                  # start -> [(unit indices, ll, xi)]
-        for r, by_bank in groups.items():
-            for b, cols in by_bank.items():
-                bank = self._banks[b]
-                ks = kinds[cols]
-                if (ks == ks[0]).all():
-                    state = bank.new([r] * len(cols), model=self.models[self._model_names[ks[0]]])[1]
-                else:
-                    news = {int(k): bank.new([r] * int((ks == k).sum()),
-                                             model=self.models[self._model_names[k]])[1]
-                            for k in np.unique(ks)}
-                    state = {key: np.concatenate([st[key] for st in news.values()])
-                             for key in next(iter(news.values()))}
-                    if (np.diff(ks) < 0).any():         # rows of each model to unit order
-                        perm = np.argsort(np.argsort(ks, kind="stable"), kind="stable")
-                        state = {key: v[perm] for key, v in state.items()}
-                ll, st = bank.run(self._x(bank.model, r, end), t0=r,
-                                  starts=np.full(len(cols), r, dtype=np.int64), state=state)
-                runs.setdefault(r, []).append((cols, ll, self._xi_of(st, ks)))
-                parts.setdefault(b, []).append((cols, state))
-        for b, ps in parts.items():
-            idx = [i for g, _ in ps for i in g]
-            if len(ps) == 1:                             # one run: already in unit order
-                merged_state = ps[0][1]
-                starts = np.full(len(idx), unit_specs[idx[0]][2], dtype=np.int64)
-            else:
-                perm = np.argsort(idx, kind="stable")
-                merged_state = {key: np.concatenate([st[key] for _, st in ps])[perm]
-                                for key in ps[0][1]}
-                starts = np.array([unit_specs[i][2] for i in idx], dtype=np.int64)[perm]
-            self._banks[b].extend(starts, merged_state)
-        # detectors and path log-likelihoods over the catch-up samples r..ta, one
-        # compiled pass per start time
+        u_path = np.array(u_path, dtype=np.int64)
+        u_kind = np.array(u_kind, dtype=np.int64)
+        p_start = np.array([r for _, r, _, _ in new], dtype=np.int64)
+        u_start = p_start[u_path - first_path]
+        u_bank = self._bank_of[u_kind]
+        n_new = len(u_path)
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
         new_inc = np.zeros((end - self._w0, n_new))
         new_xi = np.zeros((end - self._w0, n_new, S))
         rest = slice(ta + 1 - self._w0, end - self._w0)
-        lls = np.empty(len(paths))
-        first_path = paths[0][0]
-        for r, rs in runs.items():
-            if len(rs) == 1:
-                us, inc, xi = rs[0]
-            else:
-                order = np.argsort([i for cols, _, _ in rs for i in cols], kind="stable")
-                us = [i for cols, _, _ in rs for i in cols]
-                us = [us[o] for o in order]
-                inc = np.concatenate([ll for _, ll, _ in rs], axis=1)[:, order]
-                xi = np.concatenate([x for _, _, x in rs], axis=1)[:, order]
-            pis = sorted({unit_specs[i][0] for i in us})
-            local = {pi: c for c, pi in enumerate(pis)}
-            unit_path = np.array([local[unit_specs[i][0]] for i in us], dtype=np.int64)
-            ps = [self._paths[pi] for pi in pis]
-            init = np.array([p.init for p in ps])
-            slots = np.array([p.slot for p in ps], dtype=np.int64)
+        lls = np.empty(len(new))
+        parts: dict = {}                                 # bank -> [(unit indices, state)]
+        for r in dict.fromkeys(p_start.tolist()):
+            us = np.flatnonzero(u_start == r)            # this start's units, in unit order
+            inc = np.empty((end - r, len(us)))
+            xi = np.empty((end - r, len(us), S))
+            for b in dict.fromkeys(u_bank[us].tolist()):
+                sel = u_bank[us] == b
+                cols = us[sel]
+                ks = u_kind[cols]
+                bank = self._banks[b]
+                state = {key: v[self._prior_row[ks]] for key, v in self._prior[b].items()}
+                ll, st = bank.run(self._x(bank.model, r, end), t0=r,
+                                  starts=np.full(len(cols), r, dtype=np.int64), state=state)
+                inc[:, sel] = ll
+                xi[:, sel] = self._xi_of(st, ks)
+                parts.setdefault(b, []).append((cols, state))
+            # detectors and path log-likelihoods over the catch-up samples r..ta
+            pis, unit_path = np.unique(u_path[us], return_inverse=True)
+            init = np.array([self._paths[pi].init for pi in pis.tolist()])
+            slots = self._path_arrays()[1][pis]
             nc = ta - r + 1
             traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), np.ascontiguousarray(xi[:nc]),
-                                   unit_path, init, r)
+                                   unit_path.astype(np.int64), init, r)
             df[us], lz[us] = d, z
             self._hist.rows(r, r + 1)[0, slots] = init
             self._hist.rows(r + 1, ta + 2)[:, slots] = traj
-            lls[np.array(pis) - first_path] = traj[-1]
+            lls[pis - first_path] = traj[-1]
             new_inc[rest, us] = inc[nc:]
             new_xi[rest, us] = xi[nc:]
+        for b, ps in parts.items():                      # bank rows appended in unit order
+            if len(ps) == 1:
+                idx, state = ps[0]
+            else:
+                idx = np.concatenate([cols for cols, _ in ps])
+                perm = np.argsort(idx, kind="stable")
+                idx = idx[perm]
+                state = {key: np.concatenate([st[key] for _, st in ps])[perm] for key in ps[0][1]}
+            self._banks[b].extend(u_start[idx], state)
         self._ll = np.concatenate([self._ll, lls])
-        self._append_units([s[0] for s in unit_specs], kinds, df, lz)
+        self._append_units(u_path, u_kind, df, lz)
         self._inc = np.concatenate([self._inc, new_inc], axis=1)
         self._xi = np.concatenate([self._xi, new_xi], axis=1)
-        assert len(self._u_path) == first_unit + n_new
 
     def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> None:
         """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events."""
@@ -747,6 +764,7 @@ class Observer:
         remap = -np.ones(len(self._paths), dtype=np.int64)
         remap[keep] = np.arange(len(keep))
         self._paths = [self._paths[i] for i in keep]
+        self._arrays = None
         self._ll = self._ll[keep]
         umask = remap[self._u_path] >= 0
         u_bank = self._bank_of[self._u_model]
