@@ -616,10 +616,14 @@ class Observer:
                     merged.append((self.graph.nodes[j].name, r))
             else:
                 new.append((j, r, init, prev))
+        n_units = len(self._u_path)
         if new:
-            self._spawn(new, ta, end)
+            self._spawn(new, ta)
             spawned = [(self.graph.nodes[j].name, r) for j, r, _, _ in new]
-        self._prune(ta, alarms, spawned, merged)
+        kept = self._prune(ta, alarms, spawned, merged)
+        # the new instances that survived the pruning run on to the window's end
+        n_new = len(self._u_path) - n_units if kept is None else int(kept[n_units:].sum())
+        self._run_on(n_new, ta + 1, end)
 
     def _successors(self, node: int, action) -> tuple[int, ...]:
         key = (node, action)
@@ -667,9 +671,11 @@ class Observer:
             self._log_edge[key] = math.log(p) if p else 0.0
         return self._log_edge[key]
 
-    def _spawn(self, new: list, ta: int, end: int) -> None:
+    def _spawn(self, new: list, ta: int) -> None:
         """Step 3: new paths initialised at their best predecessor's log-likelihood and
-        caught up: one bank run per (start, bank), one compiled catch-up per start."""
+        caught up to ``ta``: one bank run per (start, bank), one compiled catch-up per
+        start.  Their rows after ``ta`` are left for :meth:`_run_on` (the survivors of
+        the pruning)."""
         S = self._df.shape[1]
         first_path = len(self._paths)
         u_path, u_kind = [], []                      # new units: path index, model index
@@ -686,22 +692,19 @@ class Observer:
         n_new = len(u_path)
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
-        new_inc = np.zeros((end - self._w0, n_new))
-        new_xi = np.zeros((end - self._w0, n_new, S))
-        rest = slice(ta + 1 - self._w0, end - self._w0)
         lls = np.empty(len(new))
         parts: dict = {}                                 # bank -> [(unit indices, state)]
         for r in dict.fromkeys(p_start.tolist()):
             us = np.flatnonzero(u_start == r)            # this start's units, in unit order
-            inc = np.empty((end - r, len(us)))
-            xi = np.empty((end - r, len(us), S))
+            inc = np.empty((ta + 1 - r, len(us)))
+            xi = np.empty((ta + 1 - r, len(us), S))
             for b in dict.fromkeys(u_bank[us].tolist()):
                 sel = u_bank[us] == b
                 cols = us[sel]
                 ks = u_kind[cols]
                 bank = self._banks[b]
                 state = {key: v[self._prior_row[ks]] for key, v in self._prior[b].items()}
-                ll, st = bank.run(self._x(bank.model, r, end), t0=r,
+                ll, st = bank.run(self._x(bank.model, r, ta + 1), t0=r,
                                   starts=np.full(len(cols), r, dtype=np.int64), state=state)
                 inc[:, sel] = ll
                 xi[:, sel] = self._xi_of(st, ks)
@@ -710,15 +713,11 @@ class Observer:
             pis, unit_path = np.unique(u_path[us], return_inverse=True)
             init = np.array([self._paths[pi].init for pi in pis.tolist()])
             slots = self._path_arrays()[1][pis]
-            nc = ta - r + 1
-            traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), np.ascontiguousarray(xi[:nc]),
-                                   unit_path.astype(np.int64), init, r)
+            traj, d, z = _catch_up(inc, xi, unit_path.astype(np.int64), init, r)
             df[us], lz[us] = d, z
             self._hist.rows(r, r + 1)[0, slots] = init
             self._hist.rows(r + 1, ta + 2)[:, slots] = traj
             lls[pis - first_path] = traj[-1]
-            new_inc[rest, us] = inc[nc:]
-            new_xi[rest, us] = xi[nc:]
         for b, ps in parts.items():                      # bank rows appended in unit order
             if len(ps) == 1:
                 idx, state = ps[0]
@@ -730,11 +729,34 @@ class Observer:
             self._banks[b].extend(u_start[idx], state)
         self._ll = np.concatenate([self._ll, lls])
         self._append_units(u_path, u_kind, df, lz)
-        self._inc = np.concatenate([self._inc, new_inc], axis=1)
-        self._xi = np.concatenate([self._xi, new_xi], axis=1)
+        n = len(self._inc)
+        self._inc = np.concatenate([self._inc, np.zeros((n, n_new))], axis=1)
+        self._xi = np.concatenate([self._xi, np.zeros((n, n_new, S))], axis=1)
 
-    def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> None:
-        """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events."""
+    def _run_on(self, n: int, a: int, end: int) -> None:
+        """Run the last ``n`` units (new instances: the last rows of their banks) over
+        samples ``a .. end-1`` of the window, from the state :meth:`_spawn` left."""
+        if n == 0 or a >= end:
+            return
+        U = len(self._u_path)
+        us = np.arange(U - n, U)
+        u_bank = self._bank_of[self._u_model[us]]
+        rows = slice(a - self._w0, end - self._w0)
+        for b in dict.fromkeys(u_bank.tolist()):
+            cols = us[u_bank == b]
+            bank = self._banks[b]
+            first = len(bank) - len(cols)
+            state = {key: v[first:] for key, v in bank.state.items()}
+            ll, st = bank.run(self._x(bank.model, a, end), t0=a, starts=bank.starts[first:],
+                              state=state)
+            for key, v in state.items():        # in place already unless the model replaced it
+                bank.state[key][first:] = v
+            self._inc[rows, cols] = ll
+            self._xi[rows, cols] = self._xi_of(st, self._u_model[cols])
+
+    def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> np.ndarray | None:
+        """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events.
+        Returns the mask of the units kept (None: all)."""
         ll = self._ll
         order = np.argsort(-ll, kind="stable")
         w = np.exp(ll - ll[order[0]])
@@ -756,7 +778,7 @@ class Observer:
         else:
             self.events_.append(ChangeEvent(ta, None, None, None, None, [], [], cand_ll, keep))
         if len(keep) == len(self._paths):
-            return
+            return None
         keep_set = set(keep.tolist())
         for i, p in enumerate(self._paths):
             if i not in keep_set:
@@ -778,6 +800,7 @@ class Observer:
         self._lz = self._lz[umask]
         self._inc = np.ascontiguousarray(self._inc[:, umask])
         self._xi = np.ascontiguousarray(self._xi[:, umask])
+        return umask
 
     def _trim(self) -> None:
         """Shorten the buffers to the earliest change time still possible (6.4)."""
