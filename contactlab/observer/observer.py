@@ -392,6 +392,8 @@ class Observer:
             stacks[b].append(self._banks[b].new(np.zeros(1, dtype=np.int64), model=m)[1])
         self._prior = [{key: np.concatenate([st[key] for st in sts]) for key in sts[0]}
                        for sts in stacks]
+        self._prior_cache: dict = {}
+        self._bank_list = self._bank_of.tolist()
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
@@ -678,46 +680,52 @@ class Observer:
         the pruning)."""
         S = self._df.shape[1]
         first_path = len(self._paths)
-        u_path, u_kind = [], []                      # new units: path index, model index
+        u_path, u_kind, u_start = [], [], []          # new units: path, model index, start
+        groups: dict = {}                             # start -> [units, {bank: (units, columns)}]
         for j, r, init, prev in new:
             self._new_path(j, r, init, prev)
-            u_path.extend([len(self._paths) - 1] * len(self._node_kinds[j]))
-            u_kind.extend(self._node_kinds[j])
+            g = groups.setdefault(r, [[], {}])
+            for k in self._node_kinds[j]:
+                i = len(u_path)
+                cols, pos = g[1].setdefault(self._bank_list[k], ([], []))
+                cols.append(i)
+                pos.append(len(g[0]))
+                g[0].append(i)
+                u_path.append(len(self._paths) - 1)
+                u_kind.append(k)
+                u_start.append(r)
         self._hist.widen(self._n_slots)
-        u_path = np.array(u_path, dtype=np.int64)
-        u_kind = np.array(u_kind, dtype=np.int64)
-        p_start = np.array([r for _, r, _, _ in new], dtype=np.int64)
-        u_start = p_start[u_path - first_path]
-        u_bank = self._bank_of[u_kind]
         n_new = len(u_path)
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
         lls = np.empty(len(new))
         parts: dict = {}                                 # bank -> [(unit indices, state)]
-        for r in dict.fromkeys(p_start.tolist()):
-            us = np.flatnonzero(u_start == r)            # this start's units, in unit order
+        for r, (us, by_bank) in groups.items():
             inc = np.empty((ta + 1 - r, len(us)))
             xi = np.empty((ta + 1 - r, len(us), S))
-            for b in dict.fromkeys(u_bank[us].tolist()):
-                sel = u_bank[us] == b
-                cols = us[sel]
-                ks = u_kind[cols]
+            for b, (cols, pos) in by_bank.items():
+                ks = [u_kind[i] for i in cols]
                 bank = self._banks[b]
-                state = {key: v[self._prior_row[ks]] for key, v in self._prior[b].items()}
+                state = self._prior_state(b, ks)
                 ll, st = bank.run(self._x(bank.model, r, ta + 1), t0=r,
                                   starts=np.full(len(cols), r, dtype=np.int64), state=state)
-                inc[:, sel] = ll
-                xi[:, sel] = self._xi_of(st, ks)
+                inc[:, pos] = ll
+                xi[:, pos] = self._xi_of(st, ks)
                 parts.setdefault(b, []).append((cols, state))
-            # detectors and path log-likelihoods over the catch-up samples r..ta
-            pis, unit_path = np.unique(u_path[us], return_inverse=True)
-            init = np.array([self._paths[pi].init for pi in pis.tolist()])
-            slots = self._path_arrays()[1][pis]
-            traj, d, z = _catch_up(inc, xi, unit_path.astype(np.int64), init, r)
+            # detectors and path log-likelihoods over the catch-up samples r..ta; a
+            # path's units are consecutive, so its local index grows along ``us``
+            pis, unit_path = [], []
+            for i in us:
+                if not pis or pis[-1] != u_path[i]:
+                    pis.append(u_path[i])
+                unit_path.append(len(pis) - 1)
+            init = np.array([self._paths[pi].init for pi in pis])
+            slots = [self._paths[pi].slot for pi in pis]
+            traj, d, z = _catch_up(inc, xi, np.array(unit_path, dtype=np.int64), init, r)
             df[us], lz[us] = d, z
             self._hist.rows(r, r + 1)[0, slots] = init
             self._hist.rows(r + 1, ta + 2)[:, slots] = traj
-            lls[pis - first_path] = traj[-1]
+            lls[[pi - first_path for pi in pis]] = traj[-1]
         for b, ps in parts.items():                      # bank rows appended in unit order
             if len(ps) == 1:
                 idx, state = ps[0]
@@ -726,12 +734,21 @@ class Observer:
                 perm = np.argsort(idx, kind="stable")
                 idx = idx[perm]
                 state = {key: np.concatenate([st[key] for _, st in ps])[perm] for key in ps[0][1]}
-            self._banks[b].extend(u_start[idx], state)
+            self._banks[b].extend(np.array(u_start, dtype=np.int64)[idx], state)
         self._ll = np.concatenate([self._ll, lls])
         self._append_units(u_path, u_kind, df, lz)
         n = len(self._inc)
         self._inc = np.concatenate([self._inc, np.zeros((n, n_new))], axis=1)
         self._xi = np.concatenate([self._xi, np.zeros((n, n_new, S))], axis=1)
+
+    def _prior_state(self, b: int, kinds: list) -> dict:
+        """Prior state of new instances of models ``kinds`` in bank ``b`` (a fresh copy)."""
+        key = (b, tuple(kinds))
+        if key not in self._prior_cache:
+            if len(self._prior_cache) >= 256:
+                self._prior_cache.clear()
+            self._prior_cache[key] = {k: v[self._prior_row[kinds]] for k, v in self._prior[b].items()}
+        return {k: v.copy() for k, v in self._prior_cache[key].items()}
 
     def _run_on(self, n: int, a: int, end: int) -> None:
         """Run the last ``n`` units (new instances: the last rows of their banks) over
