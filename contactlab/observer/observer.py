@@ -638,27 +638,30 @@ class Observer:
         highest path log-likelihood after sample ``r - 1`` (plus ``log p(i -> j)``) over the
         tracked paths started by ``r`` whose node may go to ``j`` (the maximisation of
         6.1/6.5 over the predecessors of a feature instance; the spawning path is one of
-        them); the first such path on ties, ``(-inf, None)`` if none."""
-        nodes, slots, starts, _ = self._path_arrays()
-        row = self._hist.rows(r, r + 1)[0, slots]
-        v = row[:, None] + self._transition_table(action)[nodes][:, js]      # (P, J)
-        v[starts > r] = -np.inf
-        best = np.argmax(v, axis=0)
+        them); the first such path on ties, ``(-inf, None)`` if none.  A handful of paths:
+        plain Python floats (the same double additions as numpy's)."""
+        row = self._hist.rows(r, r + 1)[0, self._path_arrays()[1]].tolist()
+        T = self._transition_table(action)
         out = []
-        for c, i in enumerate(best.tolist()):
-            x = float(v[i, c])
-            out.append((x, self._paths[i].seg) if x > -np.inf else (-np.inf, None))
+        for j in js:
+            best, prev = -math.inf, None
+            for p, v in zip(self._paths, row):
+                if p.start <= r:
+                    v += T[p.node][j]
+                    if v > best:
+                        best, prev = v, p.seg
+            out.append((best, prev))
         return out
 
-    def _transition_table(self, action) -> np.ndarray:
-        """(K, K) ``log p(i -> j | action)`` where i may go to j (:meth:`_log_transition`),
-        ``-inf`` elsewhere."""
+    def _transition_table(self, action) -> list[list[float]]:
+        """``[i][j]``: ``log p(i -> j | action)`` where i may go to j
+        (:meth:`_log_transition`), ``-inf`` elsewhere."""
         if action not in self._log_table:
             K = self.graph.n_nodes
-            T = np.full((K, K), -np.inf)
+            T = [[-math.inf] * K for _ in range(K)]
             for i in range(K):
                 for j in self._successors(i, action):
-                    T[i, j] = self._log_transition(i, j, action)
+                    T[i][j] = self._log_transition(i, j, action)
             self._log_table[action] = T
         return self._log_table[action]
 
@@ -704,6 +707,8 @@ class Observer:
             inc = np.empty((ta + 1 - r, len(us)))
             xi = np.empty((ta + 1 - r, len(us), S))
             for b, (cols, pos) in by_bank.items():
+                if pos[-1] - pos[0] == len(pos) - 1:      # consecutive columns: a slice
+                    pos = slice(pos[0], pos[-1] + 1)
                 ks = [u_kind[i] for i in cols]
                 bank = self._banks[b]
                 state = self._prior_state(b, ks)
