@@ -93,8 +93,9 @@ SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
 SIDES = D.OBSERVER_SIDE_CHOICES
 #: how transitions weigh a successor's start (:class:`Observer` ``transitions``)
 TRANSITIONS = D.OBSERVER_TRANSITION_CHOICES
-#: samples the model banks advance at a time within a chunk: a path spawned at an event
-#: is run to the end of its window, so events cost O(WINDOW) (results do not depend on it)
+#: samples the model banks advance at a time within a chunk: the new paths that survive
+#: an event's pruning run to the end of its window, so events cost O(WINDOW) (results do
+#: not depend on it up to the rounding of the node-probability sums)
 WINDOW = 128
 assert set(SIDES) == set(SIDE_TESTS)
 
@@ -801,27 +802,39 @@ class Observer:
             self.events_.append(ChangeEvent(ta, None, None, None, None, [], [], cand_ll, keep))
         if len(keep) == len(self._paths):
             return None
-        keep_set = set(keep.tolist())
+        remap = [-1] * len(self._paths)
+        for n, i in enumerate(keep.tolist()):
+            remap[i] = n
         for i, p in enumerate(self._paths):
-            if i not in keep_set:
+            if remap[i] < 0:
                 self._free_slots.append(p.slot)
-        remap = -np.ones(len(self._paths), dtype=np.int64)
-        remap[keep] = np.arange(len(keep))
         self._paths = [self._paths[i] for i in keep]
         self._arrays = None
         self._ll = self._ll[keep]
-        umask = remap[self._u_path] >= 0
-        u_bank = self._bank_of[self._u_model]
+        # units kept, per bank in bank-row order (a handful: plain lists)
+        u_new = [remap[p] for p in self._u_path.tolist()]
+        kept = [i for i, p in enumerate(u_new) if p >= 0]
+        rows: list[list] = [[] for _ in self._banks]
+        dropped = [False] * len(self._banks)
+        counts = [0] * len(self._banks)
+        for b, p in zip(self._bank_of[self._u_model].tolist(), u_new):
+            if p >= 0:
+                rows[b].append(counts[b])
+            else:
+                dropped[b] = True
+            counts[b] += 1
         for b, bank in enumerate(self._banks):
-            kept = umask[u_bank == b]
-            if not kept.all():
-                bank.keep(np.flatnonzero(kept))
-        self._u_path = remap[self._u_path[umask]]
-        self._u_model = self._u_model[umask]
-        self._df = self._df[umask]
-        self._lz = self._lz[umask]
-        self._inc = np.ascontiguousarray(self._inc[:, umask])
-        self._xi = np.ascontiguousarray(self._xi[:, umask])
+            if dropped[b]:
+                bank.keep(rows[b])
+        kept = np.array(kept, dtype=np.int64)
+        self._u_path = np.array([u_new[i] for i in kept.tolist()], dtype=np.int64)
+        self._u_model = self._u_model[kept]
+        self._df = self._df[kept]
+        self._lz = self._lz[kept]
+        self._inc = np.ascontiguousarray(self._inc[:, kept])
+        self._xi = np.ascontiguousarray(self._xi[:, kept])
+        umask = np.zeros(len(u_new), dtype=bool)
+        umask[kept] = True
         return umask
 
     def _trim(self) -> None:

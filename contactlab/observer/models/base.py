@@ -108,10 +108,9 @@ class ModelBank:
 
     def extend(self, starts: np.ndarray, state: dict) -> None:
         self.starts = np.concatenate([self.starts, starts])
-        self.state = {k: np.ascontiguousarray(np.concatenate([v, state[k]]))
-                      for k, v in self.state.items()}
+        self.state = {k: np.concatenate([v, state[k]]) for k, v in self.state.items()}
 
     def keep(self, rows) -> None:
         rows = np.asarray(rows, dtype=np.intp)
         self.starts = self.starts[rows]
-        self.state = {k: np.ascontiguousarray(v[rows]) for k, v in self.state.items()}
+        self.state = {k: v[rows] for k, v in self.state.items()}      # new C-ordered arrays
