@@ -577,13 +577,14 @@ class Observer:
     # -- events ----------------------------------------------------------------------
     def _handle_event(self, ta: int, end: int) -> None:
         """6.4, "if a change in any model is detected": spawn, maximise, prune."""
-        over = (self._df > self.threshold).any(axis=1)
+        thr = self.threshold
         alarms = []
-        for u in np.flatnonzero(over):
+        for u in np.flatnonzero((self._df > thr).any(axis=1)).tolist():
             # every test that crossed is a detected change with its own change time (each
             # the maximiser of 6.15 under its alternative); a big jump makes all of them
             # cross, and the one with the largest statistic may date from an old excursion
-            rs = sorted({int(z) + 1 for z in self._lz[u, self._df[u] > self.threshold]})
+            rs = sorted({z + 1 for d, z in zip(self._df[u].tolist(), self._lz[u].tolist())
+                         if d > thr})
             self._df[u] = 0.0                   # step 4: reset the spawning model's test
             self._lz[u] = ta
             alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
