@@ -57,16 +57,18 @@ def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
     psi4[...] = psi if psi.ndim == 4 else psi[:, None]
     y3 = np.empty((N, U, C))
     y3[...] = y if y.ndim == 3 else y[:, None]
-    view = {k: v.reshape((B,) + v.shape[2:]) for k, v in state.items()}
-    res = kalman_step(psi4.reshape(N, B, 1, q), y3.reshape(N, B, 1), theta=view["theta"],
-                      theta_sqrt=view["S"], noise_sqrt=view["Lv"], noise_est=view["Ve"],
-                      noise_count=view["vcount"], structure_sqrt=view["Ls"], structure=mode,
+    # (U, C, ...) state arrays as (B, ...) views: the kernel updates them in place
+    res = kalman_step(psi4.reshape(N, B, 1, q), y3.reshape(N, B, 1),
+                      theta=state["theta"].reshape(B, q), theta_sqrt=state["S"].reshape(B, q, q),
+                      noise_sqrt=state["Lv"].reshape(B, 1, 1), noise_est=state["Ve"].reshape(B, 1, 1),
+                      noise_count=state["vcount"].reshape(B),
+                      structure_sqrt=state["Ls"].reshape(B, q, q), structure=mode,
                       estimate_noise=bool(estimate_noise),
                       noise_prior_count=float(noise_prior_count))
     stat = np.empty((N, U, 2))
     if C == 1:
         loglik = res.loglik
-        stat[..., 0] = -2.0 * res.change_stat
+        np.multiply(res.change_stat, -2.0, out=stat[..., 0])
         stat[..., 1] = res.alpha.reshape(N, U)
     else:
         loglik = res.loglik.reshape(N, U, C).sum(axis=2)
