@@ -28,11 +28,13 @@ stream into chunks gives identical results.  Models whose instances advance by
 the same arithmetic from their own state (equal
 :meth:`~contactlab.observer.models.base.FeatureModel.batch_key`, e.g. AR
 models of one order and structure) share one bank.  Within a chunk every bank
-runs all its instances over the chunk in one vectorised call, and the
-successors one event spawns run in one call per bank and start time; the detectors
-and path sums then advance in a compiled loop that stops at the first event
-(a detector crossing or a gap prune), which is handled in Python before the
-loop resumes.
+runs all its instances over a window of the chunk in one vectorised call, and the
+successors one event spawns are caught up to the event in one call per bank and
+start time (only those that survive the pruning run on to the window's end, one
+call per bank); the detectors and path sums then advance in a compiled loop that
+stops at the first event (a detector crossing or a gap prune), which is handled in
+Python before the loop resumes.  An event involves a handful of paths, so its
+bookkeeping (best predecessors, unit and bank rows) is done in plain lists.
 
 Choices where 6.4 is silent or where we extend it (also in the report; each
 measured on the switching suite of ``benchmarks/bench_observer.py``):
@@ -313,7 +315,7 @@ class Observer:
         self._started = False
         self._next_id = 0
         self._paths: list[_Path] = []
-        self._arrays = None                     # cached (node, slot, start) arrays of _paths
+        self._arrays = None                     # cached arrays of _paths (_path_arrays)
         self._free_slots: list[int] = []
         self._n_slots = 0
         init = self.graph.initial
@@ -344,14 +346,13 @@ class Observer:
         self._arrays = None
         return p
 
-    def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(P,) node, slot and start of the active paths and the (P, K) one-hot node matrix."""
+    def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(P,) node and history slot of the active paths, and the (P, K) one-hot node matrix."""
         if self._arrays is None:
             nodes = np.array([p.node for p in self._paths], dtype=np.int64)
             M = np.zeros((len(nodes), self.graph.n_nodes))
             M[np.arange(len(nodes)), nodes] = 1.0
-            self._arrays = (nodes, np.array([p.slot for p in self._paths], dtype=np.int64),
-                            np.array([p.start for p in self._paths], dtype=np.int64), M)
+            self._arrays = (nodes, np.array([p.slot for p in self._paths], dtype=np.int64), M)
         return self._arrays
 
     def _start(self, data: dict[str, np.ndarray]) -> None:
@@ -518,7 +519,7 @@ class Observer:
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
-        nodes, _, _, M = self._path_arrays()
+        nodes, _, M = self._path_arrays()
         w = np.exp(ll - ll.max(axis=1, keepdims=True))
         w /= w.sum(axis=1, keepdims=True)
         return w @ M, nodes[np.argmax(ll, axis=1)]
@@ -591,19 +592,18 @@ class Observer:
                           for r in rs)
         # candidates (step 1) with the maximisation over (node, start) (step 2)
         by_start: dict[int, tuple] = {}           # start -> (action, [successor nodes])
-        order = {}                                # (node, start) in the order of the alarms
+        cands: dict[tuple[int, int], tuple[float, Segment] | None] = {}   # in alarm order
         for pi, _, r in alarms:
             if r not in by_start:
                 a = int(self._act.rows(r, r + 1)[0, 0])
                 by_start[r] = (None if a < 0 else a, [])
             a, js = by_start[r]
             for j in self._successors(self._paths[pi].node, a):
-                if (j, r) not in order:
-                    order[(j, r)] = None
+                if (j, r) not in cands:
+                    cands[(j, r)] = None
                     js.append(j)
         for r, (a, js) in by_start.items():
-            order.update(zip([(j, r) for j in js], self._best_predecessors(js, r, a)))
-        cands: dict[tuple[int, int], tuple[float, Segment]] = order
+            cands.update(zip([(j, r) for j in js], self._best_predecessors(js, r, a)))
         tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
         spawned, merged = [], []
         new = []
