@@ -13,7 +13,9 @@ A model is a small object (parameters in ``__init__``) with
   samples its first prediction needs), ``change_size`` (None: the observer's q);
 * ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
 * ``init_state(starts, channels) -> dict`` -- the prior state of ``U`` new
-  instances (arrays with a leading unit axis; ``{}`` for stateless models);
+  instances (arrays with a leading unit axis; ``{}`` for stateless models); the
+  prior of an instance does not depend on its start time (the observer stacks one
+  instance's prior per model and copies rows of it);
 * ``run(state, x, *, t0, starts) -> (loglik, stat)`` -- advance every instance
   over the samples ``t0 .. t0+N-1``: ``x`` is ``(lag + N, C)``, the measurements
   from ``t0 - lag``; returns the ``(N, U)`` log-likelihoods and either the
