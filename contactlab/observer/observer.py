@@ -146,21 +146,27 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  
 
 
 @numba.njit(cache=True)
-def _catch_up(inc, xi, unit_path, ll0, t_first):  # pragma: no cover
+def _catch_up(inc, stat, kinds, a, b, src, unit_path, ll0, t_first):  # pragma: no cover
     """New paths' log-likelihood trajectories and detector states over their catch-up rows.
 
-    ``inc`` (n, U), ``xi`` (n, U, S) of units of paths ``unit_path`` (U,) started at
-    ``t_first`` with initial log-likelihoods ``ll0`` (P,).  Same arithmetic and order
-    as :func:`_advance` (no thresholding).
+    ``inc`` (n, U) and ``stat`` (n, U, 2) of units of model kinds ``kinds`` (U,) and
+    paths ``unit_path`` (U,) started at ``t_first`` with initial log-likelihoods ``ll0``
+    (P,).  Same arithmetic and order as :func:`_increments` then :func:`_advance` (no
+    thresholding).
     """
-    n, k, S = xi.shape
+    n, k = inc.shape
+    S = src.shape[0]
     P = ll0.shape[0]
     traj = np.empty((n, P))
     df = np.zeros((k, S))
     lz = np.full((k, S), t_first - 1, dtype=np.int64)
     ll = ll0.copy()
+    x = np.empty((k, S))
     for i in range(n):
-        _detector_row(df, lz, xi[i], t_first + i)
+        for u in range(k):
+            for s in range(S):
+                x[u, s] = a[kinds[u], s] + b[kinds[u], s] * stat[i, u, src[s]]
+        _detector_row(df, lz, x, t_first + i)
         for u in range(k):
             ll[unit_path[u]] += inc[i, u]
         for p in range(P):
@@ -707,7 +713,7 @@ class Observer:
         parts: dict = {}                                 # bank -> [(unit indices, state)]
         for r, (us, by_bank) in groups.items():
             inc = np.empty((ta + 1 - r, len(us)))
-            xi = np.empty((ta + 1 - r, len(us), S))
+            stat = np.empty((ta + 1 - r, len(us), 2))
             for b, (cols, pos) in by_bank.items():
                 if pos[-1] - pos[0] == len(pos) - 1:      # consecutive columns: a slice
                     pos = slice(pos[0], pos[-1] + 1)
@@ -717,7 +723,7 @@ class Observer:
                 ll, st = bank.run(self._x(bank.model, r, ta + 1), t0=r,
                                   starts=np.full(len(cols), r, dtype=np.int64), state=state)
                 inc[:, pos] = ll
-                xi[:, pos] = self._xi_of(st, ks)
+                stat[:, pos] = st
                 parts.setdefault(b, []).append((cols, state))
             # detectors and path log-likelihoods over the catch-up samples r..ta; a
             # path's units are consecutive, so its local index grows along ``us``
@@ -728,7 +734,9 @@ class Observer:
                 unit_path.append(len(pis) - 1)
             init = np.array([self._paths[pi].init for pi in pis])
             slots = [self._paths[pi].slot for pi in pis]
-            traj, d, z = _catch_up(inc, xi, np.array(unit_path, dtype=np.int64), init, r)
+            traj, d, z = _catch_up(inc, stat, np.array([u_kind[i] for i in us], dtype=np.int64),
+                                   self._side_a, self._side_b, self._side_src,
+                                   np.array(unit_path, dtype=np.int64), init, r)
             df[us], lz[us] = d, z
             self._hist.rows(r, r + 1)[0, slots] = init
             self._hist.rows(r + 1, ta + 2)[:, slots] = traj
