@@ -92,6 +92,10 @@ class ARModel(LinearModel):
         return (("mu",) + names) if self.mean else names
 
     @property
+    def n_params(self) -> int:
+        return self.order + int(self.mean)
+
+    @property
     def lag(self) -> int:
         return self.order
 

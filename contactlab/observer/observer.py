@@ -28,11 +28,13 @@ stream into chunks gives identical results.  Models whose instances advance by
 the same arithmetic from their own state (equal
 :meth:`~contactlab.observer.models.base.FeatureModel.batch_key`, e.g. AR
 models of one order and structure) share one bank.  Within a chunk every bank
-runs all its instances over the chunk in one vectorised call, and the
-successors one event spawns run in one call per bank and start time; the detectors
-and path sums then advance in a compiled loop that stops at the first event
-(a detector crossing or a gap prune), which is handled in Python before the
-loop resumes.
+runs all its instances over a window of the chunk in one vectorised call, and the
+successors one event spawns are caught up to the event in one call per bank and
+start time (only those that survive the pruning run on to the window's end, one
+call per bank); the detectors and path sums then advance in a compiled loop that
+stops at the first event (a detector crossing or a gap prune), which is handled in
+Python before the loop resumes.  An event involves a handful of paths, so its
+bookkeeping (best predecessors, unit and bank rows) is done in plain lists.
 
 Choices where 6.4 is silent or where we extend it (also in the report; each
 measured on the switching suite of ``benchmarks/bench_observer.py``):
@@ -93,8 +95,9 @@ SIDE_TESTS = {"increase": ("increase",), "both": ("increase", "decrease"),
 SIDES = D.OBSERVER_SIDE_CHOICES
 #: how transitions weigh a successor's start (:class:`Observer` ``transitions``)
 TRANSITIONS = D.OBSERVER_TRANSITION_CHOICES
-#: samples the model banks advance at a time within a chunk: a path spawned at an event
-#: is run to the end of its window, so events cost O(WINDOW) (results do not depend on it)
+#: samples the model banks advance at a time within a chunk: the new paths that survive
+#: an event's pruning run to the end of its window, so events cost O(WINDOW) (results do
+#: not depend on it up to the rounding of the node-probability sums)
 WINDOW = 128
 assert set(SIDES) == set(SIDE_TESTS)
 
@@ -143,21 +146,27 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  
 
 
 @numba.njit(cache=True)
-def _catch_up(inc, xi, unit_path, ll0, t_first):  # pragma: no cover
+def _catch_up(inc, stat, kinds, a, b, src, unit_path, ll0, t_first):  # pragma: no cover
     """New paths' log-likelihood trajectories and detector states over their catch-up rows.
 
-    ``inc`` (n, U), ``xi`` (n, U, S) of units of paths ``unit_path`` (U,) started at
-    ``t_first`` with initial log-likelihoods ``ll0`` (P,).  Same arithmetic and order
-    as :func:`_advance` (no thresholding).
+    ``inc`` (n, U) and ``stat`` (n, U, 2) of units of model kinds ``kinds`` (U,) and
+    paths ``unit_path`` (U,) started at ``t_first`` with initial log-likelihoods ``ll0``
+    (P,).  Same arithmetic and order as :func:`_increments` then :func:`_advance` (no
+    thresholding).
     """
-    n, k, S = xi.shape
+    n, k = inc.shape
+    S = src.shape[0]
     P = ll0.shape[0]
     traj = np.empty((n, P))
     df = np.zeros((k, S))
     lz = np.full((k, S), t_first - 1, dtype=np.int64)
     ll = ll0.copy()
+    x = np.empty((k, S))
     for i in range(n):
-        _detector_row(df, lz, xi[i], t_first + i)
+        for u in range(k):
+            for s in range(S):
+                x[u, s] = a[kinds[u], s] + b[kinds[u], s] * stat[i, u, src[s]]
+        _detector_row(df, lz, x, t_first + i)
         for u in range(k):
             ll[unit_path[u]] += inc[i, u]
         for p in range(P):
@@ -301,6 +310,7 @@ class Observer:
         self._membership = np.zeros((0, self.graph.n_nodes))
         self._succ: dict = {}
         self._log_edge: dict = {}
+        self._log_table: dict = {}
         self.reset()
 
     # -- state -----------------------------------------------------------------------
@@ -311,6 +321,7 @@ class Observer:
         self._started = False
         self._next_id = 0
         self._paths: list[_Path] = []
+        self._arrays = None                     # cached arrays of _paths (_path_arrays)
         self._free_slots: list[int] = []
         self._n_slots = 0
         init = self.graph.initial
@@ -338,7 +349,17 @@ class Observer:
         p = _Path(self._next_id, node, start, init, Segment(node, start, prev), slot)
         self._next_id += 1
         self._paths.append(p)
+        self._arrays = None
         return p
+
+    def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(P,) node and history slot of the active paths, and the (P, K) one-hot node matrix."""
+        if self._arrays is None:
+            nodes = np.array([p.node for p in self._paths], dtype=np.int64)
+            M = np.zeros((len(nodes), self.graph.n_nodes))
+            M[np.arange(len(nodes)), nodes] = 1.0
+            self._arrays = (nodes, np.array([p.slot for p in self._paths], dtype=np.int64), M)
+        return self._arrays
 
     def _start(self, data: dict[str, np.ndarray]) -> None:
         """First data: channel counts are known; build the banks and the initial instances."""
@@ -369,6 +390,18 @@ class Observer:
         self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
         self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
         self._side_tables()
+        # the prior state of one instance of each model, stacked per bank (``_prior_row[k]``:
+        # model k's row in its bank's stack); new instances are rows of it
+        self._prior_row = np.zeros(len(ms), dtype=np.int64)
+        stacks: list[list] = [[] for _ in self._banks]
+        for k, m in enumerate(ms):
+            b = bank_of[k]
+            self._prior_row[k] = len(stacks[b])
+            stacks[b].append(self._banks[b].new(np.zeros(1, dtype=np.int64), model=m)[1])
+        self._prior = [{key: np.concatenate([st[key] for st in sts]) for key in sts[0]}
+                       for sts in stacks]
+        self._prior_cache: dict = {}
+        self._bank_list = self._bank_of.tolist()
         self._started = True
         L = self.lag
         for i, p in enumerate(self._paths):
@@ -492,17 +525,14 @@ class Observer:
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
-        nodes = np.array([p.node for p in self._paths], dtype=np.int64)
+        nodes, _, M = self._path_arrays()
         w = np.exp(ll - ll.max(axis=1, keepdims=True))
         w /= w.sum(axis=1, keepdims=True)
-        M = np.zeros((len(nodes), self.graph.n_nodes))
-        M[np.arange(len(nodes)), nodes] = 1.0
         return w @ M, nodes[np.argmax(ll, axis=1)]
 
     def _write_hist(self, t_first: int, trace: np.ndarray) -> None:
         if len(trace):
-            slots = np.array([p.slot for p in self._paths], dtype=np.int64)
-            self._hist.rows(t_first + 1, t_first + 1 + len(trace))[:, slots] = trace
+            self._hist.rows(t_first + 1, t_first + 1 + len(trace))[:, self._path_arrays()[1]] = trace
 
     def _x(self, model: FeatureModel, a: int, b: int) -> np.ndarray:
         return self._buf[model.signal].rows(a - model.lag, b)
@@ -554,26 +584,32 @@ class Observer:
     # -- events ----------------------------------------------------------------------
     def _handle_event(self, ta: int, end: int) -> None:
         """6.4, "if a change in any model is detected": spawn, maximise, prune."""
-        over = (self._df > self.threshold).any(axis=1)
+        thr = self.threshold
         alarms = []
-        for u in np.flatnonzero(over):
+        for u in np.flatnonzero((self._df > thr).any(axis=1)).tolist():
             # every test that crossed is a detected change with its own change time (each
             # the maximiser of 6.15 under its alternative); a big jump makes all of them
             # cross, and the one with the largest statistic may date from an old excursion
-            rs = sorted({int(z) + 1 for z in self._lz[u, self._df[u] > self.threshold]})
+            rs = sorted({z + 1 for d, z in zip(self._df[u].tolist(), self._lz[u].tolist())
+                         if d > thr})
             self._df[u] = 0.0                   # step 4: reset the spawning model's test
             self._lz[u] = ta
             alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
                           for r in rs)
         # candidates (step 1) with the maximisation over (node, start) (step 2)
-        cands: dict[tuple[int, int], tuple[float, Segment]] = {}
+        by_start: dict[int, tuple] = {}           # start -> (action, [successor nodes])
+        cands: dict[tuple[int, int], tuple[float, Segment] | None] = {}   # in alarm order
         for pi, _, r in alarms:
-            p = self._paths[pi]
-            a = int(self._act.rows(r, r + 1)[0, 0])
-            a = None if a < 0 else a
-            for j in self._successors(p.node, a):
+            if r not in by_start:
+                a = int(self._act.rows(r, r + 1)[0, 0])
+                by_start[r] = (None if a < 0 else a, [])
+            a, js = by_start[r]
+            for j in self._successors(self._paths[pi].node, a):
                 if (j, r) not in cands:
-                    cands[(j, r)] = self._best_predecessor(j, r, a)
+                    cands[(j, r)] = None
+                    js.append(j)
+        for r, (a, js) in by_start.items():
+            cands.update(zip([(j, r) for j in js], self._best_predecessors(js, r, a)))
         tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
         spawned, merged = [], []
         new = []
@@ -590,10 +626,14 @@ class Observer:
                     merged.append((self.graph.nodes[j].name, r))
             else:
                 new.append((j, r, init, prev))
+        n_units = len(self._u_path)
         if new:
-            self._spawn(new, ta, end)
+            self._spawn(new, ta)
             spawned = [(self.graph.nodes[j].name, r) for j, r, _, _ in new]
-        self._prune(ta, alarms, spawned, merged)
+        kept = self._prune(ta, alarms, spawned, merged)
+        # the new instances that survived the pruning run on to the window's end
+        n_new = len(self._u_path) - n_units if kept is None else int(kept[n_units:].sum())
+        self._run_on(n_new, ta + 1, end)
 
     def _successors(self, node: int, action) -> tuple[int, ...]:
         key = (node, action)
@@ -601,19 +641,37 @@ class Observer:
             self._succ[key] = self.graph.successors(node, action)
         return self._succ[key]
 
-    def _best_predecessor(self, j: int, r: int, action) -> tuple[float, Segment]:
-        """The best tracked path into instance ``(j, r)``: the highest path log-likelihood
-        after sample ``r - 1`` over the tracked paths started by ``r`` whose node may go
-        to ``j`` (the maximisation of 6.1/6.5 over the predecessors of a feature
-        instance; the spawning path is one of them)."""
-        row = self._hist.rows(r, r + 1)[0]
-        best, prev = -np.inf, None
-        for p in self._paths:
-            if p.start <= r and j in self._successors(p.node, action):
-                v = float(row[p.slot]) + self._log_transition(p.node, j, action)
-                if v > best:
-                    best, prev = v, p.seg
-        return best, prev
+    def _best_predecessors(self, js: list, r: int, action) -> list[tuple[float, Segment]]:
+        """For each node j of ``js``, the best tracked path into instance ``(j, r)``: the
+        highest path log-likelihood after sample ``r - 1`` (plus ``log p(i -> j)``) over the
+        tracked paths started by ``r`` whose node may go to ``j`` (the maximisation of
+        6.1/6.5 over the predecessors of a feature instance; the spawning path is one of
+        them); the first such path on ties, ``(-inf, None)`` if none.  A handful of paths:
+        plain Python floats (the same double additions as numpy's)."""
+        row = self._hist.rows(r, r + 1)[0, self._path_arrays()[1]].tolist()
+        T = self._transition_table(action)
+        out = []
+        for j in js:
+            best, prev = -math.inf, None
+            for p, v in zip(self._paths, row):
+                if p.start <= r:
+                    v += T[p.node][j]
+                    if v > best:
+                        best, prev = v, p.seg
+            out.append((best, prev))
+        return out
+
+    def _transition_table(self, action) -> list[list[float]]:
+        """``[i][j]``: ``log p(i -> j | action)`` where i may go to j
+        (:meth:`_log_transition`), ``-inf`` elsewhere."""
+        if action not in self._log_table:
+            K = self.graph.n_nodes
+            T = [[-math.inf] * K for _ in range(K)]
+            for i in range(K):
+                for j in self._successors(i, action):
+                    T[i][j] = self._log_transition(i, j, action)
+            self._log_table[action] = T
+        return self._log_table[action]
 
     def _log_transition(self, i: int, j: int, action) -> float:
         """``log p(i -> j | action)`` from the graph's edge probabilities (0 where the graph
@@ -626,98 +684,111 @@ class Observer:
             self._log_edge[key] = math.log(p) if p else 0.0
         return self._log_edge[key]
 
-    def _spawn(self, new: list, ta: int, end: int) -> None:
-        """Step 3: new paths initialised at the spawning path's log-likelihood and caught up."""
+    def _spawn(self, new: list, ta: int) -> None:
+        """Step 3: new paths initialised at their best predecessor's log-likelihood and
+        caught up to ``ta``: one bank run per (start, bank), one compiled catch-up per
+        start.  Their rows after ``ta`` are left for :meth:`_run_on` (the survivors of
+        the pruning)."""
         S = self._df.shape[1]
-        first_unit = len(self._u_path)
-        unit_specs = []                          # (path index, model index, start) in unit order
-        paths = []
+        first_path = len(self._paths)
+        u_path, u_kind, u_start = [], [], []          # new units: path, model index, start
+        groups: dict = {}                             # start -> [units, {bank: (units, columns)}]
         for j, r, init, prev in new:
-            p = self._new_path(j, r, init, prev)
-            pi = len(self._paths) - 1
-            paths.append((pi, p))
+            self._new_path(j, r, init, prev)
+            g = groups.setdefault(r, [[], {}])
             for k in self._node_kinds[j]:
-                unit_specs.append((pi, k, r))
+                i = len(u_path)
+                cols, pos = g[1].setdefault(self._bank_list[k], ([], []))
+                cols.append(i)
+                pos.append(len(g[0]))
+                g[0].append(i)
+                u_path.append(len(self._paths) - 1)
+                u_kind.append(k)
+                u_start.append(r)
         self._hist.widen(self._n_slots)
-        n_new = len(unit_specs)
-        kinds = np.array([s[1] for s in unit_specs], dtype=np.int64)
-        # one vectorised run per (bank, start); bank rows appended in unit order
-        groups: dict = {}
-        for i, (_, k, r) in enumerate(unit_specs):
-            groups.setdefault(r, {}).setdefault(int(self._bank_of[k]), []).append(i)
-        parts: dict = {}                                 # bank -> [(unit indices, state)]
-        runs: dict = {}                                  # start -> [(unit indices, ll, xi)]
-        for r, by_bank in groups.items():
-            for b, cols in by_bank.items():
-                bank = self._banks[b]
-                ks = kinds[cols]
-                if (ks == ks[0]).all():
-                    state = bank.new([r] * len(cols), model=self.models[self._model_names[ks[0]]])[1]
-                else:
-                    news = {int(k): bank.new([r] * int((ks == k).sum()),
-                                             model=self.models[self._model_names[k]])[1]
-                            for k in np.unique(ks)}
-                    state = {key: np.concatenate([st[key] for st in news.values()])
-                             for key in next(iter(news.values()))}
-                    if (np.diff(ks) < 0).any():         # rows of each model to unit order
-                        perm = np.argsort(np.argsort(ks, kind="stable"), kind="stable")
-                        state = {key: v[perm] for key, v in state.items()}
-                ll, st = bank.run(self._x(bank.model, r, end), t0=r,
-                                  starts=np.full(len(cols), r, dtype=np.int64), state=state)
-                runs.setdefault(r, []).append((cols, ll, self._xi_of(st, ks)))
-                parts.setdefault(b, []).append((cols, state))
-        for b, ps in parts.items():
-            idx = [i for g, _ in ps for i in g]
-            if len(ps) == 1:                             # one run: already in unit order
-                merged_state = ps[0][1]
-                starts = np.full(len(idx), unit_specs[idx[0]][2], dtype=np.int64)
-            else:
-                perm = np.argsort(idx, kind="stable")
-                merged_state = {key: np.concatenate([st[key] for _, st in ps])[perm]
-                                for key in ps[0][1]}
-                starts = np.array([unit_specs[i][2] for i in idx], dtype=np.int64)[perm]
-            self._banks[b].extend(starts, merged_state)
-        # detectors and path log-likelihoods over the catch-up samples r..ta, one
-        # compiled pass per start time
+        n_new = len(u_path)
         df = np.zeros((n_new, S))
         lz = np.zeros((n_new, S), dtype=np.int64)
-        new_inc = np.zeros((end - self._w0, n_new))
-        new_xi = np.zeros((end - self._w0, n_new, S))
-        rest = slice(ta + 1 - self._w0, end - self._w0)
-        lls = np.empty(len(paths))
-        first_path = paths[0][0]
-        for r, rs in runs.items():
-            if len(rs) == 1:
-                us, inc, xi = rs[0]
-            else:
-                order = np.argsort([i for cols, _, _ in rs for i in cols], kind="stable")
-                us = [i for cols, _, _ in rs for i in cols]
-                us = [us[o] for o in order]
-                inc = np.concatenate([ll for _, ll, _ in rs], axis=1)[:, order]
-                xi = np.concatenate([x for _, _, x in rs], axis=1)[:, order]
-            pis = sorted({unit_specs[i][0] for i in us})
-            local = {pi: c for c, pi in enumerate(pis)}
-            unit_path = np.array([local[unit_specs[i][0]] for i in us], dtype=np.int64)
-            ps = [self._paths[pi] for pi in pis]
-            init = np.array([p.init for p in ps])
-            slots = np.array([p.slot for p in ps], dtype=np.int64)
-            nc = ta - r + 1
-            traj, d, z = _catch_up(np.ascontiguousarray(inc[:nc]), np.ascontiguousarray(xi[:nc]),
-                                   unit_path, init, r)
+        lls = np.empty(len(new))
+        parts: dict = {}                                 # bank -> [(unit indices, state)]
+        for r, (us, by_bank) in groups.items():
+            inc = np.empty((ta + 1 - r, len(us)))
+            stat = np.empty((ta + 1 - r, len(us), 2))
+            for b, (cols, pos) in by_bank.items():
+                if pos[-1] - pos[0] == len(pos) - 1:      # consecutive columns: a slice
+                    pos = slice(pos[0], pos[-1] + 1)
+                ks = [u_kind[i] for i in cols]
+                bank = self._banks[b]
+                state = self._prior_state(b, ks)
+                ll, st = bank.run(self._x(bank.model, r, ta + 1), t0=r,
+                                  starts=np.full(len(cols), r, dtype=np.int64), state=state)
+                inc[:, pos] = ll
+                stat[:, pos] = st
+                parts.setdefault(b, []).append((cols, state))
+            # detectors and path log-likelihoods over the catch-up samples r..ta; a
+            # path's units are consecutive, so its local index grows along ``us``
+            pis, unit_path = [], []
+            for i in us:
+                if not pis or pis[-1] != u_path[i]:
+                    pis.append(u_path[i])
+                unit_path.append(len(pis) - 1)
+            init = np.array([self._paths[pi].init for pi in pis])
+            slots = [self._paths[pi].slot for pi in pis]
+            traj, d, z = _catch_up(inc, stat, np.array([u_kind[i] for i in us], dtype=np.int64),
+                                   self._side_a, self._side_b, self._side_src,
+                                   np.array(unit_path, dtype=np.int64), init, r)
             df[us], lz[us] = d, z
             self._hist.rows(r, r + 1)[0, slots] = init
             self._hist.rows(r + 1, ta + 2)[:, slots] = traj
-            lls[np.array(pis) - first_path] = traj[-1]
-            new_inc[rest, us] = inc[nc:]
-            new_xi[rest, us] = xi[nc:]
+            lls[[pi - first_path for pi in pis]] = traj[-1]
+        for b, ps in parts.items():                      # bank rows appended in unit order
+            if len(ps) == 1:
+                idx, state = ps[0]
+            else:
+                idx = np.concatenate([cols for cols, _ in ps])
+                perm = np.argsort(idx, kind="stable")
+                idx = idx[perm]
+                state = {key: np.concatenate([st[key] for _, st in ps])[perm] for key in ps[0][1]}
+            self._banks[b].extend(np.array(u_start, dtype=np.int64)[idx], state)
         self._ll = np.concatenate([self._ll, lls])
-        self._append_units([s[0] for s in unit_specs], kinds, df, lz)
-        self._inc = np.concatenate([self._inc, new_inc], axis=1)
-        self._xi = np.concatenate([self._xi, new_xi], axis=1)
-        assert len(self._u_path) == first_unit + n_new
+        self._append_units(u_path, u_kind, df, lz)
+        n = len(self._inc)
+        self._inc = np.concatenate([self._inc, np.zeros((n, n_new))], axis=1)
+        self._xi = np.concatenate([self._xi, np.zeros((n, n_new, S))], axis=1)
 
-    def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> None:
-        """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events."""
+    def _prior_state(self, b: int, kinds: list) -> dict:
+        """Prior state of new instances of models ``kinds`` in bank ``b`` (a fresh copy)."""
+        key = (b, tuple(kinds))
+        if key not in self._prior_cache:
+            if len(self._prior_cache) >= 256:
+                self._prior_cache.clear()
+            self._prior_cache[key] = {k: v[self._prior_row[kinds]] for k, v in self._prior[b].items()}
+        return {k: v.copy() for k, v in self._prior_cache[key].items()}
+
+    def _run_on(self, n: int, a: int, end: int) -> None:
+        """Run the last ``n`` units (new instances: the last rows of their banks) over
+        samples ``a .. end-1`` of the window, from the state :meth:`_spawn` left."""
+        if n == 0 or a >= end:
+            return
+        U = len(self._u_path)
+        us = np.arange(U - n, U)
+        u_bank = self._bank_of[self._u_model[us]]
+        rows = slice(a - self._w0, end - self._w0)
+        for b in dict.fromkeys(u_bank.tolist()):
+            cols = us[u_bank == b]
+            bank = self._banks[b]
+            first = len(bank) - len(cols)
+            state = {key: v[first:] for key, v in bank.state.items()}
+            ll, st = bank.run(self._x(bank.model, a, end), t0=a, starts=bank.starts[first:],
+                              state=state)
+            for key, v in state.items():        # in place already unless the model replaced it
+                bank.state[key][first:] = v
+            self._inc[rows, cols] = ll
+            self._xi[rows, cols] = self._xi_of(st, self._u_model[cols])
+
+    def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> np.ndarray | None:
+        """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events.
+        Returns the mask of the units kept (None: all)."""
         ll = self._ll
         order = np.argsort(-ll, kind="stable")
         w = np.exp(ll - ll[order[0]])
@@ -739,27 +810,41 @@ class Observer:
         else:
             self.events_.append(ChangeEvent(ta, None, None, None, None, [], [], cand_ll, keep))
         if len(keep) == len(self._paths):
-            return
-        keep_set = set(keep.tolist())
+            return None
+        remap = [-1] * len(self._paths)
+        for n, i in enumerate(keep.tolist()):
+            remap[i] = n
         for i, p in enumerate(self._paths):
-            if i not in keep_set:
+            if remap[i] < 0:
                 self._free_slots.append(p.slot)
-        remap = -np.ones(len(self._paths), dtype=np.int64)
-        remap[keep] = np.arange(len(keep))
         self._paths = [self._paths[i] for i in keep]
+        self._arrays = None
         self._ll = self._ll[keep]
-        umask = remap[self._u_path] >= 0
-        u_bank = self._bank_of[self._u_model]
+        # units kept, per bank in bank-row order (a handful: plain lists)
+        u_new = [remap[p] for p in self._u_path.tolist()]
+        kept = [i for i, p in enumerate(u_new) if p >= 0]
+        rows: list[list] = [[] for _ in self._banks]
+        dropped = [False] * len(self._banks)
+        counts = [0] * len(self._banks)
+        for b, p in zip(self._bank_of[self._u_model].tolist(), u_new):
+            if p >= 0:
+                rows[b].append(counts[b])
+            else:
+                dropped[b] = True
+            counts[b] += 1
         for b, bank in enumerate(self._banks):
-            kept = umask[u_bank == b]
-            if not kept.all():
-                bank.keep(np.flatnonzero(kept))
-        self._u_path = remap[self._u_path[umask]]
-        self._u_model = self._u_model[umask]
-        self._df = self._df[umask]
-        self._lz = self._lz[umask]
-        self._inc = np.ascontiguousarray(self._inc[:, umask])
-        self._xi = np.ascontiguousarray(self._xi[:, umask])
+            if dropped[b]:
+                bank.keep(rows[b])
+        kept = np.array(kept, dtype=np.int64)
+        self._u_path = np.array([u_new[i] for i in kept.tolist()], dtype=np.int64)
+        self._u_model = self._u_model[kept]
+        self._df = self._df[kept]
+        self._lz = self._lz[kept]
+        self._inc = np.ascontiguousarray(self._inc[:, kept])
+        self._xi = np.ascontiguousarray(self._xi[:, kept])
+        umask = np.zeros(len(u_new), dtype=bool)
+        umask[kept] = True
+        return umask
 
     def _trim(self) -> None:
         """Shorten the buffers to the earliest change time still possible (6.4)."""

@@ -40,30 +40,40 @@ def repeat_state(template: dict, n_units: int) -> dict:
 
 def run_kalman(state: dict, psi: np.ndarray, y: np.ndarray, *, mode: int,
                estimate_noise: bool = False, noise_prior_count: float = 8.0):
-    """Advance every instance: ``psi`` (N, U, C, q), ``y`` (N, U, C).
+    """Advance every instance: ``psi`` (N, U, C, q), or (N, C, q) shared by the U
+    instances; ``y`` (N, U, C), or (N, C) shared.
 
     Returns ``(loglik, stat)``: (N, U) per-sample log-likelihoods (A.39, summed
     over the independent channels) and (N, U, 2) detector statistics,
     ``sum_c alpha_c^2`` (6.11 with a diagonal innovation covariance, m = C) and
     ``sum_c alpha_c / sqrt(C)`` (the normalised innovation, N(0, 1) under the model).
     """
-    N, U, C, q = psi.shape
+    U = len(state["theta"])
+    N, C, q = y.shape[0], y.shape[-1], psi.shape[-1]
     B = U * C
     if N == 0 or U == 0:
         return np.zeros((N, U)), np.zeros((N, U, 2))
-    psi4 = np.ascontiguousarray(psi, dtype=np.float64).reshape(N, B, 1, q)
-    y3 = np.ascontiguousarray(y, dtype=np.float64).reshape(N, B, 1)
-    view = {k: v.reshape((B,) + v.shape[2:]) for k, v in state.items()}
-    res = kalman_step(psi4, y3, theta=view["theta"], theta_sqrt=view["S"],
-                      noise_sqrt=view["Lv"], noise_est=view["Ve"], noise_count=view["vcount"],
-                      structure_sqrt=view["Ls"], structure=mode,
+    psi4 = np.empty((N, U, C, q))
+    psi4[...] = psi if psi.ndim == 4 else psi[:, None]
+    y3 = np.empty((N, U, C))
+    y3[...] = y if y.ndim == 3 else y[:, None]
+    # (U, C, ...) state arrays as (B, ...) views: the kernel updates them in place
+    res = kalman_step(psi4.reshape(N, B, 1, q), y3.reshape(N, B, 1),
+                      theta=state["theta"].reshape(B, q), theta_sqrt=state["S"].reshape(B, q, q),
+                      noise_sqrt=state["Lv"].reshape(B, 1, 1), noise_est=state["Ve"].reshape(B, 1, 1),
+                      noise_count=state["vcount"].reshape(B),
+                      structure_sqrt=state["Ls"].reshape(B, q, q), structure=mode,
                       estimate_noise=bool(estimate_noise),
                       noise_prior_count=float(noise_prior_count))
-    ll, lc = res.loglik, res.change_stat
-    loglik = ll.reshape(N, U, C).sum(axis=2)
     stat = np.empty((N, U, 2))
-    stat[..., 0] = (-2.0 * lc).reshape(N, U, C).sum(axis=2)
-    stat[..., 1] = res.alpha.reshape(N, U, C).sum(axis=2) * (1.0 / np.sqrt(C))
+    if C == 1:
+        loglik = res.loglik
+        np.multiply(res.change_stat, -2.0, out=stat[..., 0])
+        stat[..., 1] = res.alpha.reshape(N, U)
+    else:
+        loglik = res.loglik.reshape(N, U, C).sum(axis=2)
+        stat[..., 0] = (-2.0 * res.change_stat).reshape(N, U, C).sum(axis=2)
+        stat[..., 1] = res.alpha.reshape(N, U, C).sum(axis=2) * (1.0 / np.sqrt(C))
     return loglik, stat
 
 

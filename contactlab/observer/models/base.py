@@ -13,7 +13,9 @@ A model is a small object (parameters in ``__init__``) with
   samples its first prediction needs), ``change_size`` (None: the observer's q);
 * ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
 * ``init_state(starts, channels) -> dict`` -- the prior state of ``U`` new
-  instances (arrays with a leading unit axis; ``{}`` for stateless models);
+  instances (arrays with a leading unit axis; ``{}`` for stateless models); the
+  prior of an instance does not depend on its start time (the observer stacks one
+  instance's prior per model and copies rows of it);
 * ``run(state, x, *, t0, starts) -> (loglik, stat)`` -- advance every instance
   over the samples ``t0 .. t0+N-1``: ``x`` is ``(lag + N, C)``, the measurements
   from ``t0 - lag``; returns the ``(N, U)`` log-likelihoods and either the
@@ -108,10 +110,9 @@ class ModelBank:
 
     def extend(self, starts: np.ndarray, state: dict) -> None:
         self.starts = np.concatenate([self.starts, starts])
-        self.state = {k: np.ascontiguousarray(np.concatenate([v, state[k]]))
-                      for k, v in self.state.items()}
+        self.state = {k: np.concatenate([v, state[k]]) for k, v in self.state.items()}
 
     def keep(self, rows) -> None:
         rows = np.asarray(rows, dtype=np.intp)
         self.starts = self.starts[rows]
-        self.state = {k: np.ascontiguousarray(v[rows]) for k, v in self.state.items()}
+        self.state = {k: v[rows] for k, v in self.state.items()}      # new C-ordered arrays

@@ -88,5 +88,4 @@ class ImpactFeature(FeatureModel):
         psi[..., 0] = 1.0
         n = (t0 + np.arange(N))[:, None] - np.asarray(starts)[None, :]      # (N, U)
         psi[..., 1] = n[:, :, None]
-        y = np.broadcast_to(x[:, None], (N, U, C))
-        return run_kalman(state, psi, y, mode=MODE_PLAIN)
+        return run_kalman(state, psi, x, mode=MODE_PLAIN)

@@ -138,12 +138,6 @@ class TemporalFeature(FeatureModel):
                 self.noise_prior_count)
 
     def run(self, state, x, *, t0, starts):
-        psi = self.ar.regressors(x)                        # (N, C, q)
-        y = x[self.lag:]
-        U = len(starts)
-        N, C, q = psi.shape
-        psi = np.broadcast_to(psi[:, None], (N, U, C, q))
-        y = np.broadcast_to(y[:, None], (N, U, C))
-        return run_kalman(state, psi, y, mode=MODES[self.structure],
+        return run_kalman(state, self.ar.regressors(x), x[self.lag:], mode=MODES[self.structure],
                           estimate_noise=self.estimate_noise,
                           noise_prior_count=self.noise_prior_count)
