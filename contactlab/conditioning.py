@@ -52,6 +52,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy import signal
 
 __all__ = [
@@ -189,10 +190,36 @@ class LowpassDecimator:
             zi = self._zi_unit[:, :, None]                          # (sections, 2, 1)
             scale = x[0][None, None, :] if self.initial == "steady" else 0.0
             self.zi_ = np.ascontiguousarray(zi * scale * np.ones((1, 1, x.shape[1])))
-        z, self.zi_ = signal.sosfilt(self.sos_, x, axis=0, zi=self.zi_)
         first = (-self.n_in_) % self.factor
         self.n_in_ += len(x)
-        return _out(z[first::self.factor], squeeze)
+        out = np.empty((len(range(first, len(x), self.factor)), x.shape[1]))
+        _sosfilt_every(self.sos_, np.ascontiguousarray(x, dtype=np.float64), self.zi_,
+                       first, self.factor, out)
+        return _out(out, squeeze)
+
+
+@njit(cache=True)
+def _sosfilt_every(sos, x, zi, first, factor, out):  # pragma: no cover - compiled
+    """``scipy.signal.sosfilt(sos, x, axis=0, zi=zi)[first::factor]`` into ``out``, with
+    ``zi`` (sections, 2, C) advanced in place: the transposed direct form II of scipy's
+    own loop, step for step (the same numbers), keeping only the decimated outputs
+    (the 4:1 decimation of 7.1 reads one filter output in four)."""
+    n, c = x.shape
+    sections = sos.shape[0]
+    k = 0
+    for i in range(n):
+        keep = i >= first and (i - first) % factor == 0
+        for ch in range(c):
+            x_n = x[i, ch]
+            for s in range(sections):
+                x_cur = sos[s, 0] * x_n + zi[s, 0, ch]
+                zi[s, 0, ch] = sos[s, 1] * x_n - sos[s, 4] * x_cur + zi[s, 1, ch]
+                zi[s, 1, ch] = sos[s, 2] * x_n - sos[s, 5] * x_cur
+                x_n = x_cur
+            if keep:
+                out[k, ch] = x_n
+        if keep:
+            k += 1
 
 
 class LogEnergy:

@@ -305,14 +305,22 @@ def measurement_problems(trial) -> list[Problem]:
     group = trial.h5_group
     scope = _Scope(group, _trial_node()["symbols"]["n"])
     out = []
+    measurements = group.get(spec.MEASUREMENTS)
     for name, node in nodes.items():
-        ds = group.get(f"{spec.MEASUREMENTS}/{name}")
-        if not node.get("checks") or not isinstance(ds, h5py.Dataset):
+        # members looked up by link name in their group (a path lookup per member
+        # costs several times more, and most optional members are absent)
+        if not node.get("checks") or not isinstance(measurements, h5py.Group) or \
+                not measurements.id.links.exists(name.encode()):
+            continue
+        ds = measurements.get(name)
+        if not isinstance(ds, h5py.Dataset):
             continue
         data = getattr(trial, name)         # Trial reads and caches each measurement
         for check in node["checks"]:
             out += [Problem(ds.name, m) for m in CHECKS[check](ds, data, scope)]
-    segments = group.get(f"{spec.GROUND_TRUTH}/segments")
+    truth = group.get(spec.GROUND_TRUTH) if group.id.links.exists(
+        spec.GROUND_TRUTH.encode()) else None
+    segments = truth.get("segments") if isinstance(truth, h5py.Group) else None
     if not out and isinstance(segments, h5py.Dataset) and len(trial.time):
         # the part of the segments check that needs the time base's values
         table = segments[()]
