@@ -22,8 +22,8 @@ from contactlab.archive import open_archive  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.maze import build_partitions, damper_paths  # noqa: E402
 from contactlab.maze.measure import measure, node_loglik  # noqa: E402
-from contactlab.maze.projection import SHIPPED, feature_traces, maze_graph  # noqa: E402
-from contactlab.maze.tracking import labels_present, observer_graph, track_trial  # noqa: E402
+from contactlab.maze.projection import SHIPPED, feature_traces, graph_document, maze_graph, with_traces  # noqa: E402
+from contactlab.maze.tracking import labels_present, measured_traces, observer_graph, track_trial  # noqa: E402
 from contactlab.observer.em import baum_welch, graph_chain, learned_edges, viterbi  # noqa: E402
 from contactlab.observer.graph import load_graph, parse_graph  # noqa: E402
 from contactlab.observer.recognize import bind_models  # noqa: E402
@@ -50,11 +50,7 @@ def _collapse(seq):
 
 def _in_order(truth, decoded) -> int:
     """How many of ``truth``'s features ``decoded`` finds in order (longest common subsequence)."""
-    m = np.zeros((len(truth) + 1, len(decoded) + 1), int)
-    for i, a in enumerate(truth):
-        for j, b in enumerate(decoded):
-            m[i + 1, j + 1] = m[i, j] + 1 if a == b else max(m[i, j + 1], m[i + 1, j])
-    return int(m[-1, -1])
+    return len(truth) - len(_missed(truth, decoded))
 
 
 def _reaches_without(graph, action: str, edge: tuple[int, int], start: int, goal: int) -> bool:
@@ -116,9 +112,12 @@ def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
     try:
         train = record_spec(SPEC, tmp / "train.h5", seed=seed + 1, n_trials=TRAIN_TRIALS)
         test = record_spec(SPEC, tmp / "test.h5", seed=seed, n_trials=n_trials)
-        graph = parse_graph(observer_graph(doc, fp, labels_present(train),
+        # 9.2's extra connections from measurements: the training runs' own node sequences
+        traces, impacts = measured_traces(train, fp.partitions)
+        fp = with_traces(fp, traces, impacts)
+        graph = parse_graph(observer_graph(graph_document(fp), fp, labels_present(train),
                                            impact_constraint=impact_constraint))
-        graph, _, models = bind_models(graph, train_graph(train, graph))
+        graph, trained, models = bind_models(graph, train_graph(train, graph))
         out, out_free = [], []
         with open_archive(test) as arch:
             ids = arch.trial_ids
@@ -128,9 +127,9 @@ def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
                     back = str(trial.attrs.get("group", "")).startswith("action-5")
                     start = str(GOAL if back else START)
                     rec = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
-                                      start_node=start)
+                                      start_node=start, reduce=trained.reduce)
                     free = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
-                                       start_node=start, transitions="none")
+                                       start_node=start, reduce=trained.reduce, transitions="none")
                     rec["back"] = free["back"] = back
                     out.append(rec)
                     out_free.append(free)
@@ -303,6 +302,25 @@ def _em_figure(summary, em):
     return fig
 
 
+def _missed(truth, decoded) -> list[str]:
+    """``truth``'s features that ``decoded`` does not find in order (beyond the longest common
+    subsequence), each as ``feature #k`` (its place in ``truth``)."""
+    m = np.zeros((len(truth) + 1, len(decoded) + 1), int)
+    for i, a in enumerate(truth):
+        for j, b in enumerate(decoded):
+            m[i + 1, j + 1] = m[i, j] + 1 if a == b else max(m[i, j + 1], m[i + 1, j])
+    found, i, j = set(), len(truth), len(decoded)
+    while i and j:
+        if truth[i - 1] == decoded[j - 1]:
+            found.add(i - 1)
+            i, j = i - 1, j - 1
+        elif m[i - 1, j] >= m[i, j - 1]:
+            i -= 1
+        else:
+            j -= 1
+    return [f"{f} #{k + 1}" for k, f in enumerate(truth) if k not in found]
+
+
 def _observer_summary(trials, seconds: float) -> dict:
     """Counts and rates of :func:`observe_trials`'s records, action 1 and the return apart."""
     out: dict = {}
@@ -312,6 +330,9 @@ def _observer_summary(trials, seconds: float) -> dict:
             continue
         out[key] = {"trials": len(recs),
                     "exact": int(sum(r["decoded_features"] == r["true_features"] for r in recs)),
+                    "online_exact": int(sum(r["online_features"] == r["true_features"] for r in recs)),
+                    "missed": dict(collections.Counter(
+                        f for r in recs for f in _missed(r["true_features"], r["decoded_features"]))),
                     "end_correct": int(sum(bool(r["decoded_features"]) and bool(r["true_features"])
                                            and r["decoded_features"][-1] == r["true_features"][-1]
                                            for r in recs)),
