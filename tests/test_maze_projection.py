@@ -139,3 +139,23 @@ def test_measured_traces_are_counted_into_the_projections_edges(small):
     assert np.array_equal(fp.counts[1], before)               # the projection itself unchanged
     row = out.probabilities(1)[TAIL_END - 1]
     assert row.sum() == pytest.approx(1.0)
+
+
+def test_an_impact_may_be_missed_with_the_odds_of_seeing_it(small):
+    from contactlab.maze.projection import ForwardProjection, with_missed_impacts
+
+    parts, _, fp = small
+    P = len(parts)
+    wall, impact = P + 6, 2 * P + 6                 # moving on the tail's right wall, its impact
+    free = P + 40
+    c = np.zeros((3 * P, 3 * P), np.int64)
+    c[free - 1, impact - 1] = 10                    # free -> impact -> wall, ten times
+    c[impact - 1, wall - 1] = 10
+    toy = ForwardProjection(parts, {1: c}, 10, {impact: 6})
+    out = with_missed_impacts(toy)
+    assert out.counts[1][free - 1, wall - 1] == 10
+    p = out.probabilities(1)
+    assert p[free - 1, impact - 1] == pytest.approx(0.5)
+    assert p[free - 1, wall - 1] == pytest.approx(0.5)
+    assert p[impact - 1, wall - 1] == pytest.approx(1.0)
+    assert toy.counts[1][free - 1, wall - 1] == 0             # the input unchanged

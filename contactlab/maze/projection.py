@@ -39,7 +39,7 @@ import numpy as np
 from contactlab.maze.damper import LEXAN_MU, damper_paths
 from contactlab.maze.partitions import ACTION_ANGLES_DEG, MazePartitions
 
-__all__ = ["ForwardProjection", "forward_project", "feature_traces", "measured_trace", "with_traces", "graph_document", "node_kind", "maze_graph"]
+__all__ = ["ForwardProjection", "forward_project", "feature_traces", "measured_trace", "with_missed_impacts", "with_traces", "graph_document", "node_kind", "maze_graph"]
 
 #: spread of the command's direction per trial, deg: the PHANToM's kinematic error, about
 #: 1 deg over its workspace (8.1.1.2); datasets_spec/maze.toml turns its trials' forces by
@@ -148,6 +148,25 @@ def measured_trace(parts: MazePartitions, xy: np.ndarray, moving: np.ndarray, fs
     short = (lens < min_dwell_s * fs) & is_free[part[start]]
     impact, loss = _impact_table(parts)
     return _node_trace(part[start], mv[start], short, impact, loss, len(parts), impact_number)
+
+
+def with_missed_impacts(fp: ForwardProjection) -> ForwardProjection:
+    """``fp`` with every impact also missed (9.1.2: "The impacts in the sequence could be
+    missed which is accounted for in the feature graph"): each count ``i -> m`` into an impact
+    ``m`` is also counted past it, ``i -> j`` for each successor ``j`` of ``m`` in proportion
+    to ``m``'s probabilities (at least once), so a path may go on without the impact."""
+    counts = {}
+    P = fp.n_partitions
+    for a, c in fp.counts.items():
+        out = c.copy()
+        p = fp.probabilities(a)
+        for m in range(2 * P, c.shape[0]):
+            for i in np.flatnonzero(c[:, m]):
+                for j in np.flatnonzero(p[m]):
+                    if j != i:
+                        out[i, j] += max(1, int(round(c[i, m] * p[m, j])))
+        counts[a] = out
+    return ForwardProjection(fp.partitions, counts, fp.n_traces, dict(fp.impact_of))
 
 
 def with_traces(fp: ForwardProjection, traces: dict[int, list[list[int]]],
