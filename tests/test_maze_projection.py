@@ -93,3 +93,69 @@ def test_graph_documents_round_trip_and_bad_probabilities_are_one_line_errors(tm
     path.write_text(dumps_graph(doc))
     with pytest.raises(DataError, match=r"must be a list of 2 numbers"):
         load_graph(path)
+
+
+def test_a_measured_run_becomes_the_node_trace_its_contacts_spell(small):
+    from contactlab.maze.projection import measured_trace
+
+    parts, _, fp = small
+    P = len(parts)
+    wall = parts.by_number(6)                       # the tail's right wall (partition 6)
+    s = parts.cspace.surfaces[wall.surfaces[0]]
+    a, b, n = (np.asarray(v, float) for v in (s.a, s.b, s.normal))
+    mid = 0.5 * (a + b)
+    free = mid + 2e-3 * n                           # 2 mm into the channel, off the wall
+    u = np.linspace(0.0, 1.0, 300)[:, None]
+    approach = free + u * (mid - free)              # 0.3 s straight onto the wall, moving
+    slide = mid + u * 0.3 * (b - mid)               # 0.3 s along it, moving
+    held = np.repeat(slide[-1:], 300, axis=0)       # 0.3 s at rest on it
+    xy = np.concatenate([approach, slide, held])
+    moving = np.r_[np.ones(600, bool), np.zeros(300, bool)]
+    impacts: dict = {}
+    tr = measured_trace(parts, xy, moving, 1000.0, impact_number=impacts)
+    # node numbers (module notes): p fixed, P + p moving, 2P + p an impact into p
+    assert tr[-3:] == [2 * P + 6, P + 6, 6]
+    first = tr[0] - P
+    assert 1 <= first <= P and parts.by_number(first).kind == "free"
+    assert impacts == {6: 2 * P + 6}
+    # a free partition held under 0.1 s is no feature of the trace: 50 ms off the wall
+    on, off = np.repeat(mid[None], 300, axis=0), np.repeat(free[None], 50, axis=0)
+    blip = np.concatenate([on, off, on])
+    assert measured_trace(parts, blip, np.zeros(650, bool), 1000.0, impact_number={}) == [6]
+    long_off = np.concatenate([on, np.repeat(free[None], 150, axis=0), on])
+    assert len(measured_trace(parts, long_off, np.zeros(750, bool), 1000.0, impact_number={})) > 1
+
+
+def test_measured_traces_are_counted_into_the_projections_edges(small):
+    from contactlab.maze.projection import with_traces
+
+    _, _, fp = small
+    before = fp.counts[1].copy()
+    P = fp.n_partitions
+    out = with_traces(fp, {1: [[TAIL_END, P + TAIL_END, TAIL_END]]}, {})
+    assert out.counts[1][TAIL_END - 1, P + TAIL_END - 1] == before[TAIL_END - 1, P + TAIL_END - 1] + 1
+    assert out.counts[1][P + TAIL_END - 1, TAIL_END - 1] == before[P + TAIL_END - 1, TAIL_END - 1] + 1
+    assert (out.counts[1].sum() - before.sum()) == 2
+    assert np.array_equal(fp.counts[1], before)               # the projection itself unchanged
+    row = out.probabilities(1)[TAIL_END - 1]
+    assert row.sum() == pytest.approx(1.0)
+
+
+def test_an_impact_may_be_missed_with_the_odds_of_seeing_it(small):
+    from contactlab.maze.projection import ForwardProjection, with_missed_impacts
+
+    parts, _, fp = small
+    P = len(parts)
+    wall, impact = P + 6, 2 * P + 6                 # moving on the tail's right wall, its impact
+    free = P + 40
+    c = np.zeros((3 * P, 3 * P), np.int64)
+    c[free - 1, impact - 1] = 10                    # free -> impact -> wall, ten times
+    c[impact - 1, wall - 1] = 10
+    toy = ForwardProjection(parts, {1: c}, 10, {impact: 6})
+    out = with_missed_impacts(toy)
+    assert out.counts[1][free - 1, wall - 1] == 10
+    p = out.probabilities(1)
+    assert p[free - 1, impact - 1] == pytest.approx(0.5)
+    assert p[free - 1, wall - 1] == pytest.approx(0.5)
+    assert p[impact - 1, wall - 1] == pytest.approx(1.0)
+    assert toy.counts[1][free - 1, wall - 1] == 0             # the input unchanged

@@ -39,7 +39,7 @@ import numpy as np
 from contactlab.maze.damper import LEXAN_MU, damper_paths
 from contactlab.maze.partitions import ACTION_ANGLES_DEG, MazePartitions
 
-__all__ = ["ForwardProjection", "forward_project", "feature_traces", "graph_document", "node_kind", "maze_graph"]
+__all__ = ["ForwardProjection", "forward_project", "feature_traces", "measured_trace", "with_missed_impacts", "with_traces", "graph_document", "node_kind", "maze_graph"]
 
 #: spread of the command's direction per trial, deg: the PHANToM's kinematic error, about
 #: 1 deg over its workspace (8.1.1.2); datasets_spec/maze.toml turns its trials' forces by
@@ -49,6 +49,9 @@ ANGLE_SPREAD_DEG = 1.0
 MOVING_FRACTION = 0.05
 #: free partitions crossed in fewer steps (1 mm at the default step) are not features of a trace
 MIN_DWELL_STEPS = 4
+#: a measured run's free partition held for less than this is not a feature of its trace
+#: (9.3; as :data:`contactlab.maze.tracking.MIN_FEATURE_S`, the features a run is scored on)
+MIN_DWELL_S = 0.1
 
 
 @dataclass
@@ -103,22 +106,80 @@ def feature_traces(parts: MazePartitions, paths: np.ndarray, step_m: float, *,
         state = part[:, s] * 2 + moving[:, s]
         start = np.concatenate([[0], np.flatnonzero(state[1:] != state[:-1]) + 1])
         lens = np.diff(np.concatenate([start, [n_t]]))
-        rp, rm = part[start, s], moving[start, s]
         # a free partition crossed in under min_dwell steps cannot be observed (9.3: features
         # "visited for only a short time ... can be missed"): it joins the run before it
-        keep = ~((lens < min_dwell) & is_free[rp])
-        keep[0] = keep[-1] = True
-        rp, rm = rp[keep], rm[keep]
-        out = [int(rp[0] + P * rm[0])]
-        for k in range(1, len(rp)):
-            if rp[k] == rp[k - 1] and rm[k] == rm[k - 1]:
-                continue
-            if (impact[rp[k - 1], rp[k]] and rm[k - 1]) or loss[rp[k - 1], rp[k]]:
-                impact_number[int(rp[k])] = 2 * P + int(rp[k])
-                out.append(2 * P + int(rp[k]))
-            out.append(int(rp[k] + P * rm[k]))
-        traces.append(out)
+        short = (lens < min_dwell) & is_free[part[start, s]]
+        traces.append(_node_trace(part[start, s], moving[start, s], short, impact, loss, P,
+                                  impact_number))
     return traces
+
+
+def _node_trace(rp, rm, short, impact, loss, P: int, impact_number: dict) -> list[int]:
+    """Feature nodes of runs of (partition ``rp``, moving ``rm``), runs marked ``short``
+    joining the run before them (module docstring)."""
+    keep = ~np.asarray(short, bool)
+    keep[0] = keep[-1] = True
+    rp, rm = np.asarray(rp)[keep], np.asarray(rm)[keep]
+    out = [int(rp[0] + P * rm[0])]
+    for k in range(1, len(rp)):
+        if rp[k] == rp[k - 1] and rm[k] == rm[k - 1]:
+            continue
+        if (impact[rp[k - 1], rp[k]] and rm[k - 1]) or loss[rp[k - 1], rp[k]]:
+            impact_number[int(rp[k])] = 2 * P + int(rp[k])
+            out.append(2 * P + int(rp[k]))
+        out.append(int(rp[k] + P * rm[k]))
+    return out
+
+
+def measured_trace(parts: MazePartitions, xy: np.ndarray, moving: np.ndarray, fs: float, *,
+                   impact_number: dict[int, int], min_dwell_s: float = MIN_DWELL_S) -> list[int]:
+    """The feature-node sequence of one measured run (9.2: the extra connections "can really
+    only be gleaned either from a really good simulation or from actual measurements"): the
+    finger's planar position ``xy`` ((T, 2), m, the c-space of :mod:`.cspace`) classified into
+    partitions, ``moving`` (T,) whether it moves, at ``fs`` Hz; nodes and impacts as for the
+    forward projection's traces, a free partition held under ``min_dwell_s`` joining the run
+    before it."""
+    part = parts.classify(np.asarray(xy, float)[:, :2])
+    mv = np.asarray(moving, bool)
+    state = part * 2 + mv
+    start = np.concatenate([[0], np.flatnonzero(state[1:] != state[:-1]) + 1])
+    lens = np.diff(np.concatenate([start, [len(part)]]))
+    is_free = np.array([False] + [p.kind == "free" for p in parts.partitions])
+    short = (lens < min_dwell_s * fs) & is_free[part[start]]
+    impact, loss = _impact_table(parts)
+    return _node_trace(part[start], mv[start], short, impact, loss, len(parts), impact_number)
+
+
+def with_missed_impacts(fp: ForwardProjection) -> ForwardProjection:
+    """``fp`` with every impact also missed (9.1.2: "The impacts in the sequence could be
+    missed which is accounted for in the feature graph"): each count ``i -> m`` into an impact
+    ``m`` is also counted past it, ``i -> j`` for each successor ``j`` of ``m`` in proportion
+    to ``m``'s probabilities (at least once), so a path may go on without the impact."""
+    counts = {}
+    P = fp.n_partitions
+    for a, c in fp.counts.items():
+        out = c.copy()
+        p = fp.probabilities(a)
+        for m in range(2 * P, c.shape[0]):
+            for i in np.flatnonzero(c[:, m]):
+                for j in np.flatnonzero(p[m]):
+                    if j != i:
+                        out[i, j] += max(1, int(round(c[i, m] * p[m, j])))
+        counts[a] = out
+    return ForwardProjection(fp.partitions, counts, fp.n_traces, dict(fp.impact_of))
+
+
+def with_traces(fp: ForwardProjection, traces: dict[int, list[list[int]]],
+                impact_number: dict[int, int]) -> ForwardProjection:
+    """``fp`` with the transitions of further node ``traces`` (per action) counted in."""
+    counts = {a: c.copy() for a, c in fp.counts.items()}
+    for a, trs in traces.items():
+        for tr in trs:
+            for i, j in zip(tr[:-1], tr[1:]):
+                counts[a][i - 1, j - 1] += 1
+    impact_of = dict(fp.impact_of)
+    impact_of.update({v: k for k, v in impact_number.items()})
+    return ForwardProjection(fp.partitions, counts, fp.n_traces, impact_of)
 
 
 def _impact_table(parts: MazePartitions) -> tuple[np.ndarray, np.ndarray]:

@@ -18,11 +18,18 @@ graph for the simulator's wrench and position:
   constraint (its normal motion at the encoder's few micrometres) started a few samples
   before the contact -- where the detectors date the change -- costs hundreds of nats and
   loses the right path.  Measured over the 20 action-1 trials of ``reproduce maze`` (seed
-  1): points right 0.67 (the entered partition's constraint: 0.58; a free-space constraint
-  trained on the impact samples, ``impact_constraint="trained"``: 0.60), feature sequences
-  exact 2 (1, 3), final feature right 20 (20, 19);
+  1, hf reduced as trained, no self-transitions, measured edges, no missed-impact edges):
+  feature sequences exact 17, points right 0.85 (the entered partition's constraint: 1,
+  0.52; a free-space constraint trained on the impact samples,
+  ``impact_constraint="trained"``: 7, 0.57);
 - the velocity models F and M, the constraints' noise and the high-frequency models S
-  (sliding) and I (impact) trained on the simulator's labels, pooled (:func:`observer_graph`).
+  (sliding) and I (impact) trained on the simulator's labels, pooled (:func:`observer_graph`);
+  :func:`track_trial` reduces the high-frequency channels as training did (their mean);
+- no node self-transitions: a node is a partition of the fixed maze, its constraint's
+  surface point the wall's, so 6.1's new draw of the parameters is no event here.  Allowed,
+  a draw re-estimates the surface point, and a wall's model follows motion along its own
+  normal piecewise: in trial maze-002 of seed 1 the crossbar's top wall, drawn 152 times,
+  stood in for the slide up the tail's right wall.
 
 :func:`feature_of_nodes` maps every node onto the simulator's label vocabulary
 (:func:`contactlab.acquire.sim.labels_maze`: ``tail-right-moving``,
@@ -46,7 +53,7 @@ from contactlab.maze.projection import ForwardProjection, node_kind
 MIN_FEATURE_S = 0.1
 
 __all__ = ["IMPACT_CONSTRAINTS", "observer_graph", "feature_of_nodes", "wall_rotation_deg", "labels_present", "track_trial",
-           "feature_runs", "MIN_FEATURE_S"]
+           "feature_runs", "measured_traces", "MIN_FEATURE_S"]
 
 
 def wall_rotation_deg(parts, k: int) -> float:
@@ -128,6 +135,11 @@ def observer_graph(doc: dict, fp: ForwardProjection, labels, *,
                 spec = dict(spec, trained=corner)
             models[cname] = spec
         node["models"] = dict(node["models"], constraint=cname)
+    for node in out["nodes"]:
+        # a node is a partition of the fixed maze: its constraint's surface point is the
+        # wall's, so a new draw of its parameters (6.1's self-transition) is no event here;
+        # allowed, it lets a wall's model follow motion along its own normal piecewise
+        node["self_transition"] = False
     out["models"] = models
     out["name"] = "maze-observer"
     out["sides"] = "both"            # an impact ends when its energy falls back (as guarded-move)
@@ -171,6 +183,39 @@ def labels_present(archive, *, min_samples: int = 50) -> list[str]:
     return sorted(out)
 
 
+def measured_traces(archive, parts) -> tuple[dict[int, list[list[int]]], dict[int, int]]:
+    """Feature-node sequences of the labelled runs in ``archive`` under each force command
+    (:func:`contactlab.maze.projection.measured_trace`; 9.2 added the graph's extra
+    connections from measurements): ``({action k: [trace per run and span of command k]},
+    {partition: impact node})``.  Position is the finger's; moving is the simulator's label
+    (an impact counts as moving, 9.1.1: "the trailing edge of the impact occurs while
+    moving")."""
+    from contactlab.archive import open_archive
+    from contactlab.maze.projection import measured_trace
+
+    out: dict[int, list[list[int]]] = {}
+    impact_number: dict[int, int] = {}
+    with open_archive(archive) as arch:
+        for tid in arch.trial_ids:
+            t = arch.trial(tid)
+            names = [str(n) for n in t.label_names]
+            moving = np.array([n.endswith("-moving") or n == "impact" for n in names] + [False])
+            codes = np.asarray(t.labels, np.int64)
+            mv = moving[np.where(codes >= 0, codes, len(names))]
+            act_names = [str(n) for n in t.dataset_attrs("action").get("names", [])]
+            act = np.asarray(t.action, np.int64)
+            xy = np.asarray(t.position, float)[:, :2]
+            edges = np.flatnonzero(act[1:] != act[:-1]) + 1
+            for a, b in zip(np.r_[0, edges], np.r_[edges, len(act)]):
+                name = act_names[act[a]] if 0 <= act[a] < len(act_names) else ""
+                if not name.startswith("action-") or b - a < 2:
+                    continue
+                out.setdefault(int(name[7:]), []).append(
+                    measured_trace(parts, xy[a:b], mv[a:b], float(t.rate_hz),
+                                   impact_number=impact_number))
+    return out, impact_number
+
+
 def feature_runs(features, fs: float, *, min_s: float = MIN_FEATURE_S) -> list[str]:
     """The sequence of features held for at least ``min_s`` (impacts and ``lifted`` left
     out), consecutive repeats merged."""
@@ -191,9 +236,11 @@ def feature_runs(features, fs: float, *, min_s: float = MIN_FEATURE_S) -> list[s
 
 
 def track_trial(trial, graph, models, fp: ForwardProjection, *, start_s: float,
-                start_node: str, sides: str | None = None, **observer_kw) -> dict:
+                start_node: str, reduce: str, sides: str | None = None, **observer_kw) -> dict:
     """The observer (6.4) over one simulated maze trial from ``start_s`` (the action's
-    start; the path starts in ``start_node``): the decoded and true features per point
+    start; the path starts in ``start_node``), its signals reduced as the models were
+    trained (``reduce``, :attr:`contactlab.observer.training.GraphModels.reduce`): the
+    decoded and true features per point
     (``feature_of_nodes``; the truth is the simulator's label), the point accuracy, the two
     feature sequences (:func:`feature_runs`) and the observer result."""
     from contactlab.observer.observer import Observer, observe
@@ -202,16 +249,18 @@ def track_trial(trial, graph, models, fp: ForwardProjection, *, start_s: float,
 
     g = graph.with_initial({start_node: 1.0})
     obs = Observer(g, models, sides=sides or g.sides or "mean", **observer_kw)
-    data, index, fs = trial_signals(trial, obs.signals)
+    data, index, fs = trial_signals(trial, obs.signals, reduce=reduce)
     keep = np.asarray(trial.time, np.float64)[index] >= start_s
     act = trial_actions(trial, g, index)
     res = observe(obs, {k: v[keep] for k, v in data.items()}, action=act[keep])
     names = [str(n) for n in trial.label_names]
     codes = truth_codes(trial, index[keep], names)
     truth = np.array(names + ["?"])[codes]
-    decoded = np.array(feature_of_nodes(fp, g.node_names))[res.labels]
+    feats = np.array(feature_of_nodes(fp, g.node_names))
+    decoded = feats[res.labels]
     known = truth != "?"
     return {"id": trial.id, "fs": fs, "result": res, "decoded": decoded, "truth": truth,
             "times": np.asarray(trial.time, np.float64)[index][keep],
             "accuracy": float(np.mean(decoded[known] == truth[known])) if known.any() else math.nan,
-            "decoded_features": feature_runs(decoded, fs), "true_features": feature_runs(truth, fs)}
+            "decoded_features": feature_runs(decoded, fs), "true_features": feature_runs(truth, fs),
+            "online_features": feature_runs(feats[res.map_node], fs)}
