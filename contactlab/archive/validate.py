@@ -318,8 +318,7 @@ def measurement_problems(trial) -> list[Problem]:
         data = getattr(trial, name)         # Trial reads and caches each measurement
         for check in node["checks"]:
             out += [Problem(ds.name, m) for m in CHECKS[check](ds, data, scope)]
-    truth = group.get(spec.GROUND_TRUTH) if group.id.links.exists(
-        spec.GROUND_TRUTH.encode()) else None
+    truth = group.get(spec.GROUND_TRUTH)
     segments = truth.get("segments") if isinstance(truth, h5py.Group) else None
     if not out and isinstance(segments, h5py.Dataset) and len(trial.time):
         # the part of the segments check that needs the time base's values
@@ -408,15 +407,11 @@ class _Walker:
         kind = node["kind"]
         try:
             link = parent.get(name, getlink=True)
-            if link is None:                       # no such link (one lookup, not two)
-                if node.get("required"):
-                    self.report(path, f"missing {kind}")
-                return
             if isinstance(link, h5py.ExternalLink):
                 self.report(path, f"is an external link to {link.filename}:{link.path} "
                                   "(an archive holds its data itself)")
                 return
-            obj = parent.get(name)
+            obj = None if link is None else parent.get(name)   # no link: one lookup, not two
             if obj is None and isinstance(link, h5py.SoftLink):
                 self.report(path, f"is a dangling soft link (to {link.path}, which does "
                                   "not exist)")

@@ -186,9 +186,10 @@ def still_points(archive, res) -> dict:
             for k, name in enumerate(STILL_LABELS, start=1):
                 on = (codes == k) & (after if name == "free-fixed" else True)
                 out[name]["points"] += int(on.sum())
-                for j in lab[on]:
+                marked = out[name]["marked"]
+                for j, c in zip(*np.unique(lab[on], return_counts=True)):
                     node = res["labels"][int(j)]
-                    out[name]["marked"][node] = out[name]["marked"].get(node, 0) + 1
+                    marked[node] = marked.get(node, 0) + int(c)
     return out
 
 
