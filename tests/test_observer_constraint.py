@@ -182,3 +182,34 @@ def test_a_stuck_finger_is_likelier_under_two_normals_than_under_the_plane(slide
         assert diff < -100 * n
     else:
         assert diff > 0.8 * n * 0.5 * np.log(vx / vn)
+
+
+@pytest.mark.parametrize("sides", ["both", "all"])
+def test_residual_models_test_only_an_increase(sides):
+    """F and constraint models test only the covariance increase of 6.14: a still, quiet
+    stretch (zero velocity, force below its noise) fires none of their detectors, whatever
+    the observer's sides, while a velocity burst of 10 sigma fires F's increase test at
+    once (the CUSUM of 6.18 on chi-square 300 a sample against the threshold 8)."""
+    rng = np.random.default_rng(3)
+    n = 400
+    contact = np.c_[np.zeros((n, 3)), rng.normal(size=(n, 3)) * 0.002]   # force at 1/5 its sd
+    vel = np.zeros((n, 3))
+    vel[300:] = 10 * 0.001                                                # 10 sigma
+    g = parse_graph({"models": {"C0": {"kind": "constraint", "constraint": "0"},
+                                "F": {"kind": "velocity-fixed", "sigma": 0.001},
+                                "M": {"kind": "velocity-moving", "low": -0.02, "high": 0.02,
+                                      "sigma": 0.001}},
+                     "nodes": [{"name": "still", "models": {"constraint": "C0", "velocity": "F"},
+                                "initial": 1.0},
+                               {"name": "moving", "models": {"constraint": "C0",
+                                                             "velocity": "M"}}],
+                     "edges": ["still -> moving"]})
+    models = {"C0": ConstraintFeature.named("C0", "0", position_sd=1e-5, force_sd=0.01),
+              "F": FixedVelocity(name="F", sigma=0.001),
+              "M": MovingVelocity(name="M", low=-0.02, high=0.02, sigma=0.001)}
+    res = observe(Observer(g, models, sides=sides), {"contact": contact, "velocity": vel})
+    fired = [e for e in res.events if e.model is not None]
+    assert fired and all(e.time >= 300 for e in fired)
+    first = min(e.time for e in fired if e.model == "F")
+    assert first <= 302
+    assert [n for n, _ in res.map_path] == ["still", "moving"]

@@ -25,7 +25,11 @@ detector tests is the measurement standardised by the model's variance:
 ``v / sigma`` for F, ``(v - centre) / sqrt(width^2/12 + sigma^2)`` for M
 (our choice; the thesis does not say what the velocity models' detectors
 test), chi-square with m = number of components under the model's
-second moment.
+second moment.  F tests only an increase of it (6.14): a velocity below the
+noise (a still finger whose encoders hold one count) is still F's best
+explanation, and the decrease test fired on every such stretch.  M keeps every
+test the observer runs: its covariance-decrease test is how a stop is found
+(the maze's moving -> fixed corner transitions).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ class FixedVelocity(FeatureModel):
     """F: zero velocity, ``v ~ N(0, sigma^2 I)``."""
 
     kind = "velocity-fixed"
+    tests = ("increase",)
 
     def __init__(self, *, name: str = "F", sigma: float, signal: str = "velocity",
                  change_size: float | None = None):
