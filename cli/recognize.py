@@ -28,8 +28,10 @@ from contactlab.cli.inputs import checks_archive
               help="Page-Hinkley decision threshold T^2 (7.3.1).")
 @click.option("--change-size", type=float, default=D.OBSERVER_CHANGE_SIZE, show_default=True,
               help="Change magnitude q of the detectors (7.3.1).")
-@click.option("--prune", "p_prune", type=float, default=D.OBSERVER_PRUNE, show_default=True,
-              help="Probability mass P_prune kept when pruning paths (6.4).")
+@click.option("--prune", "p_prune", type=float, default=None,
+              help="Probability mass P_prune kept when pruning paths (6.4); 1 keeps every path "
+                   "within --gap.  [default: the graph's 'p_prune', else "
+                   f"{D.OBSERVER_PRUNE}]")
 @click.option("--gap", type=float, default=D.OBSERVER_GAP, show_default=True,
               help="Drop paths this far below the best log-likelihood (9.1.1).")
 @click.option("--sides", type=click.Choice(list(D.OBSERVER_SIDE_CHOICES)), default=None,
@@ -90,7 +92,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
     if not change_size > 1:
         raise click.BadParameter(f"must be > 1; got {change_size}", param_hint="'--change-size'")
-    if not 0 < p_prune <= 1:
+    if p_prune is not None and not 0 < p_prune <= 1:
         raise click.BadParameter(f"must be in (0, 1]; got {p_prune}", param_hint="'--prune'")
     if not gap > 0:
         raise click.BadParameter(f"must be > 0; got {gap}", param_hint="'--gap'")

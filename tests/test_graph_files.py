@@ -59,6 +59,14 @@ def test_good_graph_roundtrip(tmp_path):
     assert g.adjacency().tolist() == [[True, True], [True, True]]
     d = g.to_dict()
     assert d["edges"] == [["A", "B"], ["B", "A"]]
+    assert g.p_prune is None and d["p_prune"] is None
+    g1 = load_graph(write(tmp_path, GOOD.replace(
+        'initial = "uniform"\n', 'initial = "uniform"\np_prune = 1\nsides = "both"\n'), "g1.toml"))
+    assert g1.p_prune == 1.0 and g1.with_initial({"A": 1.0}).p_prune == 1.0
+    from contactlab.observer.graph_toml import dumps_graph, graph_document
+
+    again = write(tmp_path, dumps_graph(graph_document(g1)), "g2.toml")
+    assert load_graph(again).p_prune == 1.0 and load_graph(again).sides == "both"
     assert d["nodes"][0]["models"] == {"hf": "a", "velocity": "v"}
 
 
@@ -71,6 +79,8 @@ MISTAKES = [
     ('name = "B"\n', 'name = "B"\ninitial = 1.5\n', "nodes[1] (B).initial", "must be a probability"),
     ('sigma = 0.1', 'sigma = -1.0', "models.v.sigma", "must be > 0"),
     ('"A -> B", "B -> A"', '"A -> A"', "edges[0]", "self_transition"),
+    ('initial = "uniform"\n', 'initial = "uniform"\np_prune = 0\n', "p_prune", "in (0, 1]"),
+    ('initial = "uniform"\n', 'initial = "uniform"\np_prune = "all"\n', "p_prune", "in (0, 1]"),
 ]
 
 

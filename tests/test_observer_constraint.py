@@ -182,3 +182,68 @@ def test_a_stuck_finger_is_likelier_under_two_normals_than_under_the_plane(slide
         assert diff < -100 * n
     else:
         assert diff > 0.8 * n * 0.5 * np.log(vx / vn)
+
+
+@pytest.mark.parametrize("sides", ["both", "all"])
+def test_residual_models_test_only_an_increase(sides):
+    """F and constraint models test only the covariance increase of 6.14: a still, quiet
+    stretch (zero velocity, force below its noise) fires none of their detectors, whatever
+    the observer's sides, while a velocity burst of 10 sigma fires F's increase test at
+    once (the CUSUM of 6.18 on chi-square 300 a sample against the threshold 8)."""
+    rng = np.random.default_rng(3)
+    n = 400
+    contact = np.c_[np.zeros((n, 3)), rng.normal(size=(n, 3)) * 0.002]   # force at 1/5 its sd
+    vel = np.zeros((n, 3))
+    vel[300:] = 10 * 0.001                                                # 10 sigma
+    g = parse_graph({"models": {"C0": {"kind": "constraint", "constraint": "0"},
+                                "F": {"kind": "velocity-fixed", "sigma": 0.001},
+                                "M": {"kind": "velocity-moving", "low": -0.02, "high": 0.02,
+                                      "sigma": 0.001}},
+                     "nodes": [{"name": "still", "models": {"constraint": "C0", "velocity": "F"},
+                                "initial": 1.0},
+                               {"name": "moving", "models": {"constraint": "C0",
+                                                             "velocity": "M"}}],
+                     "edges": ["still -> moving"]})
+    models = {"C0": ConstraintFeature.named("C0", "0", position_sd=1e-5, force_sd=0.01),
+              "F": FixedVelocity(name="F", sigma=0.001),
+              "M": MovingVelocity(name="M", low=-0.02, high=0.02, sigma=0.001)}
+    res = observe(Observer(g, models, sides=sides), {"contact": contact, "velocity": vel})
+    fired = [e for e in res.events if e.model is not None]
+    assert fired and all(e.time >= 300 for e in fired)
+    first = min(e.time for e in fired if e.model == "F")
+    assert first <= 302
+    assert [n for n, _ in res.map_path] == ["still", "moving"]
+
+
+def test_moving_model_tests_a_stop_against_the_fixed_model():
+    """In a graph with both velocity models, M's covariance-decrease test (6.14 with V / q)
+    is the log-likelihood ratio of F's N(0, sigma_F^2) against M's second moment: its
+    increment per sample equals scipy's normal log densities' difference, so it is
+    positive only near rest (here below ~0.5 mm/s) and fires within a sample or two of a
+    stop, not on slow motion."""
+    g = parse_graph({"models": {"F": {"kind": "velocity-fixed", "sigma": 2e-4},
+                                "M": {"kind": "velocity-moving", "low": -0.01, "high": 0.01,
+                                      "sigma": 5e-5}},
+                     "nodes": [{"name": "moving", "models": {"velocity": "M"}, "initial": 1.0},
+                               {"name": "still", "models": {"velocity": "F"}}],
+                     "edges": ["moving -> still"]})
+    from contactlab.observer import build_models
+
+    models = build_models(g)
+    M = models["M"]
+    var = 0.02 ** 2 / 12 + 5e-5 ** 2
+    assert M.rest_sigma == 2e-4 and M.change_size == pytest.approx(var / 2e-4 ** 2)
+    v = np.array([[0.003, -0.002, 0.001], [3e-4, 0.0, -1e-4], [0.0, 0.0, 0.0]])
+    _, stat = M.run({}, v, t0=0, starts=np.zeros(1, int))
+    q = M.change_size       # the decrease side of 6.14: (m/2) log q - (q - 1)/2 chi2
+    dec = 1.5 * np.log(q) - 0.5 * (q - 1) * stat[:, 0]
+    oracle = (stats.norm.logpdf(v, scale=2e-4) - stats.norm.logpdf(v, scale=np.sqrt(var))).sum(1)
+    assert np.allclose(dec, oracle, rtol=1e-9, atol=1e-9)
+    assert dec[0] < 0 < dec[2]
+    # moving at 3 mm/s, then a stop: the change is found at the stop
+    rng = np.random.default_rng(5)
+    vel = np.r_[np.full((200, 3), 0.003), np.zeros((100, 3))] + rng.normal(0, 2e-5, (300, 3))
+    res = observe(Observer(g, models, sides="both"), vel)
+    assert [n for n, _ in res.map_path] == ["moving", "still"]
+    assert 200 <= dict(res.map_path)["still"] <= 202
+    assert all(e.time >= 200 for e in res.events if e.model is not None)

@@ -45,6 +45,7 @@ import math
 
 import numpy as np
 
+from contactlab import defaults as D
 from contactlab.acquire.sim import MAZE_WALLS
 from contactlab.maze.projection import ForwardProjection, node_kind
 
@@ -143,6 +144,7 @@ def observer_graph(doc: dict, fp: ForwardProjection, labels, *,
     out["models"] = models
     out["name"] = "maze-observer"
     out["sides"] = "both"            # an impact ends when its energy falls back (as guarded-move)
+    out["p_prune"] = 1.0             # 9.1.1's rule for chapter 9: the gap of 20 alone rejects paths
     return out
 
 
@@ -248,7 +250,8 @@ def track_trial(trial, graph, models, fp: ForwardProjection, *, start_s: float,
     from contactlab.signals import trial_signals, truth_codes
 
     g = graph.with_initial({start_node: 1.0})
-    obs = Observer(g, models, sides=sides or g.sides or "mean", **observer_kw)
+    observer_kw.setdefault("p_prune", g.p_prune or D.OBSERVER_PRUNE)
+    obs = Observer(g, models, sides=sides or g.sides or D.OBSERVER_SIDES, **observer_kw)
     data, index, fs = trial_signals(trial, obs.signals, reduce=reduce)
     keep = np.asarray(trial.time, np.float64)[index] >= start_s
     act = trial_actions(trial, g, index)

@@ -49,7 +49,7 @@ KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "contact")
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "contact"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
-             "edges", "edge_sets", "sides"}
+             "edges", "edge_sets", "sides", "p_prune"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}
 _PROB_TOL = 1e-6
 
@@ -116,6 +116,9 @@ class FeatureGraph:
     #: transition probabilities per action, ``{action: {(i, j): p}}`` (edge sets'
     #: ``probabilities``; counted by a forward projection or learned by EM)
     edge_probabilities: dict[int, dict[tuple[int, int], float]] = field(default_factory=dict)
+    #: the probability mass the observer keeps when pruning for this graph (None: default;
+    #: 1.0: paths are rejected by the log-likelihood gap alone, as in 9.1.1)
+    p_prune: float | None = None
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -188,7 +191,7 @@ class FeatureGraph:
                       for n, q in zip(self.nodes, p))
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
-                            self.sides, self.edge_probabilities)
+                            self.sides, self.edge_probabilities, self.p_prune)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -199,7 +202,7 @@ class FeatureGraph:
 
         return {
             "name": self.name, "title": self.title, "thesis": self.thesis, "source": self.source,
-            "actions": list(self.actions), "sides": self.sides,
+            "actions": list(self.actions), "sides": self.sides, "p_prune": self.p_prune,
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
@@ -341,8 +344,13 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     sides = doc.get("sides")
     if sides is not None and sides not in D.OBSERVER_SIDE_CHOICES:
         raise err("sides", f"must be one of {', '.join(D.OBSERVER_SIDE_CHOICES)}; got {sides!r}")
+    p_prune = doc.get("p_prune")
+    if p_prune is not None and not (isinstance(p_prune, (int, float)) and not isinstance(p_prune, bool)
+                                    and 0 < p_prune <= 1):
+        raise err("p_prune", f"must be a number in (0, 1]; got {p_prune!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
-                         thesis, source, sides, edge_probs)
+                         thesis, source, sides, edge_probs,
+                         None if p_prune is None else float(p_prune))
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph

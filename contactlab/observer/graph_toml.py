@@ -18,7 +18,7 @@ from contactlab.observer.graph import FeatureGraph, parse_graph
 
 __all__ = ["dumps_graph", "write_graph", "graph_document"]
 
-_TOP = ("name", "title", "thesis", "description", "actions", "initial", "edges")
+_TOP = ("name", "title", "thesis", "description", "actions", "initial", "sides", "p_prune", "edges")
 
 
 def _value(v) -> str:
@@ -83,6 +83,8 @@ def graph_document(graph: FeatureGraph) -> dict:
         doc["actions"] = d["actions"]
     if d.get("sides"):
         doc["sides"] = d["sides"]
+    if d.get("p_prune") is not None:
+        doc["p_prune"] = d["p_prune"]
     doc["edges"] = [f"{a} -> {b}" for a, b in d["edges"]]
     doc["models"] = d["models"]
     nodes = []

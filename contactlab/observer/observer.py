@@ -555,6 +555,12 @@ class Observer:
             else:
                 d = np.sqrt(q - 1.0) * (1.0 if side == "up" else -1.0)
                 a[:, k], b[:, k] = -(0.5 * d * d), d
+        # a side a model does not test (``FeatureModel.tests``) never accumulates:
+        # increments of -inf keep its statistic at 0 (6.18)
+        for k, name in enumerate(self._model_names):
+            allowed = self.models[name].tests
+            if allowed is not None:
+                a[k, [side not in allowed for side in tests]] = -np.inf
         self._side_a, self._side_b = a, b
         self._side_src = np.array([0 if t in ("increase", "decrease") else 1 for t in tests],
                                   dtype=np.int64)

@@ -200,12 +200,13 @@ class RecognizeStage(Stage):
     def __init__(self, *, graph, models, action=None,
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE,
-                 p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
+                 p_prune: float | None = None, gap: float = D.OBSERVER_GAP,
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None,
                  transitions: str = D.OBSERVER_TRANSITIONS):
         self.graph, self.models, self.built = bind_models(graph, models)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
+        p_prune = p_prune or self.graph.p_prune or D.OBSERVER_PRUNE
         self.label_map = label_map if label_map is not None else self.models.label_map
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
                                 p_prune=p_prune, gap=gap, sides=sides, transitions=transitions)
@@ -291,7 +292,7 @@ class RecognizeStage(Stage):
 def recognize_archive(archive, *, graph, models, action=None,
                       threshold: float = D.OBSERVER_THRESHOLD,
                       change_size: float = D.OBSERVER_CHANGE_SIZE,
-                      p_prune: float = D.OBSERVER_PRUNE, gap: float = D.OBSERVER_GAP,
+                      p_prune: float | None = None, gap: float = D.OBSERVER_GAP,
                       sides: str | None = None, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None,

@@ -12,6 +12,8 @@ A model is a small object (parameters in ``__init__``) with
 * ``name``, ``signal`` (which measurement stream it reads), ``lag`` (past
   samples its first prediction needs), ``change_size`` (None: the observer's q);
 * ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
+* ``tests`` -- the observer's detector tests (its ``sides``) whose alternative the
+  model's innovation can show; None (the default) for all of them;
 * ``init_state(starts, channels) -> dict`` -- the prior state of ``U`` new
   instances (arrays with a leading unit axis; ``{}`` for stateless models); the
   prior of an instance does not depend on its start time (the observer stacks one
@@ -46,6 +48,14 @@ class FeatureModel:
     #: the graph-file kind this class implements
     kind = ""
     lag = 0
+    #: the detector tests (the observer's ``sides``: ``increase``, ``decrease``, ``up``,
+    #: ``down``) whose alternative is a change of this model's measurements; None: all.
+    #: A model whose innovation is a measurement residual under a trained noise level
+    #: (the fixed velocity F, constraint models) takes ``("increase",)``: a residual
+    #: *smaller* than its noise is still best explained by the same model, so the
+    #: covariance-decrease test fired on every quiet stretch (a stuck encoder, a force
+    #: below its noise) and spawned successors the graph's other nodes explain worse.
+    tests: tuple[str, ...] | None = None
 
     def __init__(self, *, name: str, signal: str, change_size: float | None = None):
         self.name = name

@@ -62,7 +62,20 @@ def build_models(graph: FeatureGraph, trained: Mapping | None = None, *,
     out = {}
     for name, spec in graph.models.items():
         out[name] = _build(spec, trained, graph, source)
-    return out
+    return _paired_velocity(out)
+
+
+def _paired_velocity(models: dict) -> dict:
+    """Moving-velocity models of a graph that also has a fixed-velocity model on the same
+    signal test the change to rest against that model's variance (the loosest, if several):
+    9.1.1 uses the pair F/M as the test of whether the robot moves."""
+    for name, m in models.items():
+        if isinstance(m, MovingVelocity) and m.rest_sigma is None:
+            rest = [f.sigma for f in models.values()
+                    if isinstance(f, FixedVelocity) and f.signal == m.signal]
+            if rest:
+                models[name] = m.with_rest(max(rest))
+    return models
 
 
 def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> FeatureModel:

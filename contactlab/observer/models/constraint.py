@@ -47,7 +47,9 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
 cross-covariance is a stiffness effect that the rigid constraint form does not
 model, and the block form keeps the predictive update of the offset exact).
 The innovation the detectors test (6.11) is the residual standardised by its
-predictive covariance: chi-square with ``k`` degrees of freedom.
+predictive covariance: chi-square with ``k`` degrees of freedom; only its increase
+(6.14, :attr:`FeatureModel.tests`): a residual below the trained noise is no other
+contact.
 
 All instances advance together over a chunk with numpy (cumulative sums; for
 the estimated frame batched 3x3 eigen-decompositions over samples x
@@ -131,6 +133,7 @@ class ConstraintFeature(FeatureModel):
     """
 
     kind = "constraint"
+    tests = ("increase",)
 
     def __init__(self, *, name: str, normals, V=None, mode: str = "fixed",
                  position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,

@@ -25,7 +25,11 @@ detector tests is the measurement standardised by the model's variance:
 ``v / sigma`` for F, ``(v - centre) / sqrt(width^2/12 + sigma^2)`` for M
 (our choice; the thesis does not say what the velocity models' detectors
 test), chi-square with m = number of components under the model's
-second moment.
+second moment.  F tests only an increase of it (6.14): a velocity below the
+noise (a still finger whose encoders hold one count) is still F's best
+explanation, and the decrease test fired on every such stretch.  M keeps every
+test the observer runs: its covariance-decrease test is how a stop is found
+(the maze's moving -> fixed corner transitions).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ class FixedVelocity(FeatureModel):
     """F: zero velocity, ``v ~ N(0, sigma^2 I)``."""
 
     kind = "velocity-fixed"
+    tests = ("increase",)
 
     def __init__(self, *, name: str = "F", sigma: float, signal: str = "velocity",
                  change_size: float | None = None):
@@ -75,13 +80,33 @@ class MovingVelocity(FeatureModel):
     kind = "velocity-moving"
 
     def __init__(self, *, name: str = "M", low: float, high: float, sigma: float,
-                 signal: str = "velocity", change_size: float | None = None):
+                 signal: str = "velocity", change_size: float | None = None,
+                 rest_sigma: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
         if not low < high:
             raise ValueError(f"{name}: need low < high; got [{low}, {high}]")
         if not sigma > 0:
             raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
+        if rest_sigma is not None and not rest_sigma > 0:
+            raise ValueError(f"{name}: rest_sigma must be > 0; got {rest_sigma!r}")
         self.low, self.high, self.sigma = float(low), float(high), float(sigma)
+        self.rest_sigma = None if rest_sigma is None else float(rest_sigma)
+        if change_size is None and self.rest_sigma is not None:
+            # the covariance-decrease test's alternative (6.14 with V / q) is the robot at
+            # rest, v ~ N(0, rest_sigma^2): F's variance (9.1.1's pair F/M is "a test for
+            # deciding if the robot was moving or not")
+            self.change_size = max(self.variance / self.rest_sigma ** 2, 1.0 + 1e-9)
+
+    @property
+    def variance(self) -> float:
+        """Per-component second moment about the centre: ``width^2 / 12 + sigma^2``."""
+        return (self.high - self.low) ** 2 / 12.0 + self.sigma ** 2
+
+    def with_rest(self, rest_sigma: float) -> "MovingVelocity":
+        """A copy whose decrease test's alternative is ``N(0, rest_sigma^2)`` (the F model
+        of the same graph, :func:`~contactlab.observer.models.composite.build_models`)."""
+        return MovingVelocity(name=self.name, low=self.low, high=self.high, sigma=self.sigma,
+                              signal=self.signal, rest_sigma=rest_sigma)
 
     @classmethod
     def from_segments(cls, segments, *, name: str = "M", signal: str = "velocity") -> "MovingVelocity":
@@ -118,7 +143,6 @@ class MovingVelocity(FeatureModel):
     def run(self, state, x, *, t0, starts):
         ll = self.logpdf(x).sum(axis=1)
         centre = 0.5 * (self.low + self.high)
-        var = (self.high - self.low) ** 2 / 12.0 + self.sigma ** 2
-        chi2 = ((x - centre) ** 2).sum(axis=1) / var
+        chi2 = ((x - centre) ** 2).sum(axis=1) / self.variance
         U = len(starts)
         return np.repeat(ll[:, None], U, axis=1), np.repeat(chi2[:, None], U, axis=1)
