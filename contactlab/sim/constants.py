@@ -132,6 +132,39 @@ treats each Cartesian axis as driven by one motor through this ratio (the real l
 mixes the three motors by its Jacobian, which is near-diagonal with entries of this
 order at the workspace centre)."""
 
+ROTOR_INERTIA = 1.2e-6
+"""datasheet: inertia of one motor's rotating parts, kg m^2: the rotor of a Maxon RE 25-class
+ironless motor, 10.5-10.8 g cm^2 in the maxon catalogue (quoted from memory, as in
+COMMUTATOR_SEGMENTS), plus the capstan on its shaft and the encoder's code wheel, ~1 g cm^2."""
+
+ROTOR_MASS = ROTOR_INERTIA * MOTOR_RAD_PER_TIP_M ** 2
+"""physics: the rotors' inertia reflected to the tip through MOTOR_RAD_PER_TIP_M (J G^2 =
+7.7 g per Cartesian axis).  It is part of ROBOT_MASS (the datasheet's apparent mass includes the
+reflected rotor inertia), and it is the one part of the robot that the motors' torque, the brush
+friction with its ripple, the commutation ripple and the encoders act on directly: the rest of
+the robot (capstan drums, links, gimbal, sensor body) is pulled along through the cables
+(CABLE_STIFFNESS)."""
+
+CABLE_STIFFNESS = 4.0e4
+"""physics: stiffness of the capstan-cable transmission at the tip, N/m per axis (``[apparatus]
+cable_stiffness_n_per_m``; dynamics module docstring, "The drive's structure").  A preloaded
+capstan drive pulls the drum with both runs of a steel cable, 2 E A / L of a ~0.46 mm 7x7
+stainless cable (metallic area ~0.1 mm^2, strand modulus ~130 GPa) over ~30 mm of free span:
+~9e5 N/m along the cable.  A tip displacement x moves the cable by x r_c MOTOR_RAD_PER_TIP_M,
+0.18 x on a ~2.25 mm capstan (cable centre on a 4 mm shaft), so the tip feels 9e5 x 0.18^2 ~
+3e4 N/m; a 3-4 mm capstan or a shorter span gives up to ~9e4 N/m (wraps on the capstan and the
+cable's own constructional stretch only lower it).  4e4 N/m: with ROTOR_MASS against the rest of
+the robot a ~380 Hz mode, where cable-driven arms of this size have their first drive modes.
+It matters for the sensor because the drive's vibration while its motors turn (brush and cable
+friction ripple, the force DAC's steps) acts on the light rotors, whose resonance on the cables
+passes it on to the arm several times amplified; a rigid transmission passes it to the sensor
+only through the shell's inertia (the apparatus experiment measures both: moving vs stationary
+of 7.3.3).  ``[apparatus] cable_stiffness_n_per_m = 0`` makes the transmission rigid."""
+
+CABLE_DAMPING_RATIO = 0.03
+"""physics: damping of the cable mode as a ratio of critical: stranded steel cables on capstans
+dissipate by inter-strand friction, 2-5 % of critical (as LINK_DAMPING_RATIO); 3 %."""
+
 LINK_LENGTH = 0.14
 """datasheet-level: length of the PHANToM 1.0's links, m (MOTOR_RAD_PER_TIP_M's ~0.14 m)."""
 
