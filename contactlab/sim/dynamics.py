@@ -52,27 +52,32 @@ vibrate, without lifting the finger off.  Across a texture boundary the two
 followed heights are blended over the width the sphere needs to roll over the
 step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
 
-The link mode (``Apparatus.link_stiffness``, off by default).  The real robot is not one
-rigid mass: the sensor's body sits on the end of the PHANToM's distal link, which bends.
-With the mode on, the robot mass is split into the drive (motors,
-capstans, drums, proximal links: where the motors' force, the backdrive friction with its
-brush ripple, the commutation ripple and the encoders act, position x_r) and the link's tip
-(``link_tip_mass``, position x_l, carrying the sensor's base), joined by the link's bending
-stiffness and damping (``constants.LINK_STIFFNESS``, ``LINK_TIP_MASS``,
-``LINK_DAMPING_RATIO``):
+The drive's structure (``Apparatus.cable_stiffness``, ``Apparatus.link_stiffness``, both off by
+default: the rigid robot, one mass).  The real robot is not one rigid mass.  The motors pull the
+arm through capstan cables, and the sensor's body sits on the end of the distal link, which
+bends.  The simulator can split the robot mass into a chain of up to three bodies: the drive
+(position x_r: where the motors' force, the backdrive friction with its brush ripple, the
+commutation ripple and the encoders act), the arm (x_a) and the link's tip (x_l, carrying the
+sensor's base), joined by the cables' stiffness k_c, c_c and the link's bending stiffness k_l,
+c_l:
 
-  m_d x_r'' = w_r + k_l (x_l - x_r) + c_l (x_l' - x_r') + m_d g + friction
-  m_l x_l'' = w_m - k_l (x_l - x_r) - c_l (x_l' - x_r') + m_l g
+  m_d x_r'' = w_r + k_c (x_a - x_r) + c_c (x_a' - x_r') + m_d g + friction
+  m_a x_a'' = k_l (x_l - x_a) + c_l (x_l' - x_a') - k_c (x_a - x_r) - c_c (x_a' - x_r') + m_a g
+  m_l x_l'' = w_m - k_l (x_l - x_a) - c_l (x_l' - x_a') + m_l g
   w_m = K (x - x_l) + B (x' - x_l')
 
-In free space the tip with the shell rings against the drive at ~180 Hz: the friction
-ripple of a turning drive and the force DAC's steps while the command changes reach the
-sensor amplified by the mode (7.3.3: moving is louder than stationary), where a rigid robot
-passes them on only through the shell's inertia.  Pressed against an object, the link's
-spring lies between the drive's force noise and the sensor and filters it above the drive's
-own ~100 Hz mode on it.  ``link_stiffness = 0``, the default, is the rigid robot (x_l = x_r):
-a lumped tip light enough for the mode puts the sensor's own ringing on a 15 g base
-(``constants.LINK_STIFFNESS`` gives what that does to the thesis's signal facts).
+A rigid cable or link merges the two bodies it joins (its force is then whatever the next
+spring passes on).  With the cables (``constants.CABLE_STIFFNESS``) the drive is the motors'
+rotors reflected to the tip (``constants.ROTOR_MASS``, 7.7 g) and the arm is the rest: the
+rotors ring on the cables at ~380 Hz, and the brush ripple and the force DAC's steps that act
+on them reach the arm amplified, so a moving drive shakes the sensor several times harder
+than a rigid one (7.3.3: moving is louder than stationary).  But the amplifiers' force noise
+then reaches a pressed sensor through a lightly damped arm (the drive's friction damps only
+the rotors), so a pressed finger is louder still (``constants.CABLE_STIFFNESS`` gives the
+measurements).  With the link (``constants.LINK_STIFFNESS``) the link's tip (``link_tip_mass``)
+with the shell rings against the rest at ~180 Hz; a lumped tip light enough for that mode puts
+the sensor's own ringing on a 15 g base (``constants.LINK_STIFFNESS`` gives what that does to
+the thesis's signal facts).
 
 The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
