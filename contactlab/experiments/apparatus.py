@@ -483,7 +483,17 @@ _WHY = {
                               "runs 0.5 s into the wall and the force DAC's 14 mN steps ring the "
                               "pressed arm (y_h 0.41-0.58 nats above the floor), and the first moving "
                               "unit of each slow x-move, where the brush ripple (wavelengths >= 10 "
-                              "um on the commutator) lies below the cable mode (0.17-0.27 nats).",
+                              "um on the commutator) lies below the cable mode (0.17-0.27 nats). "
+                              "Diagnostic runs, not the default: the hf-train spec puts the x-moves' "
+                              "wall at 90 % of the move, so contact comes at 73 % of its time and the "
+                              "servo presses on for ~0.5 s. With the wall at 97 % (contact at 77-78 %) "
+                              "and the amplifiers' noise at 20 uN (what op-amp and sense-resistor "
+                              "noise over a few-kHz current loop give, ~1-5 uA, where "
+                              "constants.AMPLIFIER_FORCE_NOISE takes 0.5 mA) the fact holds on seeds "
+                              "1-5 on the rigid robot (0.075-0.197, pressed then +0.020-0.032 nats, at "
+                              "the pressed-louder criterion's edge) and with the capstan cables on "
+                              "4 of 5 (0.018-0.149; seed 4 -0.029, and its force-loop contact "
+                              "fraction 0.989 < 0.99).",
     "sample-a-separates": "The 80-grit lay is ridden over on its supporting crests ~0.37 mm "
                           "apart: each hand-over is a micro-impact that rings the sensor, but "
                           "between them the finger follows a smooth arc, so y_h over sanded "
