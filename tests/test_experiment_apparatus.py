@@ -87,6 +87,13 @@ def test_a_12_bit_board_hides_the_moving_drive_that_16_bits_show():
     ("link_tip_mass_kg = 0.2", "apparatus.link_tip_mass_kg"),
     ("link_tip_mass_kg = 0", "apparatus.link_tip_mass_kg"),
     ("link_damping_ratio = 2", "apparatus.link_damping_ratio"),
+    ("cable_stiffness_n_per_m = -1", "apparatus.cable_stiffness_n_per_m"),
+    ("cable_stiffness_n_per_m = true", "apparatus.cable_stiffness_n_per_m"),
+    ("rotor_mass_kg = 0", "apparatus.rotor_mass_kg"),
+    ("rotor_mass_kg = 0.05", "apparatus.rotor_mass_kg"),
+    ("cable_damping_ratio = 1.5", "apparatus.cable_damping_ratio"),
+    ("cable_stiffness_n_per_m = 40000\nlink_stiffness_n_per_m = 22000\nlink_tip_mass_kg = 0.065",
+     "apparatus.link_tip_mass_kg"),
 ])
 def test_bad_apparatus_values_are_one_line_errors_naming_file_and_field(tmp_path, line, field):
     text = load_spec("stroke-a").path.read_text()
@@ -107,6 +114,9 @@ def test_apparatus_table_reaches_the_simulated_hardware(tmp_path):
     from contactlab.acquire.sim import hardware
     hw = hardware(spec)
     assert hw["sensor"].adc_bits == 12 and hw["apparatus"].commutation_events == 0
-    assert hw["apparatus"].link_stiffness == 22000.0 and not hw["apparatus"].rigid_drive
+    assert hw["apparatus"].link_stiffness == 22000.0 and not hw["apparatus"].rigid_link
     assert hardware(load_spec("stroke-a"))["apparatus"].rigid_drive
+    path.write_text(text.replace("[environment]", "[apparatus]\ncable_stiffness_n_per_m = 40000\n\n[environment]", 1))
+    cabled = hardware(load_spec(path))["apparatus"]
+    assert cabled.cable_stiffness == 40000.0 and cabled.rigid_link and not cabled.rigid_drive
     assert hardware(load_spec("stroke-a"))["sensor"].adc_bits == 16

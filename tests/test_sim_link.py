@@ -1,6 +1,6 @@
-"""The PHANToM's link mode (dynamics module docstring, "The link mode"; off by default,
+"""The PHANToM's link mode (dynamics module docstring, "The drive's structure"; off by default,
 ``[apparatus] link_stiffness_n_per_m``): the link's tip with the sensor rings on the distal link's
-bending stiffness against the drive."""
+bending stiffness against the rest of the robot."""
 
 from __future__ import annotations
 
@@ -17,18 +17,25 @@ LINKED = Apparatus(link_stiffness=C.LINK_STIFFNESS)
 def test_the_link_mode_sits_where_cable_driven_arms_have_theirs():
     assert 100.0 < LINKED.drive_mode_hz < 300.0
     assert LINKED.drive_mass + LINKED.link_mass == pytest.approx(C.ROBOT_MASS)
-    assert LINKED.friction_mass == LINKED.drive_mass
+    assert LINKED.friction_mass == LINKED.drive_mass and LINKED.base_mass == C.LINK_TIP_MASS
     rigid = Apparatus()
     assert rigid.rigid_drive and rigid.drive_mode_hz == 0.0 and rigid.friction_mass == C.ROBOT_MASS
     assert rigid.drive_sag == 0.0
+    both = Apparatus(link_stiffness=C.LINK_STIFFNESS, cable_stiffness=C.CABLE_STIFFNESS)
+    assert both.rotor_mass + both.arm_mass + both.link_mass == pytest.approx(C.ROBOT_MASS)
 
 
-def test_at_rest_the_link_bends_under_the_weight_it_carries():
-    app = LINKED
+@pytest.mark.parametrize("app", [LINKED, Apparatus(link_stiffness=C.LINK_STIFFNESS, cable_stiffness=C.CABLE_STIFFNESS)],
+                         ids=["link", "cable+link"])
+def test_at_rest_the_link_bends_under_the_weight_it_carries(app):
     r = simulate(environment=free_space(), controller=PositionController(), duration_s=0.3, seed=1,
                  start=(0.0, 0.0, 0.0), control_noise=False, apparatus=app)
     sag = r.fingertip_position[-50:, 2] - r.robot_position[-50:, 2]
-    expect = -(app.drive_sag + app.shell_mass * app.gravity / app.sensor_stiffness)
+    # every spring in the chain stretched by the weight below it: closed form from the masses
+    g = app.gravity
+    expect = -(app.shell_mass * g / app.sensor_stiffness + (app.link_mass + app.shell_mass) * g / app.link_stiffness
+               + (0.0 if app.rigid_cable else (app.robot_mass - app.rotor_mass + app.shell_mass) * g
+                  / app.cable_stiffness))
     assert sag.mean() == pytest.approx(expect, rel=0.05)
 
 

@@ -132,12 +132,58 @@ treats each Cartesian axis as driven by one motor through this ratio (the real l
 mixes the three motors by its Jacobian, which is near-diagonal with entries of this
 order at the workspace centre)."""
 
+ROTOR_INERTIA = 1.2e-6
+"""datasheet: inertia of one motor's rotating parts, kg m^2: the rotor of a Maxon RE 25-class
+ironless motor, 10.5-10.8 g cm^2 in the maxon catalogue (quoted from memory, as in
+COMMUTATOR_SEGMENTS), plus the capstan on its shaft and the encoder's code wheel, ~1 g cm^2."""
+
+ROTOR_MASS = ROTOR_INERTIA * MOTOR_RAD_PER_TIP_M ** 2
+"""physics: the rotors' inertia reflected to the tip through MOTOR_RAD_PER_TIP_M (J G^2 =
+7.7 g per Cartesian axis).  It is part of ROBOT_MASS (the datasheet's apparent mass includes the
+reflected rotor inertia), and it is the one part of the robot that the motors' torque, the brush
+friction with its ripple, the commutation ripple and the encoders act on directly: with the
+cables on (CABLE_STIFFNESS) the rest of the robot (capstan drums, links, gimbal, sensor body) is
+pulled along through them."""
+
+CABLE_STIFFNESS = 4.0e4
+"""physics: stiffness of the capstan-cable transmission at the tip, N/m per axis (``[apparatus]
+cable_stiffness_n_per_m``; dynamics module docstring, "The drive's structure").  A preloaded
+capstan drive pulls the drum with both runs of a steel cable, 2 E A / L of a ~0.46 mm 7x7
+stainless cable (metallic area ~0.1 mm^2, strand modulus ~130 GPa) over ~30 mm of free span:
+~9e5 N/m along the cable.  A tip displacement x moves the cable by x r_c MOTOR_RAD_PER_TIP_M,
+0.18 x on a ~2.25 mm capstan (cable centre on a 4 mm shaft), so the tip feels 9e5 x 0.18^2 ~
+3e4 N/m; a 3-4 mm capstan or a shorter span gives up to ~9e4 N/m (wraps on the capstan and the
+cable's own constructional stretch only lower it).  4e4 N/m: with ROTOR_MASS against the rest of
+the robot a ~380 Hz mode, where cable-driven arms of this size have their first drive modes.
+It matters for the sensor because the drive's vibration while its motors turn (brush and cable
+friction ripple, the force DAC's steps) acts on the light rotors, whose resonance on the cables
+passes it on to the arm several times amplified; a rigid transmission passes it to the sensor
+only through the shell's inertia.
+
+The default apparatus keeps the cables rigid (``Apparatus.cable_stiffness = 0``); ``[apparatus]
+cable_stiffness_n_per_m = 40000`` turns them on.  Measured by the apparatus experiment with this
+stiffness and ROTOR_MASS (seeds 1-5; its page measures every fact both ways): moving separates
+from stationary as 7.3.3 says (H0/H1 normal-fit error 0.000-0.001, moving +0.41-0.45 nats above
+the floor, rigid: 0.037-0.082, +0.14-0.16) and 21 of 22 facts hold on every seed, but pressed
+rises more (+0.62-0.72 nats, rigid +0.30-0.34): the amplifiers' force noise (AMPLIFIER_FORCE_NOISE)
+reaches a pressed arm that the drive's friction, now acting on the rotors only, no longer damps,
+and 7.3.3's order (pressed between stationary and moving) fails by 0.09-0.23.  With the cables the
+simulator's own tests also measure a finger resting on sanded aluminium louder than one sliding
+over it, the arm's ringing on a pressed sensor outlasting the impact-interval cap, and a stroke's
+frozen finger vibrating above the moving threshold (fig 7.5's last phase lost): the pressed
+arm's damping (joint bearings, cable hysteresis) and the amplifiers' noise would have to be known
+before the cables can be the default."""
+
+CABLE_DAMPING_RATIO = 0.03
+"""physics: damping of the cable mode as a ratio of critical: stranded steel cables on capstans
+dissipate by inter-strand friction, 2-5 % of critical (as LINK_DAMPING_RATIO); 3 %."""
+
 LINK_LENGTH = 0.14
 """datasheet-level: length of the PHANToM 1.0's links, m (MOTOR_RAD_PER_TIP_M's ~0.14 m)."""
 
 LINK_STIFFNESS = 2.2e4
 """physics: bending stiffness of the PHANToM's distal link at the tip, N/m per axis, for the
-link mode (dynamics module docstring, "The link mode"; ``[apparatus] link_stiffness_n_per_m``).
+link mode (dynamics module docstring, "The drive's structure"; ``[apparatus] link_stiffness_n_per_m``).
 The link is a thin-walled aluminium tube (E = 70 GPa) of LINK_LENGTH, a cantilever of tip
 stiffness 3 E I / L^3: 2.2e4 N/m for a 10 mm tube with a 1 mm wall (I = 2.9e-10 m^4; a
 12.7 mm tube would give 4.8e4 N/m; joints and cables in series only lower it).  With
@@ -145,7 +191,7 @@ LINK_TIP_MASS and the shell on the tip against the rest of the robot this is a ~
 cable-driven arms of this size have their first structural modes at 100-300 Hz (Gil et al.
 2010 identified two vibration modes on one axis of a PHANToM 1.0 from its frequency response).
 
-The default apparatus keeps the drive rigid (``Apparatus.link_stiffness = 0``), because a
+The default apparatus keeps the link rigid (``Apparatus.link_stiffness = 0``), because a
 lumped tip cannot be what the sensor's base is at both frequencies the thesis measured.
 Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (its page measures
 every fact both ways; seeds 1-5): the drive's brush ripple reaches the sensor through the mode,

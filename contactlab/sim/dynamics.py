@@ -52,27 +52,32 @@ vibrate, without lifting the finger off.  Across a texture boundary the two
 followed heights are blended over the width the sphere needs to roll over the
 step (``constants.TEXTURE_EDGE_MIN_WIDTH``).
 
-The link mode (``Apparatus.link_stiffness``, off by default).  The real robot is not one
-rigid mass: the sensor's body sits on the end of the PHANToM's distal link, which bends.
-With the mode on, the robot mass is split into the drive (motors,
-capstans, drums, proximal links: where the motors' force, the backdrive friction with its
-brush ripple, the commutation ripple and the encoders act, position x_r) and the link's tip
-(``link_tip_mass``, position x_l, carrying the sensor's base), joined by the link's bending
-stiffness and damping (``constants.LINK_STIFFNESS``, ``LINK_TIP_MASS``,
-``LINK_DAMPING_RATIO``):
+The drive's structure (``Apparatus.cable_stiffness``, ``Apparatus.link_stiffness``, both off by
+default: the rigid robot, one mass).  The real robot is not one rigid mass.  The motors pull the
+arm through capstan cables, and the sensor's body sits on the end of the distal link, which
+bends.  The simulator can split the robot mass into a chain of up to three bodies: the drive
+(position x_r: where the motors' force, the backdrive friction with its brush ripple, the
+commutation ripple and the encoders act), the arm (x_a) and the link's tip (x_l, carrying the
+sensor's base), joined by the cables' stiffness k_c, c_c and the link's bending stiffness k_l,
+c_l:
 
-  m_d x_r'' = w_r + k_l (x_l - x_r) + c_l (x_l' - x_r') + m_d g + friction
-  m_l x_l'' = w_m - k_l (x_l - x_r) - c_l (x_l' - x_r') + m_l g
+  m_d x_r'' = w_r + k_c (x_a - x_r) + c_c (x_a' - x_r') + m_d g + friction
+  m_a x_a'' = k_l (x_l - x_a) + c_l (x_l' - x_a') - k_c (x_a - x_r) - c_c (x_a' - x_r') + m_a g
+  m_l x_l'' = w_m - k_l (x_l - x_a) - c_l (x_l' - x_a') + m_l g
   w_m = K (x - x_l) + B (x' - x_l')
 
-In free space the tip with the shell rings against the drive at ~180 Hz: the friction
-ripple of a turning drive and the force DAC's steps while the command changes reach the
-sensor amplified by the mode (7.3.3: moving is louder than stationary), where a rigid robot
-passes them on only through the shell's inertia.  Pressed against an object, the link's
-spring lies between the drive's force noise and the sensor and filters it above the drive's
-own ~100 Hz mode on it.  ``link_stiffness = 0``, the default, is the rigid robot (x_l = x_r):
-a lumped tip light enough for the mode puts the sensor's own ringing on a 15 g base
-(``constants.LINK_STIFFNESS`` gives what that does to the thesis's signal facts).
+A rigid cable or link merges the two bodies it joins (its force is then whatever the next
+spring passes on).  With the cables (``constants.CABLE_STIFFNESS``) the drive is the motors'
+rotors reflected to the tip (``constants.ROTOR_MASS``, 7.7 g) and the arm is the rest: the
+rotors ring on the cables at ~380 Hz, and the brush ripple and the force DAC's steps that act
+on them reach the arm amplified, so a moving drive shakes the sensor several times harder
+than a rigid one (7.3.3: moving is louder than stationary).  But the amplifiers' force noise
+then reaches a pressed sensor through a lightly damped arm (the drive's friction damps only
+the rotors), so a pressed finger is louder still (``constants.CABLE_STIFFNESS`` gives the
+measurements).  With the link (``constants.LINK_STIFFNESS``) the link's tip (``link_tip_mass``)
+with the shell rings against the rest at ~180 Hz; a lumped tip light enough for that mode puts
+the sensor's own ringing on a 15 g base (``constants.LINK_STIFFNESS`` gives what that does to
+the thesis's signal facts).
 
 The PHANToM's own losses.  Without them the only damping of the ~250 Hz mode of
 the robot mass on the sensor spring is the sensor's 2 % (0.7 % of critical for
@@ -165,56 +170,113 @@ class Apparatus:
     # pre-sliding displacement of the backdrive friction at breakaway, m (0: a rigid stick)
     robot_presliding: float = C.ROBOT_PRESLIDING_DISPLACEMENT
     presliding_damping_ratio: float = C.PRESLIDING_DAMPING_RATIO
-    # the drive's structure: the link's tip (link_tip_mass of robot_mass, carrying the sensor)
-    # on the link's bending stiffness link_stiffness; 0 (the default) is a rigid drive, one
-    # robot mass (constants.LINK_STIFFNESS says why; C.LINK_STIFFNESS turns the mode on)
+    # the drive's structure (module docstring, "The drive's structure"): the motors' rotors
+    # (rotor_mass of robot_mass, where the motors' force, the friction and the encoders act) on
+    # the capstan cables' stiffness cable_stiffness against the arm, and the link's tip
+    # (link_tip_mass, carrying the sensor) on the link's bending stiffness link_stiffness; both
+    # 0 (rigid) by default, one robot mass (constants.CABLE_STIFFNESS and LINK_STIFFNESS say
+    # why; those values turn the modes on)
+    rotor_mass: float = C.ROTOR_MASS
+    cable_stiffness: float = 0.0
+    cable_damping_ratio: float = C.CABLE_DAMPING_RATIO
     link_tip_mass: float = C.LINK_TIP_MASS
     link_stiffness: float = 0.0
     link_damping_ratio: float = C.LINK_DAMPING_RATIO
 
     @property
-    def rigid_drive(self) -> bool:
+    def rigid_cable(self) -> bool:
+        return self.cable_stiffness <= 0.0
+
+    @property
+    def rigid_link(self) -> bool:
         return self.link_stiffness <= 0.0
 
     @property
-    def friction_mass(self) -> float:
-        """The mass the drive's friction and motors act on, kg: the drive, or the whole robot for
-        a rigid drive."""
-        return self.robot_mass if self.rigid_drive else self.drive_mass
+    def rigid_drive(self) -> bool:
+        """Cables and link rigid: the robot is one mass."""
+        return self.rigid_cable and self.rigid_link
 
     @property
-    def drive_mass(self) -> float:
-        """The rest of the robot (motors, capstans, drums, proximal links), kg."""
-        return self.robot_mass - self.link_tip_mass
+    def friction_mass(self) -> float:
+        """The mass the drive's friction and motors act on (the drive), kg: the rotors behind
+        the cables, the robot less the link's tip for rigid cables, the whole robot for a rigid
+        drive."""
+        if not self.rigid_cable:
+            return self.rotor_mass
+        return self.robot_mass - (0.0 if self.rigid_link else self.link_tip_mass)
+
+    drive_mass = friction_mass
+
+    @property
+    def arm_mass(self) -> float:
+        """The arm behind the cables (links, drums, gimbal; with the link's tip unless the link
+        mode is on), kg; 0 for rigid cables."""
+        if self.rigid_cable:
+            return 0.0
+        return self.robot_mass - self.rotor_mass - (0.0 if self.rigid_link else self.link_tip_mass)
 
     @property
     def link_mass(self) -> float:
-        """The link's tip (carrying the sensor's base), kg."""
+        """The link's tip (carrying the sensor's base) with the link mode, kg."""
         return self.link_tip_mass
+
+    @property
+    def base_mass(self) -> float:
+        """The body the sensor's base sits on, kg: the link's tip, else the arm behind the
+        cables, else the whole robot."""
+        if not self.rigid_link:
+            return self.link_tip_mass
+        return self.robot_mass - (0.0 if self.rigid_cable else self.rotor_mass)
+
+    @property
+    def cable_damping(self) -> float:
+        """Damping of the cables' stretch, N s/m (CABLE_DAMPING_RATIO on the cable mode's
+        reduced mass)."""
+        if self.rigid_cable:
+            return 0.0
+        rest = self.robot_mass - self.rotor_mass + self.shell_mass
+        mu = self.rotor_mass * rest / (self.rotor_mass + rest)
+        return 2.0 * self.cable_damping_ratio * math.sqrt(self.cable_stiffness * mu)
+
+    @property
+    def cable_mode_hz(self) -> float:
+        """The cable mode (the rotors against the rest of the robot with the shell), Hz (0:
+        rigid cables)."""
+        if self.rigid_cable:
+            return 0.0
+        rest = self.robot_mass - self.rotor_mass + self.shell_mass
+        return math.sqrt(self.cable_stiffness * (1.0 / self.rotor_mass + 1.0 / rest)) / (2.0 * math.pi)
 
     @property
     def link_damping(self) -> float:
         """Damping of the link's bending, N s/m (LINK_DAMPING_RATIO on the mode's reduced mass)."""
-        if self.rigid_drive:
+        if self.rigid_link:
             return 0.0
         tip = self.link_mass + self.shell_mass
-        mu = self.drive_mass * tip / (self.drive_mass + tip)
+        rest = self.robot_mass - self.link_tip_mass
+        mu = rest * tip / (rest + tip)
         return 2.0 * self.link_damping_ratio * math.sqrt(self.link_stiffness * mu)
 
     @property
     def drive_mode_hz(self) -> float:
-        """The link mode (the link's tip with the shell against the drive), Hz (0: rigid)."""
-        if self.rigid_drive:
+        """The link mode (the link's tip with the shell against the rest of the robot), Hz (0:
+        rigid link)."""
+        if self.rigid_link:
             return 0.0
         tip = self.link_mass + self.shell_mass
-        return math.sqrt(self.link_stiffness * (1.0 / self.drive_mass + 1.0 / tip)) / (2.0 * math.pi)
+        rest = self.robot_mass - self.link_tip_mass
+        return math.sqrt(self.link_stiffness * (1.0 / rest + 1.0 / tip)) / (2.0 * math.pi)
 
     @property
     def drive_sag(self) -> float:
-        """Static bending of the link under the weight of its tip and the shell, m."""
-        if self.rigid_drive:
-            return 0.0
-        return (self.link_mass + self.shell_mass) * self.gravity / self.link_stiffness
+        """Static sag of the sensor's base below the drive: the cables' stretch under the arm's
+        and the shell's weight plus the link's bending under its tip's and the shell's, m."""
+        sag = 0.0
+        if not self.rigid_cable:
+            sag += (self.robot_mass - self.rotor_mass + self.shell_mass) * self.gravity / self.cable_stiffness
+        if not self.rigid_link:
+            sag += (self.link_mass + self.shell_mass) * self.gravity / self.link_stiffness
+        return sag
 
     @property
     def presliding_stiffness(self) -> float:
@@ -419,8 +481,10 @@ def _ratchet(mu, slope):
 def integrate(n_out, n_sub, dt,
               # apparatus
               mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
-              # drive structure: motor-side mass, link stiffness and damping (kc = 0: rigid)
-              md, kc, cc,
+              # drive structure (module docstring, "The drive's structure"): the motors' rotors'
+              # reflected mass, the capstan cables' stiffness and damping (kc = 0: rigid cables),
+              # the link's tip mass, the link's bending stiffness and damping (kl = 0: rigid link)
+              m_rot, kc, cc, m_tip, kl, cl,
               # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
               n_comm, motor_gain, comm_phase,
               # environment
@@ -455,18 +519,26 @@ def integrate(n_out, n_sub, dt,
     xr = xr0.copy(); vr = vr0.copy(); x = x0.copy(); v = v0.copy()
     gvec = np.array([0.0, 0.0, -grav])
     gcomp = -(mr + mf) * gvec
-    # the drive's structure (module docstring, "The link mode"): the drive (mass m_d: motors'
-    # force, friction, encoders) joined to the link's tip (m_l, carrying the sensor's base at
-    # xl) by the link's bending spring kc; a rigid drive is one mass, xl = xr
-    rigid = kc <= 0.0
-    m_d = mr if rigid else md
-    m_l = mr - md
-    # at rest the link's tip hangs below the drive by the weight it carries
-    xl = xr0.copy(); vl = vr0.copy()
-    if not rigid:
+    # the drive's structure (module docstring, "The drive's structure"): a chain of up to three
+    # bodies, the drive (xr: the rotors, where the motors' force, the friction and the encoders
+    # act), the arm (xa) behind the capstan cables kc, the link's tip (xl, carrying the sensor's
+    # base) behind the link's bending spring kl; a rigid cable or link merges its two bodies
+    has_cable = kc > 0.0
+    has_link = kl > 0.0
+    m_arm = mr - (m_rot if has_cable else 0.0) - (m_tip if has_link else 0.0)
+    m_d = m_rot if has_cable else (m_arm if has_link else mr)
+    m_a = m_arm if has_link else mr - m_rot
+    # at rest each spring is stretched by the weight it carries
+    xa = xr0.copy(); va = vr0.copy()
+    if has_cable:
         for a in range(3):
-            xl[a] += (m_l + mf) * gvec[a] / kc
+            xa[a] += (mr - m_rot + mf) * gvec[a] / kc
+    xl = xa.copy(); vl = va.copy()
+    if has_link:
+        for a in range(3):
+            xl[a] += (m_tip + mf) * gvec[a] / kl
     fcab = np.zeros(3)
+    flnk = np.zeros(3)
     wr = np.zeros(3)
     xi_int = xr0.copy()          # integral force controller state (desired position)
     x_hold = xr0.copy()
@@ -714,12 +786,15 @@ def integrate(n_out, n_sub, dt,
             fm = wr[a]
             if n_comm > 0:
                 fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
-            if rigid:
-                vr[a] += dt * ((fm + fs[a]) / m_d + gvec[a])
-            else:
-                fcab[a] = kc * (xl[a] - xr[a]) + cc * (vl[a] - vr[a])
-                vr[a] += dt * ((fm + fcab[a]) / m_d + gvec[a])
-                vl[a] += dt * ((fs[a] - fcab[a]) / m_l + gvec[a])
+            # the force each body passes on to the one before it: the cable's, the link's, or
+            # (rigid) the sensor's
+            flnk[a] = kl * (xl[a] - xa[a]) + cl * (vl[a] - va[a]) if has_link else fs[a]
+            fcab[a] = kc * (xa[a] - xr[a]) + cc * (va[a] - vr[a]) if has_cable else flnk[a]
+            vr[a] += dt * ((fm + fcab[a]) / m_d + gvec[a])
+            if has_cable:
+                va[a] += dt * ((flnk[a] - fcab[a]) / m_a + gvec[a])
+            if has_link:
+                vl[a] += dt * ((fs[a] - flnk[a]) / m_tip + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
         # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
         # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
@@ -791,11 +866,16 @@ def integrate(n_out, n_sub, dt,
                     o_fc[j, p, a] += (vtn - vt) * mf / dt / n_sub
         for a in range(3):
             xr[a] += dt * vr[a]
-            if rigid:
-                xl[a] = xr[a]
-                vl[a] = vr[a]
+            if has_cable:
+                xa[a] += dt * va[a]
             else:
+                xa[a] = xr[a]
+                va[a] = vr[a]
+            if has_link:
                 xl[a] += dt * vl[a]
+            else:
+                xl[a] = xa[a]
+                vl[a] = va[a]
             x[a] += dt * v[a]
         if first:
             for p in range(n_planes):

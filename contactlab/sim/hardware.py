@@ -10,7 +10,8 @@ or :class:`~contactlab.sim.sensor.Encoders` (defaults and sources in
     adc_bits = 12                      # the converter (default 16)
     amplifier_noise_nv_per_rthz = 10   # bridge amplifier input noise density
     commutation_ripple = false         # the motors' commutation torque ripple
-    link_stiffness_n_per_m = 22000     # the link mode (default 0: a rigid drive)
+    cable_stiffness_n_per_m = 40000    # the rotors ring on the capstan cables (default 0: rigid)
+    link_stiffness_n_per_m = 22000     # the link mode (default 0: a rigid link)
 
 :func:`check_apparatus` returns a one-line message per bad value (the spec loader names the
 file and the field); :func:`build_hardware` makes the three objects.
@@ -74,6 +75,12 @@ FIELDS: dict[str, Field] = {
                                 doc="force DAC step at the tip, N (0: exact)"),
     "robot_presliding_m": Field("apparatus", "robot_presliding", float, 1.0, 0.0, 1e-3,
                                 doc="pre-sliding displacement of the drive friction, m (0: rigid stick)"),
+    "cable_stiffness_n_per_m": Field("apparatus", "cable_stiffness", float, 1.0, 0.0, 1e8,
+                                     doc="capstan cables' stiffness at the tip, N/m (0: rigid cables)"),
+    "rotor_mass_kg": Field("apparatus", "rotor_mass", float, 1.0, 0.0, 0.5 * C.ROBOT_MASS, True,
+                           "the motors' rotors reflected to the tip, kg"),
+    "cable_damping_ratio": Field("apparatus", "cable_damping_ratio", float, 1.0, 0.0, 1.0,
+                                 doc="damping of the cable mode, ratio of critical"),
     "link_stiffness_n_per_m": Field("apparatus", "link_stiffness", float, 1.0, 0.0, 1e8,
                                     doc="bending stiffness of the link at the tip, N/m (0: rigid drive)"),
     "link_tip_mass_kg": Field("apparatus", "link_tip_mass", float, 1.0, 0.0, 0.9 * C.ROBOT_MASS, True,
@@ -106,6 +113,12 @@ def check_apparatus(table: dict) -> tuple[str, str] | None:
     if table.get("robot_static_friction_n", C.ROBOT_BACKDRIVE_STATIC_FRICTION) < \
             table.get("robot_friction_n", C.ROBOT_BACKDRIVE_FRICTION):
         return "robot_static_friction_n", "must be at least robot_friction_n (static >= kinetic)"
+    rotor = table.get("rotor_mass_kg", C.ROTOR_MASS)
+    tip = table.get("link_tip_mass_kg", C.LINK_TIP_MASS)
+    if table.get("link_stiffness_n_per_m", 0.0) > 0.0 and table.get("cable_stiffness_n_per_m", 0.0) > 0.0 \
+            and rotor + tip > 0.9 * C.ROBOT_MASS:
+        return "link_tip_mass_kg", (f"with rotor_mass_kg the robot leaves no arm between cables and link "
+                                    f"(rotor + tip {rotor + tip:g} > {0.9 * C.ROBOT_MASS:g} kg)")
     return None
 
 

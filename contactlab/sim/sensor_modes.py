@@ -23,14 +23,15 @@ def mode_prediction(apparatus=None) -> dict:
     m_s joined by K, B; the 1 kHz servo and the backdrive friction are far below
     this mode): relative motion with the reduced mass ``mu = m_s m_r/(m_s+m_r)``,
     ``w^2 = K/mu``, decay ``B/(2 mu)``.  ``f_damped_hz`` is ``sqrt(w^2 - s^2)/2pi``.
-    The sensor's base is the robot mass, or the link's tip with the arm's link mode
-    (its bending spring is soft at these frequencies).
+    The sensor's base is the arm behind the capstan cables (the rotors hang on the cables,
+    whose ~380 Hz mode lies below these frequencies), the whole robot for rigid cables, or the
+    link's tip with the arm's link mode (its bending spring is soft at these frequencies).
     """
     from contactlab.sim import Apparatus
 
     app = apparatus or Apparatus()
     K, B, ms = app.sensor_stiffness, app.sensor_damping, app.shell_mass
-    mr = app.robot_mass if app.rigid_drive else app.link_mass
+    mr = app.base_mass
     out = {}
     for name, m in (("fixed_base", ms), ("free_base", ms * mr / (ms + mr))):
         w, s = math.sqrt(K / m), B / (2 * m)
