@@ -120,10 +120,11 @@ def reference_observe(graph, models, y, *, threshold=D.OBSERVER_THRESHOLD,
                     if (j, r) in [c[:2] for c in cands]:
                         continue
                     init, prev = -math.inf, None
-                    for o in paths:                     # the best tracked path into (j, r)
-                        if o.start <= r and j in graph.successors(o.node) and o.lls[r - 1] > init:
+                    for o in paths:     # the best tracked path into (j, r), started before r
+                        if o.start < r and j in graph.successors(o.node) and o.lls[r - 1] > init:
                             init, prev = o.lls[r - 1], o
-                    cands.append((j, r, init, prev.history))
+                    if prev is not None:
+                        cands.append((j, r, init, prev.history))
             for j, r, init, history in cands:
                 old = [o for o in paths if (o.node, o.start) == (j, r)]
                 if old:

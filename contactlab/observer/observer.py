@@ -53,9 +53,10 @@ measured on the switching suite of ``benchmarks/bench_observer.py``):
   cross, and the one with the largest statistic may date from an old
   excursion, so each distinct estimate spawns.
 * A successor ``(j, r)`` starts from the best tracked path into it: the highest
-  path log-likelihood after ``r - 1`` among tracked paths started by ``r`` whose
-  node may go to ``j`` (the maximisation over an instance's predecessors,
-  6.1/6.5), not only the spawning path's: each path's detector places the
+  path log-likelihood after ``r - 1`` among tracked paths started before ``r``
+  whose node may go to ``j`` (the maximisation over an instance's predecessors,
+  6.1/6.5; every instance explains at least one sample, fig 6.2), not only the
+  spawning path's: each path's detector places the
   change differently, and at an impact one misplaced sample costs tens of nats.
 
 * Before the first ``lag`` samples (the largest AR order) no model can
@@ -630,7 +631,7 @@ class Observer:
                     p.init = init
                     p.seg = Segment(j, r, prev)
                     merged.append((self.graph.nodes[j].name, r))
-            else:
+            elif prev is not None:
                 new.append((j, r, init, prev))
         n_units = len(self._u_path)
         if new:
@@ -650,9 +651,12 @@ class Observer:
     def _best_predecessors(self, js: list, r: int, action) -> list[tuple[float, Segment]]:
         """For each node j of ``js``, the best tracked path into instance ``(j, r)``: the
         highest path log-likelihood after sample ``r - 1`` (plus ``log p(i -> j)``) over the
-        tracked paths started by ``r`` whose node may go to ``j`` (the maximisation of
-        6.1/6.5 over the predecessors of a feature instance; the spawning path is one of
-        them); the first such path on ties, ``(-inf, None)`` if none.  A handful of paths:
+        tracked paths started before ``r`` whose node may go to ``j`` (the maximisation of
+        6.1/6.5 over the predecessors of a feature instance); the first such path on ties,
+        ``(-inf, None)`` if none.  An instance explains at least one measurement (the
+        lattice of fig 6.2), so a path started at ``r`` is no predecessor at ``r``: else one
+        change would carry a path through a chain of nodes of no samples each (9.2: "104
+        must be detected before 90 can be hypothesized").  A handful of paths:
         plain Python floats (the same double additions as numpy's)."""
         row = self._hist.rows(r, r + 1)[0, self._path_arrays()[1]].tolist()
         T = self._transition_table(action)
@@ -660,7 +664,7 @@ class Observer:
         for j in js:
             best, prev = -math.inf, None
             for p, v in zip(self._paths, row):
-                if p.start <= r:
+                if p.start < r:
                     v += T[p.node][j]
                     if v > best:
                         best, prev = v, p.seg
