@@ -53,6 +53,10 @@ def test_score_path():
     assert not s["correct"] and s["distractor"]
     assert not score_path(list("0123"))["correct"]
     assert reduce_impacts(list("3131")) == ["3", "1"]
+    # fig 9.1's reading: the free motion as expected, and the run ends on the surface
+    assert score_path(list("012131213"))["final"] and score_path(list("0121413"))["final"]
+    assert not score_path(list("012141"))["final"] and not score_path(list("01214"))["final"]
+    assert not score_path(list("01313"))["final"] and not score_path(list("0121312"))["final"]
 
 
 def test_rotated_graph():

@@ -218,9 +218,9 @@ def velocity_range(seed: int, *, trials=(0, 3, 6), apparatus: dict | None = None
 
 def guarded_move_motion(seed: int, *, trials=None, apparatus: dict | None = None) -> dict:
     """How the 9.1.1 finger moves, over the guarded-move trials (default all): the still
-    fraction of its free motion (first moving sample to first contact), the fraction of the
-    samples after the first contact in contact, and the sliding fraction of the contact after
-    the contact's impact (the simulator's truth: speed above
+    fraction of its free motion (first moving sample to first contact), and after the
+    contact's impact (its bounce train) the fraction of the samples in contact and the
+    sliding fraction of those (the simulator's truth: speed above
     ``constants.MOVING_SPEED_THRESHOLD``)."""
     spec = _spec("guarded-move", apparatus)
     trials = range(spec.n_trials) if trials is None else trials
@@ -236,14 +236,15 @@ def guarded_move_motion(seed: int, *, trials=None, apparatus: dict | None = None
         free = ~r.moving[first_move:first_touch]
         still[0] += int(free.sum())
         still[1] += len(free)
-        kept[0] += int(touching[first_touch:].sum())
-        kept[1] += len(touching) - first_touch
         ends = [b for a, b in r.impact_intervals if b > first_touch]
-        on = touching[(ends[0] if ends else first_touch):]
-        mv = r.moving[len(touching) - len(on):]
+        after = ends[0] if ends else first_touch
+        kept[0] += int(touching[after:].sum())
+        kept[1] += len(touching) - after
+        on = touching[after:]
+        mv = r.moving[after:]
         slides[0] += int(mv[on].sum())
         slides[1] += int(on.sum())
-    frac = lambda c: c[0] / c[1] if c[1] else math.nan
+    frac = lambda c: float(c[0] / c[1]) if c[1] else math.nan
     return {"guarded-move-smooth": frac(still), "guarded-move-keeps-contact": frac(kept),
             "guarded-move-exploration-slides": frac(slides)}
 

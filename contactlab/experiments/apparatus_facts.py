@@ -151,8 +151,8 @@ FACTS: tuple[Fact, ...] = (
     Fact("guarded-move-keeps-contact", "9.1.1",
          "This causes an impact (back to feature 1) which then transitions to the final "
          "constraint model (3).",
-         "fraction of the guarded-move samples after the first contact in which the finger "
-         "touches the surface", "", 0.99, math.inf),
+         "fraction of the guarded-move samples after the contact's impact (its bounce train) "
+         "in which the finger touches the surface", "", 0.99, math.inf),
     Fact("guarded-move-exploration-slides", "9.1.1",
          "the system performs well in this experiment because of the exploratory motion added "
          "onto the basic motion. Without exploration the system would not be provided with "

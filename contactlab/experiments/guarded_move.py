@@ -98,10 +98,17 @@ def reduce_impacts(nodes, impact: str = "1") -> list[str]:
 
 def score_path(merged_nodes, expected=EXPECTED) -> dict:
     """``strict``: the merged path is exactly ``expected``; ``correct``: it is after
-    :func:`reduce_impacts`; ``distractor``: it visits a node outside ``expected``."""
+    :func:`reduce_impacts`; ``final``: after :func:`reduce_impacts` it starts with
+    ``expected`` but its last node and ends in that node (the thesis's fig 9.1 run, counted
+    correct, "initially selects feature 4 ... but quickly returns to the correct feature,
+    number 3" after an impact during the contact); ``distractor``: it visits a node outside
+    ``expected``."""
     nodes = list(merged_nodes)
+    red = reduce_impacts(nodes)
+    head = list(expected[:-1])
     return {"strict": nodes == list(expected),
-            "correct": reduce_impacts(nodes) == list(expected),
+            "correct": red == list(expected),
+            "final": red[:len(head)] == head and bool(nodes) and nodes[-1] == expected[-1],
             "distractor": any(n not in expected for n in nodes)}
 
 

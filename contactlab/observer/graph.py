@@ -410,10 +410,13 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
 
 def _check_moving(params, where, err) -> None:
     given = [k for k in ("low", "high", "sigma") if k in params]
-    if given and len(given) != 3:
-        missing = sorted({"low", "high", "sigma"} - set(given))[0]
+    if given and given != ["sigma"] and len(given) < 2:
+        missing = sorted({"low", "high"} - set(given))[0]
         raise err(f"{where}.{missing}", "inline velocity-moving parameters need low, high and "
-                  "sigma (or none: trained)")
+                  "sigma, or low and high (sigma trained), or none (trained)")
+    if given == ["sigma"]:
+        raise err(f"{where}.low", "inline velocity-moving parameters need low, high and "
+                  "sigma, or low and high (sigma trained), or none (trained)")
     if given and not params["low"] < params["high"]:
         raise err(f"{where}.high", f"must exceed low ({params['low']}); got {params['high']}")
 
