@@ -71,6 +71,10 @@ MISTAKES = [
     ('name = "B"\n', 'name = "B"\ninitial = 1.5\n', "nodes[1] (B).initial", "must be a probability"),
     ('sigma = 0.1', 'sigma = -1.0', "models.v.sigma", "must be > 0"),
     ('"A -> B", "B -> A"', '"A -> A"', "edges[0]", "self_transition"),
+    ('kind = "velocity-fixed"\nsigma = 0.1', 'kind = "velocity-moving"\nsigma = 0.1',
+     "models.v.low", "low and high (sigma trained)"),
+    ('kind = "velocity-fixed"\nsigma = 0.1', 'kind = "velocity-moving"\nlow = -0.01',
+     "models.v.high", "need low, high and sigma"),
 ]
 
 

@@ -43,11 +43,14 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
   scored under the frame estimated from samples before t.  The score carries
   8.70's prior term ``log(a) - a alpha`` of the instance's current estimate, with
   alpha the misalignment of 8.69 (3 minus the singular values of the estimated
-  projection against the nominal one) and ``a = prior_samples``: turning a normal
-  by theta costs the pseudo-samples ``a sin^2 theta`` nats and 8.69 gives
-  ``a alpha = 2 a (1 - cos theta)``, the same to second order, so one number is
-  both the estimate's prior weight and 8.70's parameter (8.3's 15 deg prior standard
-  deviation is ``a = 2/3 / (1 - cos 15 deg) = 19.5``).  ``log(a)`` is added at the
+  projection against the nominal one) and ``a = prior_samples``: in the trace
+  criterion (8.25: half a unit per squared unit residual, nats when the residuals
+  have unit variance) turning a normal by theta costs the pseudo-samples
+  ``a sin^2 theta`` and 8.69 gives ``a alpha = 2 a (1 - cos theta)``, the same to
+  second order, so one number serves as the estimate's prior weight and as 8.70's
+  parameter (our choice; 8.3's 15 deg prior standard deviation is
+  ``a = 2/3 / (1 - cos 15 deg) = 19.57``).  With trained noise above one unit the
+  estimate's pull toward the nominal frame is weaker than 8.70's maximum would make it.  ``log(a)`` is added at the
   instance's first sample and ``-a alpha`` as its change from sample to sample
   (the sum over a segment is 8.70's term for the segment's latest estimate); the
   free and the fully constrained models have no frame to estimate and no term.
