@@ -301,3 +301,49 @@ def test_validator_checks_truth_shapes_and_writer_checks_lengths(spec, tmp_path)
             trial = archive.add_trial("t", rate_hz=1000.0)
             trial.set_truth(contact=np.zeros((4, 2), bool), surfaces=["floor"])
     assert not (tmp_path / "w.h5").exists()
+
+
+def test_force_zeroed_spec_records_the_wrench_less_its_rest_reading(tmp_path):
+    # 8.1.1's "calibrated and zeroed" sensor: at rest in free space the recorded force is
+    # zero instead of the shell's weight; the strains are the sensor's own
+    from contactlab.sim import constants as C
+    text = """
+name = "rest"
+title = "rest"
+thesis = "8.1.1"
+rate_hz = 1000.0
+duration_s = 0.3
+labels = "contacts"
+{flag}
+[environment]
+kind = "free_space"
+[controller]
+kind = "position"
+moves = []
+[[group]]
+name = "a"
+trials = 1
+"""
+    out = {}
+    for flag in ("", "force_zeroed = true"):
+        p = tmp_path / f"rest{len(flag)}.toml"
+        p.write_text(text.format(flag=flag))
+        path = tmp_path / f"rest{len(flag)}.h5"
+        record(SimSource(load_spec(p)), out=path, n_trials=1, seed=2)
+        with open_archive(path) as archive:
+            t = archive.trial(archive.trial_ids[0])
+            out[bool(flag)] = (t.wrench.copy(), t.strain.copy())
+    weight = C.SHELL_MASS * C.GRAVITY
+    assert out[False][0][:, 2].mean() == pytest.approx(-weight, rel=0.05)
+    assert abs(out[True][0][:, 2].mean()) < 0.02 * weight
+    np.testing.assert_allclose(out[True][0][:, :3].mean(axis=0), 0.0, atol=0.02 * weight)
+    np.testing.assert_array_equal(out[True][1], out[False][1])
+
+
+def test_force_zeroed_must_be_a_boolean(tmp_path):
+    from contactlab.errors import DataError
+    p = tmp_path / "quick.toml"
+    p.write_text(SPEC.replace('labels = "texture"', 'labels = "texture"\nforce_zeroed = 1'))
+    with pytest.raises(DataError) as err:
+        load_spec(p)
+    assert "force_zeroed" in str(err.value) and "\n" not in str(err.value)

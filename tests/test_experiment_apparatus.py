@@ -54,6 +54,27 @@ def test_hf_impacts_come_at_the_end_of_the_move_in_bounce_trains():
     assert get("bounce-train").holds(m["bounce-train"])
 
 
+def test_guarded_move_is_smooth_in_free_space_and_slides_on_the_surface():
+    # 9.1.1: "The robot is then smoothly moving and contacts the surface", and the
+    # exploration moves the finger along the surface; one run per material
+    m = A.guarded_move_motion(3, trials=(0, 3, 6))
+    for name in ("guarded-move-smooth", "guarded-move-keeps-contact",
+                 "guarded-move-exploration-slides"):
+        assert get(name).holds(m[name]), (name, m[name])
+    # the earlier setup (100 N/m, 5 mm under the surface, slow exploration) fails both
+    spec = load_spec("guarded-move")
+    from dataclasses import replace
+    slow = {**spec.groups[0].controller, "stiffness_n_per_m": 100.0,
+            "exploration_hz": [0.25, 0.3, 0.35],
+            "moves": [{"displacement_m": [0.0, 0.0, -0.015], "duration_s": 4.0, "start_s": 0.5}]}
+    old = replace(spec, groups=tuple(replace(g, controller=slow) for g in spec.groups))
+    from unittest import mock
+    with mock.patch.object(A, "load_spec", lambda name: old):
+        m = A.guarded_move_motion(3, trials=(0, 3, 6))
+    assert not get("guarded-move-smooth").holds(m["guarded-move-smooth"])
+    assert not get("guarded-move-exploration-slides").holds(m["guarded-move-exploration-slides"])
+
+
 def _free_move(adc_bits: int):
     _, sen, _ = build_hardware({"adc_bits": adc_bits})
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.018, 0.018), 0.5, 0.4),))

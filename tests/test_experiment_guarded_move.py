@@ -53,6 +53,10 @@ def test_score_path():
     assert not s["correct"] and s["distractor"]
     assert not score_path(list("0123"))["correct"]
     assert reduce_impacts(list("3131")) == ["3", "1"]
+    # fig 9.1's reading: the free motion as expected, and the run ends on the surface
+    assert score_path(list("012131213"))["final"] and score_path(list("0121413"))["final"]
+    assert not score_path(list("012141"))["final"] and not score_path(list("01214"))["final"]
+    assert not score_path(list("01313"))["final"] and not score_path(list("0121312"))["final"]
 
 
 def test_rotated_graph():
@@ -82,7 +86,42 @@ def test_three_simulated_runs_train_every_model_of_the_graph(tmp_path):
     cos = abs(float(built["CXZ"].normals[:, 0] @ built["CZ"].normals[:, 0]))
     assert np.degrees(np.arccos(min(cos, 1.0))) == pytest.approx(5.0, abs=1e-6)
     assert np.allclose(built["CXZ"].V, built["CZ"].V)
+    # 9.1.1: M uniform on [-0.01, 0.01] with the trained noise; frames estimated with 8.70's
+    # prior term, a = 2/3 / (1 - cos 15 deg) (8.3)
+    assert (built["M"].low, built["M"].high) == (-0.01, 0.01)
+    assert built["M"].sigma == gm.kinematic["velocity"]["free-moving+floor-moving"].sigma
+    # the accuracies that normalise the units (8.7-8.9): the encoder step as quantisation noise
+    from contactlab.sim import constants as SC
+    for name in ("C0", "CZ", "CXZ", "CYZ"):
+        assert built[name].position_sd == pytest.approx(SC.ENCODER_RESOLUTION / np.sqrt(12), rel=1e-3)
+    a = 2.0 / 3.0 / (1.0 - np.cos(np.radians(15.0)))
+    for name in ("CZ", "CXZ", "CYZ"):
+        assert built[name].mode == "estimated" and built[name].prior_samples == pytest.approx(a, rel=2e-3)
+    # 8.1.1's zeroed sensor: at rest in free space before the move the force reads zero, not
+    # the shell's weight
+    from contactlab.archive import open_archive
+    from contactlab.sim import constants as C
+    with open_archive(arc) as archive:
+        t = archive.trial(archive.trial_ids[0])
+        rest = np.abs(t.velocity).max(axis=1) < 1e-3
+        fz = t.wrench[:, 2][t.time < 0.5][rest[t.time < 0.5]]
+    assert len(fz) > 10 and abs(fz.mean()) < 0.1 * C.SHELL_MASS * C.GRAVITY
     # 9.1.1: S is the moving model with the standard deviation of the mean raised to 2.5
     assert np.hypot.reduce(built["S"].theta_sqrt[0, 0]) == pytest.approx(2.5)
     trained_sd = np.sqrt(np.asarray(gm.temporal["free-moving"].theta_cov)[..., 0, 0]).ravel()[0]
     assert trained_sd < 0.5
+
+
+def test_a_graph_states_one_position_accuracy():
+    import tomllib
+
+    from contactlab.errors import DataError
+    from contactlab.observer.graph import bundled_graphs, parse_graph
+    from contactlab.observer.kinematics import fit_kinematic_models
+
+    path = bundled_graphs()["guarded-move"]
+    doc = tomllib.loads(path.read_text())
+    doc["models"]["CYZ"]["position_sd"] = 1e-5
+    with pytest.raises(DataError) as err:
+        fit_kinematic_models(parse_graph(doc, source=str(path)), {}, source="x.h5")
+    assert "models.CYZ.position_sd" in str(err.value) and "\n" not in str(err.value)

@@ -81,6 +81,10 @@ MISTAKES = [
     ('"A -> B", "B -> A"', '"A -> A"', "edges[0]", "self_transition"),
     ('initial = "uniform"\n', 'initial = "uniform"\np_prune = 0\n', "p_prune", "in (0, 1]"),
     ('initial = "uniform"\n', 'initial = "uniform"\np_prune = "all"\n', "p_prune", "in (0, 1]"),
+    ('kind = "velocity-fixed"\nsigma = 0.1', 'kind = "velocity-moving"\nsigma = 0.1',
+     "models.v.low", "low and high (sigma trained)"),
+    ('kind = "velocity-fixed"\nsigma = 0.1', 'kind = "velocity-moving"\nlow = -0.01',
+     "models.v.high", "need low, high and sigma"),
 ]
 
 

@@ -247,3 +247,29 @@ def test_moving_model_tests_a_stop_against_the_fixed_model():
     assert [n for n, _ in res.map_path] == ["moving", "still"]
     assert 200 <= dict(res.map_path)["still"] <= 202
     assert all(e.time >= 200 for e in res.events if e.model is not None)
+@pytest.mark.parametrize("name, tilt", [("Z", 12.0), ("XZ", 7.0)])
+def test_estimated_frame_carries_the_8_70_prior_term(name, tilt):
+    """With the frame estimated, the score adds log(a) - a alpha (8.70) for the estimate; on
+    rich data from a frame turned by ``tilt`` about x the estimate is that frame, so the term
+    is log(a) - a alpha with alpha of 8.69 computed here on the full 6 x 3 projections."""
+    rng = np.random.default_rng(9)
+    R = Rotation.from_euler("x", tilt, degrees=True).as_matrix()
+    N0 = constraint_normals(name)
+    m = N0.shape[1]
+    frame0 = ConstraintFeature.named("c", name).frame
+    N, T = R @ frame0[:, :m], R @ frame0[:, m:]
+    n = 2000
+    pos = (rng.normal(size=(n, 3 - m)) * 2e-3) @ T.T + rng.normal(size=(n, 3)) * 1e-5
+    frc = (1.0 + 0.1 * rng.normal(size=(n, m))) @ N.T + rng.normal(size=(n, 3)) * 0.01
+    x = np.c_[pos, frc]
+    a = 19.5
+    kw = dict(mode="estimated", prior_samples=a)
+    with_term = _run(ConstraintFeature.named("c", name, **kw), x)[0][0].sum()
+    data_only = _run(ConstraintFeature.named("c", name, frame_penalty=False, **kw), x)[0][0].sum()
+    P = np.zeros((6, 3))
+    P[:3, :m], P[3:, m:] = N, T
+    PN = np.zeros((6, 3))
+    PN[:3, :m], PN[3:, m:] = frame0[:, :m], frame0[:, m:]
+    alpha = 3.0 - np.linalg.svd(P.T @ PN, compute_uv=False).sum()
+    assert alpha == pytest.approx(2 * (1 - np.cos(np.radians(tilt))), rel=1e-9)
+    assert with_term - data_only == pytest.approx(np.log(a) - a * alpha, rel=1e-3, abs=1e-3)

@@ -201,6 +201,18 @@ def hardware(spec: DatasetSpec) -> dict:
     return {"apparatus": app, "sensor": sen, "encoders": enc}
 
 
+def sensor_zero(sensor) -> np.ndarray:
+    """The wrench (6,) ``sensor`` reports at rest in free space: the shell's weight
+    (4.44's G) through the sensor's calibration, what zeroing (taring) the sensor at rest
+    subtracts from every later reading (8.1.1: "a calibrated and zeroed force ... sensor";
+    the noise averages out of a tare)."""
+    from contactlab.sim import constants as C
+
+    w = np.zeros(6)
+    w[2] = -C.SHELL_MASS * C.GRAVITY
+    return sensor.inverse_calibration @ (sensor.true_calibration @ w)
+
+
 # ---------------------------------------------------------------------------
 # label functions: simulator truth -> an experiment's feature labels
 # ---------------------------------------------------------------------------
@@ -348,7 +360,8 @@ class SimTrial:
             command_columns=["fx", "fy", "fz"] if force else ["x", "y", "z"],
             command_units="N" if force else "m",
             action_names=list(spec.action_names) if spec.action_names else None,
-            attrs={"spec": spec.name, "group": group.name, "run_seed": int(seed), "trial_index": k})
+            attrs={"spec": spec.name, "group": group.name, "run_seed": int(seed), "trial_index": k,
+                   "force_zeroed": bool(spec.force_zeroed)})
         self._result = None
 
     def chunks(self) -> Iterator[dict[str, np.ndarray]]:
@@ -358,13 +371,15 @@ class SimTrial:
                          duration_s=self.plan.duration_s, seed=self.plan.seed,
                          rate_hz=self.spec.rate_hz, start=self.plan.start, **hardware(self.spec))
         self._result = r
+        wrench = r.wrench - sensor_zero(hardware(self.spec)["sensor"]) if self.spec.force_zeroed \
+            else r.wrench
         action = None
         if self.plan.actions is not None:
             idx = np.searchsorted(self.plan.action_times, r.time, side="right") - 1
             action = np.where(idx >= 0, self.plan.actions[np.clip(idx, 0, None)], 0)
         for a in range(0, len(r.time), CHUNK_ROWS):
             b = min(a + CHUNK_ROWS, len(r.time))
-            row = {"time": r.time[a:b], "strain": r.strain[a:b], "wrench": r.wrench[a:b],
+            row = {"time": r.time[a:b], "strain": r.strain[a:b], "wrench": wrench[a:b],
                    "position": r.position[a:b], "velocity": r.velocity[a:b],
                    "command": r.command[a:b]}
             if action is not None:

@@ -16,6 +16,8 @@ thesis section in the files themselves)::
     duration_s = 7.0
     labels = "texture"               # a key of LABEL_FUNCTIONS (contactlab.acquire.sim)
     action_names = [...]             # optional: names of the action codes
+    force_zeroed = true              # optional: the recorded wrench is zeroed at rest in
+                                     # free space (8.1.1's "calibrated and zeroed" sensor)
     variation = "..."                # prose: what varies from trial to trial
 
     [environment]                    # defaults for every group
@@ -68,7 +70,7 @@ VARY_KEYS = {"start_jitter_m", "duration_scale", "texture_seed", "environment_un
              "force_angle_deg"}
 TOP_KEYS = {"name", "title", "thesis", "experiments", "status", "thesis_trials", "rate_hz",
             "duration_s", "labels", "action_names", "variation", "environment", "controller",
-            "vary", "group", "notes", "apparatus"}
+            "vary", "group", "notes", "apparatus", "force_zeroed"}
 GROUP_KEYS = {"name", "trials", "duration_s", "start_m", "move_duration_s", "environment",
               "controller", "vary", "description", "goal_region_m"}
 LABELS = ("texture", "hf", "constraint", "contacts", "maze")
@@ -113,6 +115,8 @@ class DatasetSpec:
     #: the ``[apparatus]`` table: simulated hardware other than the default
     #: (:mod:`contactlab.sim.hardware`)
     apparatus: dict = field(default_factory=dict)
+    #: the recorded wrench is zeroed (tared) at rest in free space (8.1.1)
+    force_zeroed: bool = False
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -268,7 +272,13 @@ class _Checker:
             action_names=None if action_names is None else tuple(action_names),
             variation=self.get(raw, "variation", str, "", required=False, default=""),
             notes=self.get(raw, "notes", str, "", required=False, default=""),
-            apparatus=self.apparatus(raw), raw=raw)
+            apparatus=self.apparatus(raw), force_zeroed=self.flag(raw, "force_zeroed"), raw=raw)
+
+    def flag(self, raw: dict, key: str) -> bool:
+        value = raw.get(key, False)
+        if not isinstance(value, bool):
+            raise self.error(key, f"must be true or false, not {value!r}")
+        return value
 
     def apparatus(self, raw: dict) -> dict:
         from contactlab.sim.hardware import check_apparatus

@@ -218,6 +218,39 @@ def velocity_range(seed: int, *, trials=(0, 3, 6), apparatus: dict | None = None
     return {"velocity-range": inside / total if total else math.nan}
 
 
+def guarded_move_motion(seed: int, *, trials=None, apparatus: dict | None = None) -> dict:
+    """How the 9.1.1 finger moves, over the guarded-move trials (default all): the still
+    fraction of its free motion (first moving sample to first contact), and after the
+    contact's impact (its bounce train) the fraction of the samples in contact and the
+    sliding fraction of those (the simulator's truth: speed above
+    ``constants.MOVING_SPEED_THRESHOLD``)."""
+    spec = _spec("guarded-move", apparatus)
+    trials = range(spec.n_trials) if trials is None else trials
+    still = [0, 0]
+    kept = [0, 0]
+    slides = [0, 0]
+    for k in trials:
+        _, r = simulate_trial(spec, k, seed)
+        touching = r.contact.any(axis=1)
+        if not touching.any() or not r.moving.any():
+            continue
+        first_touch, first_move = int(np.argmax(touching)), int(np.argmax(r.moving))
+        free = ~r.moving[first_move:first_touch]
+        still[0] += int(free.sum())
+        still[1] += len(free)
+        ends = [b for a, b in r.impact_intervals if b > first_touch]
+        after = ends[0] if ends else first_touch
+        kept[0] += int(touching[after:].sum())
+        kept[1] += len(touching) - after
+        on = touching[after:]
+        mv = r.moving[after:]
+        slides[0] += int(mv[on].sum())
+        slides[1] += int(on.sum())
+    frac = lambda c: float(c[0] / c[1]) if c[1] else math.nan
+    return {"guarded-move-smooth": frac(still), "guarded-move-keeps-contact": frac(kept),
+            "guarded-move-exploration-slides": frac(slides)}
+
+
 def wood_slope(seed: int, *, apparatus: dict | None = None) -> dict:
     """Largest slope (deg) of planes fitted to the recorded positions of the cartesian plane runs."""
     spec = _spec("cartesian", apparatus)
@@ -331,6 +364,7 @@ def measure(seed: int, *, apparatus: dict | None = None, quiet: bool = True) -> 
     hw = {"apparatus": apparatus}
     steps = [lambda: hf_measures(seed, **hw), lambda: stroke_measures(seed, **hw), None,
              lambda: shell_mode(seed, **hw), lambda: velocity_range(seed, **hw),
+             lambda: guarded_move_motion(seed, **hw),
              lambda: wood_slope(seed, **hw), lambda: loss_impact(seed, **hw),
              lambda: texture_speed(seed, **hw), lambda: stick_slip_position(seed, **hw),
              lambda: force_loop(seed, **hw), lambda: kinematic_error(seed, **hw)]

@@ -143,6 +143,23 @@ FACTS: tuple[Fact, ...] = (
          "interval [-0.01, 0.01] (M).",
          "fraction of moving guarded-move samples whose measured velocity lies in "
          "+-0.01 m/s on every axis", "", 0.95, math.inf),
+    Fact("guarded-move-smooth", "9.1.1",
+         "The initial acceleration to start the motion generated an impact. ... The robot is "
+         "then smoothly moving and contacts the surface.",
+         "fraction of the guarded-move samples from the first moving sample to the first "
+         "contact in which the finger is still (speed below 1 mm/s)", "", -math.inf, 0.02),
+    Fact("guarded-move-keeps-contact", "9.1.1",
+         "This causes an impact (back to feature 1) which then transitions to the final "
+         "constraint model (3).",
+         "fraction of the guarded-move samples after the contact's impact (its bounce train) "
+         "in which the finger touches the surface", "", 0.99, math.inf),
+    Fact("guarded-move-exploration-slides", "9.1.1",
+         "the system performs well in this experiment because of the exploratory motion added "
+         "onto the basic motion. Without exploration the system would not be provided with "
+         "sufficient data ... to determine if the other directions were free or constrained.",
+         "fraction of the guarded-move contact samples (after the contact's impact) in which "
+         "the exploration slides the finger along the surface (speed above 1 mm/s)", "",
+         0.5, math.inf),
     Fact("kinematic-error", "8.1.1.2",
          "There is enough kinematic error in the robot to produce a 1 mm deviation from a "
          "straight-line fit to the x and y position data over a maximum of 80 mm.",

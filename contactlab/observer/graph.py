@@ -36,7 +36,7 @@ MODEL_KINDS: dict[str, dict[str, bool]] = {
     "velocity-moving": {"low": False, "high": False, "sigma": False, "trained": False},
     "constraint": {"constraint": True, "trained": False, "mode": False, "rotate_deg": False,
                    "noise_scale": False, "offset_sd": False, "prior_samples": False,
-                   "change_size": False},
+                   "change_size": False, "position_sd": False, "force_sd": False},
 }
 #: kinds a graph may name that the observer cannot run, with the reason
 UNAVAILABLE_KINDS: dict[str, str] = {}
@@ -390,10 +390,11 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                 raise err(f"{where}.{k}", f"missing (required by kind {kind!r})")
         for k, v in params.items():
             if k in ("sigma", "low", "high", "noise_var", "noise_scale", "offset_sd",
-                     "prior_samples", "change_size", "mean_sd"):
+                     "prior_samples", "change_size", "mean_sd", "position_sd", "force_sd"):
                 if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                     raise err(f"{where}.{k}", f"must be a finite number; got {v!r}")
-        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size", "mean_sd"):
+        for k in ("sigma", "noise_scale", "offset_sd", "prior_samples", "change_size", "mean_sd",
+                  "position_sd", "force_sd"):
             if k in params and params[k] <= 0:
                 raise err(f"{where}.{k}", f"must be > 0; got {params[k]!r}")
         if params.get("change_size") == 1:
@@ -418,10 +419,13 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
 
 def _check_moving(params, where, err) -> None:
     given = [k for k in ("low", "high", "sigma") if k in params]
-    if given and len(given) != 3:
-        missing = sorted({"low", "high", "sigma"} - set(given))[0]
+    if given and given != ["sigma"] and len(given) < 2:
+        missing = sorted({"low", "high"} - set(given))[0]
         raise err(f"{where}.{missing}", "inline velocity-moving parameters need low, high and "
-                  "sigma (or none: trained)")
+                  "sigma, or low and high (sigma trained), or none (trained)")
+    if given == ["sigma"]:
+        raise err(f"{where}.low", "inline velocity-moving parameters need low, high and "
+                  "sigma, or low and high (sigma trained), or none (trained)")
     if given and not params["low"] < params["high"]:
         raise err(f"{where}.high", f"must exceed low ({params['low']}); got {params['high']}")
 

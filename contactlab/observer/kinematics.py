@@ -13,7 +13,8 @@ the models file (``datasets_spec/MODELS.md``, "Constraint and velocity models").
 The constraint models of one file share one normalisation of units (8.7-8.9):
 the position and force accuracies are the white-noise levels of the training
 runs after the 7.1 lowpass (:func:`contactlab.constraints.noise.raw_noise_sd`
-on the conditioned signal: the median over runs and axes).
+on the conditioned signal: the median over runs and axes), unless the graph's
+constraint models state them (``position_sd``, ``force_sd``).
 """
 
 from __future__ import annotations
@@ -96,6 +97,23 @@ def _noise_level(segments, columns) -> float:
     return float(np.median(np.concatenate(levels)))
 
 
+def _given_accuracies(graph: FeatureGraph, source) -> dict:
+    """The accuracies (8.7-8.9) the graph's constraint models state (``position_sd``,
+    ``force_sd``); every model of one graph shares one normalisation, so they must agree."""
+    out: dict = {}
+    for spec in graph.models.values():
+        if spec.kind != "constraint":
+            continue
+        for key in ("position_sd", "force_sd"):
+            if key in spec.params:
+                v = float(spec.params[key])
+                if out.setdefault(key, v) != v:
+                    raise DataError(f"constraint models state different {key} ({out[key]:g}, "
+                                    f"{v:g}); one graph has one normalisation (8.7-8.9)",
+                                    file=graph.source, field=f"models.{spec.name}.{key}")
+    return out
+
+
 def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None = None) -> dict:
     """Fit every model of :func:`kinematic_specs` from labelled runs.
 
@@ -112,6 +130,8 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     frc_sd = _noise_level(contact_runs, slice(K, 2 * K))
     pos_sd = pos_sd if np.isfinite(pos_sd) and pos_sd > NOISELESS_POSITION else POSITION_SD
     frc_sd = frc_sd if np.isfinite(frc_sd) and frc_sd > NOISELESS_FORCE else FORCE_SD
+    given = _given_accuracies(graph, source)
+    pos_sd, frc_sd = given.get("position_sd", pos_sd), given.get("force_sd", frc_sd)
     out: dict = {"constraint": {}, "velocity": {}}
     for (kind, label), spec in specs.items():
         where = f"models.{spec.name}.trained"

@@ -110,6 +110,9 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
         if not isinstance(obj, cls):
             raise DataError(f"trained model {label!r} is not a {spec.kind} model",
                             file=source or graph.source, field=f"{where}.trained")
+        if spec.kind == "velocity-moving" and "low" in p:   # the range given, the noise trained
+            return MovingVelocity(name=spec.name, low=p["low"], high=p["high"], sigma=obj.sigma,
+                                  signal=spec.signal)
         return _renamed(obj, spec)
     if spec.kind == "temporal":
         model = (_renamed(obj, spec) if isinstance(obj, TemporalFeature)

@@ -40,7 +40,20 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
   spans the nominal free directions and whose force spans the nominal normals
   (our conjugate form of the 8.69-8.70 alignment prior: it pulls the estimate
   toward the nominal frame with the weight of that many samples).  Sample t is
-  scored under the frame estimated from samples before t.
+  scored under the frame estimated from samples before t.  The score carries
+  8.70's prior term ``log(a) - a alpha`` of the instance's current estimate, with
+  alpha the misalignment of 8.69 (3 minus the singular values of the estimated
+  projection against the nominal one) and ``a = prior_samples``: in the trace
+  criterion (8.25: half a unit per squared unit residual, nats when the residuals
+  have unit variance) turning a normal by theta costs the pseudo-samples
+  ``a sin^2 theta`` and 8.69 gives ``a alpha = 2 a (1 - cos theta)``, the same to
+  second order, so one number serves as the estimate's prior weight and as 8.70's
+  parameter (our choice; 8.3's 15 deg prior standard deviation is
+  ``a = 2/3 / (1 - cos 15 deg) = 19.57``).  With trained noise above one unit the
+  estimate's pull toward the nominal frame is weaker than 8.70's maximum would make it.  ``log(a)`` is added at the
+  instance's first sample and ``-a alpha`` as its change from sample to sample
+  (the sum over a segment is 8.70's term for the segment's latest estimate); the
+  free and the fully constrained models have no frame to estimate and no term.
 
 ``V`` is used block-diagonally -- ``V_nn`` (motion along the normals) and
 ``V_ff`` (force along the free directions) -- (our choice: their
@@ -67,8 +80,8 @@ from contactlab.constraints.frames import trace_closed_form
 from contactlab.constraints.scaling import reciprocal_scaling
 from contactlab.observer.models.base import LOG_2PI, FeatureModel
 
-__all__ = ["ConstraintFeature", "constraint_normals", "parse_constraint", "CONSTRAINT_MODES",
-           "K"]
+__all__ = ["ConstraintFeature", "constraint_normals", "parse_constraint", "misalignment",
+           "CONSTRAINT_MODES", "K"]
 
 #: the Cartesian space of the fingertip (R^3)
 K = 3
@@ -129,7 +142,10 @@ class ConstraintFeature(FeatureModel):
     position_sd, force_sd : scalar measurement accuracies (m, N) that normalise
         units (8.7-8.9); every model of one graph must use the same.
     offset_sd : prior standard deviation (m) of the surface point along each normal.
-    prior_samples : weight of the nominal frame in ``mode="estimated"`` (samples).
+    prior_samples : weight of the nominal frame in ``mode="estimated"`` (samples), and
+        8.70's prior parameter ``a``.
+    frame_penalty : in ``mode="estimated"``, add 8.70's ``log(a) - a alpha`` to the score
+        (module notes); False scores the data alone.
     """
 
     kind = "constraint"
@@ -138,6 +154,7 @@ class ConstraintFeature(FeatureModel):
     def __init__(self, *, name: str, normals, V=None, mode: str = "fixed",
                  position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,
                  offset_sd: float = 0.05, prior_samples: float = 25.0,
+                 frame_penalty: bool = True,
                  signal: str = "contact", change_size: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
         N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
@@ -163,6 +180,7 @@ class ConstraintFeature(FeatureModel):
         self.position_sd, self.force_sd = float(position_sd), float(force_sd)
         self.offset_sd = float(offset_sd)
         self.prior_samples = float(prior_samples)
+        self.frame_penalty = bool(frame_penalty)
         self.scaling = reciprocal_scaling(self.position_sd, self.force_sd, K)
         self._beta = float(self.scaling.beta[0])
         self._alpha = float(self.scaling.alpha[0])
@@ -261,6 +279,7 @@ class ConstraintFeature(FeatureModel):
             state["sx"] = np.zeros((U, K))
             state["sxx"] = np.zeros((U, K, K))
             state["sww"] = np.zeros((U, K, K))
+            state["alpha"] = np.zeros(U)
         return state
 
     def run(self, state, x, *, t0, starts):
@@ -332,10 +351,29 @@ class ConstraintFeature(FeatureModel):
         e = np.einsum("nui,nuij->nuj", xs[:, None, :] - sx / (self.kappa0 + c)[:, :, None], Nh)
         f = np.einsum("ni,nuij->nuj", ws, Th)
         ll, chi2 = self._score(e, f, c)
+        if 0 < m < K and self.frame_penalty:
+            alpha = misalignment(Nh, Th, N0, T0)                       # (N, U) 8.69
+            prev = np.concatenate([state["alpha"][None], alpha[:-1]], axis=0)
+            ll = ll - self.prior_samples * (alpha - prev) \
+                + np.where(c == 0, math.log(self.prior_samples), 0.0)   # 8.70
+            state["alpha"] = alpha[-1].copy()
         state["sx"] += xs.sum(axis=0)[None]
         state["sxx"] += (xs.T @ xs)[None]
         state["sww"] += (ws.T @ ws)[None]
         return ll, chi2
+
+
+def misalignment(N, T, N0, T0) -> np.ndarray:
+    """8.69's alpha = 3 - sum of the singular values of P^T P_N, with P the block-diagonal
+    projection [N 0; 0 T] (6 x 3: motion along the normals N, force along the free directions
+    T; ``(..., 3, m)`` and ``(..., 3, 3 - m)``) and P_N the nominal one from ``N0``, ``T0``:
+    the singular values of a block-diagonal product are those of its blocks.  0 when the
+    frames agree, up to 3."""
+    s = 0.0
+    for B, B0 in ((N, N0), (T, T0)):
+        if B.shape[-1]:
+            s = s + np.linalg.svd(np.swapaxes(B, -1, -2) @ B0, compute_uv=False).sum(axis=-1)
+    return K - s
 
 
 def _align(B: np.ndarray, B0: np.ndarray) -> np.ndarray:
