@@ -1,0 +1,729 @@
+"""The observer's compiled core (6.4) for graphs whose models are all Kalman filters.
+
+When every model of a graph is a square-root Kalman filter whose regressors the
+core can form itself (:meth:`FeatureModel.kalman_spec`: the AR regressors of
+:class:`~contactlab.observer.models.temporal.TemporalFeature`, the time since the
+start of :class:`~contactlab.observer.models.impact.ImpactFeature`), the whole of
+6.4 -- per sample the instances' filter steps, the Page-Hinkley tests and the path
+sums; at a detected change the alarms, the successors and their best
+predecessors, the maximisation over (node, start), the catch-up of the new paths
+over the buffered samples and the pruning -- runs in one compiled loop over flat
+preallocated arrays (:func:`run_core`), so an event costs microseconds.  It is
+:class:`~contactlab.observer.observer.Observer`'s general form step by step (the
+same arithmetic in the same order: the filters by
+:func:`~contactlab.estimators.kalman.kalman_update`, the detectors by
+:func:`~contactlab.detection.cusum.cusum_step`), so the events, paths and path
+log-likelihoods are the general form's; the node probabilities and the pruning
+weights use the C library's ``exp`` and plain sums, which differ from numpy's
+by a few units in the last place.
+
+State: paths (id, node, start, initial and current log-likelihood, column of the
+log-likelihood history, segment), instances ("units": path, model, start,
+detector statistics and last zeros, filter state per channel) and an
+append-only table of segments ``(node, start, previous segment)`` holding the
+paths' histories (6.1).  The loop stops before a sample at which an event could
+overflow an array (:data:`FULL`); the caller grows the arrays and resumes.
+Events go to tables the caller turns into
+:class:`~contactlab.observer.paths.ChangeEvent` records.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from contactlab.detection.cusum import cusum_step
+from contactlab.estimators.householder import tri_append_n
+
+_HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
+
+__all__ = ["REG_AR", "REG_TIME", "OK", "FULL", "run_core", "N_COUNTERS"]
+
+#: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
+REG_AR, REG_TIME = 0, 1
+#: :func:`run_core` status: done, or stopped before a sample for room
+OK, FULL = 0, 1
+# counters: paths, units, segments, free slots, slots, next path id, events, alarms,
+# candidate log-likelihoods, kept indices, spawned, merged
+C_P, C_U, C_SEG, C_FREE, C_SLOTS, C_ID, C_EV, C_AL, C_CAND, C_KEEP, C_SP, C_MG = range(12)
+N_COUNTERS = 12
+# columns of the event table
+E_TA, E_AL0, E_NAL, E_CAND0, E_NCAND, E_KEEP0, E_NKEEP, E_SP0, E_NSP, E_MG0, E_NMG = range(11)
+N_EV_COLS = 11
+
+
+@numba.njit(cache=True, inline="always")
+def _filter_step(ust, u, c, y, q, qmax, mode, est, pcount, H, A, Z, L2, Zs, V2, Zv):
+    """One step (A.32-A.39, A.40-A.42) of the scalar filter of unit ``u``, channel ``c``:
+    :func:`~contactlab.estimators.kalman.kalman_step`'s kernel with m = 1, operation for
+    operation (the tests compare the two to the bit), on the unit's state row of ``ust``
+    (theta, S, Ls, Ve, Lv, count at the offsets of :func:`state_width`) with the
+    regressors in ``H[0, :q]``.  Returns ``(l_c, loglik, alpha)``."""
+    oS = qmax
+    oL = qmax + qmax * qmax
+    oV = qmax + 2 * qmax * qmax
+    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+    if mode == 1:
+        for i in range(q):
+            Zs[i, 0] = H[0, i]
+            for j in range(q):
+                L2[i, j] = ust[u, c, oL + i * qmax + j]
+        tri_append_n(L2, Zs, q, 1)
+        for i in range(q):
+            for j in range(q):
+                ust[u, c, oL + i * qmax + j] = L2[i, j]
+    if mode != 0:
+        for i in range(q):
+            s = H[0, i]
+            for k in range(i):
+                d = ust[u, c, oL + k * qmax + k]
+                if d != 0.0:
+                    s -= (ust[u, c, oL + i * qmax + k] / d) * H[1, k]
+            H[1, i] = s
+    else:
+        for i in range(q):
+            H[1, i] = H[0, i]
+    # innovation (A.34)
+    s = y
+    for i in range(q):
+        s -= H[1, i] * ust[u, c, i]
+    nu = s
+    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+    for i in range(q + 1):
+        for j in range(q + 1):
+            A[i, j] = 0.0
+    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
+    for j in range(q):
+        s = 0.0
+        for k in range(j, q):
+            s += H[1, k] * ust[u, c, oS + k * qmax + j]
+        Z[0, j] = s
+    for i in range(q):
+        for j in range(q):
+            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+    # Householder reduction to the post-array (A.33)
+    tri_append_n(A, Z, q + 1, q)
+    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+    d = A[0, 0]
+    al = nu / d if d != 0.0 else np.nan
+    lc = 0.0
+    logdet = 0.0
+    lc -= 0.5 * al * al
+    logdet += math.log(A[0, 0])
+    for i in range(q):
+        s = 0.0
+        s += A[1 + i, 0] * al
+        ust[u, c, i] += s
+        for j in range(q):
+            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+    ll = lc - logdet - _HALF_LOG_2PI
+    # running square-root innovation variance (A.38)
+    if est:
+        cnt = ust[u, c, oV + 2] + 1.0
+        ust[u, c, oV + 2] = cnt
+        nn = pcount + cnt
+        c_old = math.sqrt(1.0 - 1.0 / nn)
+        c_new = math.sqrt(1.0 / nn)
+        Zv[0, 0] = c_new * nu
+        V2[0, 0] = ust[u, c, oV] * c_old
+        tri_append_n(V2, Zv, 1, 1)
+        ust[u, c, oV] = V2[0, 0]
+    return lc, ll, al
+
+
+def state_width(qmax: int) -> int:
+    """Length of a unit-channel state row: theta (qmax), S and Ls (qmax x qmax each,
+    row-major), then Ve, Lv and the running-variance count."""
+    return qmax + 2 * qmax * qmax + 3
+
+
+@numba.njit(cache=True, inline="always")
+def _unit_step(u, t, k, mi, mf, ust, ustart, xa, xbase, H, A, Z, L2, Zs, V2, Zv):
+    """Sample ``t`` of unit ``u`` (model ``k``) over its channels: (log-likelihood summed
+    over the channels, chi-square, normalised innovation sum / sqrt(C)), the statistics
+    of :func:`~contactlab.observer.models._kalman.run_kalman`.  ``mi[k]``: regressor,
+    AR order, mean, q, first column, channels, mode, estimate-noise; ``mf[k]``: the
+    noise prior count."""
+    reg, order, mean, q, col0, C, mode, est = (mi[k, 0], mi[k, 1], mi[k, 2], mi[k, 3],
+                                               mi[k, 4], mi[k, 5], mi[k, 6], mi[k, 7])
+    qmax = H.shape[1]
+    row = t - xbase
+    ll_sum = 0.0
+    chi = 0.0
+    zs = 0.0
+    for c in range(C):
+        col = col0 + c
+        if reg == REG_AR:
+            j = 0
+            if mean:
+                H[0, 0] = 1.0
+                j = 1
+            for i in range(1, order + 1):
+                H[0, j + i - 1] = xa[row - i, col]
+        else:
+            H[0, 0] = 1.0
+            H[0, 1] = float(t - ustart[u])
+        lc, ll, al = _filter_step(ust, u, c, xa[row, col], q, qmax, mode, est != 0, mf[k],
+                                  H, A, Z, L2, Zs, V2, Zv)
+        if C == 1:
+            return ll, lc * -2.0, al
+        ll_sum += ll
+        chi += -2.0 * lc
+        zs += al
+    return ll_sum, chi, zs * (1.0 / math.sqrt(C))
+
+
+@numba.njit(cache=True, inline="always")
+def _detect(u, t, k, chi, z, sa, sb, ssrc, udf, ulz):  # pragma: no cover - compiled
+    """The detector row of unit ``u`` (model ``k``) at ``t``: 6.18 on the increments
+    ``a + b x`` of every test (:meth:`Observer._side_tables`, ``x`` the chi-square or the
+    normalised innovation), noting last zeros; returns the largest statistic."""
+    top = 0.0
+    for s in range(udf.shape[1]):
+        x = sa[k, s] + sb[k, s] * (chi if ssrc[s] == 0 else z)
+        d = cusum_step(udf[u, s], x)
+        udf[u, s] = d
+        if d == 0.0:
+            ulz[u, s] = t
+        if d > top:
+            top = d
+    return top
+
+
+@numba.njit(cache=True, inline="always")
+def _probabilities(nP, pnode, pll, prob, row):  # pragma: no cover - compiled
+    """Node probabilities (6.5) into ``prob[row]``; returns the node of the best path."""
+    best = 0
+    for p in range(1, nP):
+        if pll[p] > pll[best]:
+            best = p
+    top = pll[best]
+    tot = 0.0
+    for p in range(nP):
+        tot += math.exp(pll[p] - top)
+    for k in range(prob.shape[1]):
+        prob[row, k] = 0.0
+    for p in range(nP):
+        prob[row, pnode[p]] += math.exp(pll[p] - top) / tot
+    return pnode[best]
+
+
+@numba.njit(cache=True)
+def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pragma: no cover
+    """Unit ``u`` of path ``p``: a fresh instance of model ``k`` started at ``r`` (its
+    prior state row, detectors at zero with last zero ``lz``)."""
+    upath[u] = p
+    umodel[u] = k
+    ustart[u] = r
+    udf[u, :] = 0.0
+    ulz[u, :] = lz
+    ust[u] = pst[k]
+
+
+@numba.njit(cache=True)
+def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
+    """6.4, "if a change in any model is detected" at ``ta`` (or a path ``gap`` below the
+    best): alarms, candidates with their best predecessors, maximisation over (node,
+    start), spawning with catch-up, pruning; the event recorded in ``ev``."""
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
+    H, A, Z, L2, Zs, V2, Zv, inc = scr
+    S = udf.shape[1]
+    K = logT.shape[1]
+    nP, nU = cnt[C_P], cnt[C_U]
+    # alarms: every test that crossed, each distinct change time (its last zero + 1)
+    al_p = np.empty(nU * S, np.int64)
+    al_k = np.empty(nU * S, np.int64)
+    al_r = np.empty(nU * S, np.int64)
+    rs = np.empty(S, np.int64)
+    nA = 0
+    for u in range(nU):
+        nr = 0
+        for s in range(S):
+            if udf[u, s] > thr:
+                r = ulz[u, s] + 1
+                dup = False
+                for i in range(nr):
+                    if rs[i] == r:
+                        dup = True
+                if not dup:
+                    i = nr
+                    while i > 0 and rs[i - 1] > r:
+                        rs[i] = rs[i - 1]
+                        i -= 1
+                    rs[i] = r
+                    nr += 1
+        if nr == 0:
+            continue
+        for s in range(S):                       # step 4: reset the spawning model's test
+            udf[u, s] = 0.0
+            ulz[u, s] = ta
+        for i in range(nr):
+            al_p[nA] = upath[u]
+            al_k[nA] = umodel[u]
+            al_r[nA] = rs[i]
+            nA += 1
+    # candidates (step 1) in alarm order, each from its best tracked predecessor
+    c_j = np.empty(nA * K, np.int64)
+    c_r = np.empty(nA * K, np.int64)
+    c_init = np.empty(nA * K)
+    c_prev = np.empty(nA * K, np.int64)
+    nC = 0
+    for i in range(nA):
+        r = al_r[i]
+        a1 = aa[r - abase] + 1
+        node = pnode[al_p[i]]
+        for jj in range(n_succ[a1, node]):
+            j = succ[a1, node, jj]
+            seen = False
+            for c in range(nC):
+                if c_j[c] == j and c_r[c] == r:
+                    seen = True
+                    break
+            if seen:
+                continue
+            best = -np.inf
+            prev = -1
+            hr = r - hbase
+            for p in range(nP):
+                if pstart[p] <= r:
+                    v = ha[hr, pslot[p]] + logT[a1, pnode[p], j]
+                    if v > best:
+                        best = v
+                        prev = pseg[p]
+            c_j[nC] = j
+            c_r[nC] = r
+            c_init[nC] = best
+            c_prev[nC] = prev
+            nC += 1
+    # maximisation over (node, start) (step 2)
+    sp0, mg0 = cnt[C_SP], cnt[C_MG]
+    is_new = np.zeros(nC, np.bool_)
+    for c in range(nC):
+        j, r, init = c_j[c], c_r[c], c_init[c]
+        found = -1
+        for p in range(nP):
+            if pnode[p] == j and pstart[p] == r:
+                found = p
+                break
+        if found < 0:
+            is_new[c] = True
+        elif init > pinit[found]:
+            delta = init - pinit[found]
+            pll[found] += delta
+            sl = pslot[found]
+            for tt in range(r, ta + 2):
+                ha[tt - hbase, sl] += delta
+            pinit[found] = init
+            g = cnt[C_SEG]
+            snode[g], sstart[g], sprev[g] = j, r, c_prev[c]
+            cnt[C_SEG] = g + 1
+            pseg[found] = g
+            mgt[cnt[C_MG], 0] = j
+            mgt[cnt[C_MG], 1] = r
+            cnt[C_MG] += 1
+    # spawning (step 3): new paths caught up over the buffered samples r .. ta
+    for c in range(nC):
+        if not is_new[c]:
+            continue
+        j, r, init = c_j[c], c_r[c], c_init[c]
+        p = cnt[C_P]
+        cnt[C_P] = p + 1
+        pid[p] = cnt[C_ID]
+        cnt[C_ID] += 1
+        pnode[p] = j
+        pstart[p] = r
+        pinit[p] = init
+        if cnt[C_FREE] > 0:
+            cnt[C_FREE] -= 1
+            sl = free[cnt[C_FREE]]
+        else:
+            sl = cnt[C_SLOTS]
+            cnt[C_SLOTS] += 1
+        pslot[p] = sl
+        g = cnt[C_SEG]
+        snode[g], sstart[g], sprev[g] = j, r, c_prev[c]
+        cnt[C_SEG] = g + 1
+        pseg[p] = g
+        u0 = cnt[C_U]
+        for ik in range(nk_ptr[j], nk_ptr[j + 1]):
+            _init_unit(cnt[C_U], p, nk_list[ik], r, r - 1, pst, upath, umodel, ustart, udf,
+                       ulz, ust)
+            cnt[C_U] += 1
+        u1 = cnt[C_U]
+        ll = init
+        ha[r - hbase, sl] = init
+        for tt in range(r, ta + 1):              # detectors run, no thresholding
+            for u in range(u0, u1):
+                k = umodel[u]
+                lu, chi, z = _unit_step(u, tt, k, mi, mf, ust, ustart, xa, xbase,
+                                        H, A, Z, L2, Zs, V2, Zv)
+                _detect(u, tt, k, chi, z, sa, sb, ssrc, udf, ulz)
+                inc[u - u0] = lu
+            for u in range(u0, u1):
+                ll += inc[u - u0]
+            ha[tt + 1 - hbase, sl] = ll
+        pll[p] = ll
+        spt[cnt[C_SP], 0] = j
+        spt[cnt[C_SP], 1] = r
+        cnt[C_SP] += 1
+    # pruning: rank, keep mass P_prune, drop those gap below the best
+    nP = cnt[C_P]
+    order = np.empty(nP, np.int64)
+    for i in range(nP):                         # stable sort, largest first
+        x = pll[i]
+        j = i
+        while j > 0 and pll[order[j - 1]] < x:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = i
+    top = pll[order[0]]
+    w = np.empty(nP)
+    tot = 0.0
+    for i in range(nP):
+        w[i] = math.exp(pll[i] - top)
+        tot += w[i]
+    n_keep = nP
+    cum = 0.0
+    for i in range(nP):
+        cum += w[order[i]] / tot
+        if cum >= p_keep:
+            n_keep = i + 1
+            break
+    keep = np.empty(n_keep, np.int64)
+    nk = 0
+    for i in range(n_keep):
+        if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
+            keep[nk] = order[i]
+            nk += 1
+    keep = np.sort(keep[:nk])
+    # the event record
+    e = cnt[C_EV]
+    evt[e, E_TA] = ta
+    evt[e, E_AL0] = cnt[C_AL]
+    evt[e, E_NAL] = nA
+    for i in range(nA):
+        a = cnt[C_AL] + i
+        alt[a, 0] = pid[al_p[i]]
+        alt[a, 1] = pnode[al_p[i]]
+        alt[a, 2] = al_k[i]
+        alt[a, 3] = al_r[i]
+    cnt[C_AL] += nA
+    evt[e, E_CAND0] = cnt[C_CAND]
+    evt[e, E_NCAND] = nP
+    candt[cnt[C_CAND]:cnt[C_CAND] + nP] = pll[:nP]
+    cnt[C_CAND] += nP
+    evt[e, E_KEEP0] = cnt[C_KEEP]
+    evt[e, E_NKEEP] = nk
+    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep
+    cnt[C_KEEP] += nk
+    evt[e, E_SP0] = sp0
+    evt[e, E_NSP] = cnt[C_SP] - sp0
+    evt[e, E_MG0] = mg0
+    evt[e, E_NMG] = cnt[C_MG] - mg0
+    cnt[C_EV] = e + 1
+    if nk == nP:
+        return
+    # compaction: kept paths and their units move to the front, dropped slots are freed
+    remap = np.full(nP, -1, np.int64)
+    for n in range(nk):
+        remap[keep[n]] = n
+    for i in range(nP):
+        if remap[i] < 0:
+            free[cnt[C_FREE]] = pslot[i]
+            cnt[C_FREE] += 1
+    for n in range(nk):
+        i = keep[n]
+        pid[n], pnode[n], pstart[n], pslot[n] = pid[i], pnode[i], pstart[i], pslot[i]
+        pseg[n], pinit[n], pll[n] = pseg[i], pinit[i], pll[i]
+    cnt[C_P] = nk
+    n = 0
+    for u in range(cnt[C_U]):
+        p = remap[upath[u]]
+        if p < 0:
+            continue
+        if n != u:
+            umodel[n], ustart[n] = umodel[u], ustart[u]
+            udf[n] = udf[u]
+            ulz[n] = ulz[u]
+            ust[n] = ust[u]
+        upath[n] = p
+        n += 1
+    cnt[C_U] = n
+
+
+@numba.njit(cache=True)
+def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn):  # pragma: no cover
+    """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
+    ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
+    the sample to resume from once the arrays have room for the worst-case event (every
+    test of every unit crossing with its own change time, every successor new)."""
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
+    H, A, Z, L2, Zs, V2, Zv, inc = scr
+    S = udf.shape[1]
+    K = logT.shape[1]
+    maxk = 0
+    for j in range(K):
+        maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
+    for t in range(t_from, t_to):
+        nP, nU = cnt[C_P], cnt[C_U]
+        nA = nU * S
+        nC = nA * K
+        if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
+                and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
+                and cnt[C_AL] + nA <= alt.shape[0] and cnt[C_CAND] + nP + nC <= candt.shape[0]
+                and cnt[C_KEEP] + nP + nC <= keept.shape[0] and cnt[C_SP] + nC <= spt.shape[0]
+                and cnt[C_MG] + nC <= mgt.shape[0]):
+            return FULL, t
+        # every instance's filter step (A.32-A.39) and detectors (6.18), then path sums (6.10)
+        top = 0.0
+        for u in range(nU):
+            k = umodel[u]
+            lu, chi, z = _unit_step(u, t, k, mi, mf, ust, ustart, xa, xbase, H, A, Z, L2, Zs,
+                                    V2, Zv)
+            d = _detect(u, t, k, chi, z, sa, sb, ssrc, udf, ulz)
+            if d > top:
+                top = d
+            inc[u] = lu
+        event = top > thr
+        for u in range(nU):
+            pll[upath[u]] += inc[u]
+        best = -np.inf
+        for p in range(nP):
+            if pll[p] > best:
+                best = pll[p]
+        hr = t + 1 - hbase
+        for p in range(nP):
+            ha[hr, pslot[p]] = pll[p]
+            if pll[p] < best - gap:
+                event = True
+        if event:
+            _event(t, cfg, st, ev, scr)
+        mapn[t - t_out] = _probabilities(cnt[C_P], pnode, pll, nprob, t - t_out)
+    return OK, t_to
+
+
+def _cap(need: int, have: int) -> int:
+    return max(have, 2 * need, 16)
+
+
+class Core:
+    """The arrays of :func:`run_core` for one observer, their growth, and its events.
+
+    ``specs``: each model's :meth:`~contactlab.observer.models.base.FeatureModel.kalman_spec`
+    (in the observer's model order) with its first column in the measurement buffer.
+    """
+
+    def __init__(self, *, specs: list[dict], node_kinds: list[list[int]], side_a, side_b,
+                 side_src, threshold: float, gap: float, p_keep: float, max_paths: int | None,
+                 succ, n_succ, log_t):
+        M = len(specs)
+        qmax = max(s["q"] for s in specs)
+        cmax = max(s["channels"] for s in specs)
+        self.qmax, self.cmax, self.width = qmax, cmax, state_width(qmax)
+        K = len(node_kinds)
+        self.K = K
+        # each model's prior state row per channel (layout of state_width)
+        pst = np.zeros((M, cmax, self.width))
+        oS, oL, oV = qmax, qmax + qmax * qmax, qmax + 2 * qmax * qmax
+        for k, s in enumerate(specs):
+            q, prior = s["q"], s["prior"]
+            for c in range(s["channels"]):
+                pst[k, c, :q] = prior["theta"][0, c]
+                for i in range(q):
+                    pst[k, c, oS + i * qmax:oS + i * qmax + q] = prior["S"][0, c, i]
+                    pst[k, c, oL + i * qmax:oL + i * qmax + q] = prior["Ls"][0, c, i]
+                pst[k, c, oV] = prior["Ve"][0, c, 0, 0]
+                pst[k, c, oV + 1] = prior["Lv"][0, c, 0, 0]
+                pst[k, c, oV + 2] = prior["vcount"][0, c]
+        nk_ptr = np.zeros(K + 1, np.int64)
+        for j, ks in enumerate(node_kinds):
+            nk_ptr[j + 1] = nk_ptr[j] + len(ks)
+        nk_list = np.array([k for ks in node_kinds for k in ks], np.int64)
+        self.maxk = max(len(ks) for ks in node_kinds)
+        mi = np.array([[s["reg"], s["order"], int(s["mean"]), s["q"], s["col"], s["channels"],
+                        s["mode"], int(s["estimate_noise"])] for s in specs], np.int64)
+        mf = np.array([s["noise_prior_count"] for s in specs], np.float64)
+        self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
+                    np.ascontiguousarray(side_b, np.float64), np.ascontiguousarray(side_src, np.int64),
+                    pst, float(threshold), float(gap), float(p_keep),
+                    -1 if max_paths is None else int(max_paths),
+                    np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
+                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list)
+        self.S = len(side_src)
+        self.cnt = np.zeros(N_COUNTERS, np.int64)
+        self._alloc_paths(16)
+        self._alloc_units(32)
+        self._alloc_segs(256)
+        self._alloc_events(256, 1024, 4096)
+
+    # -- arrays ------------------------------------------------------------------------
+    def _alloc_paths(self, n: int) -> None:
+        old = getattr(self, "paths_", None)
+        new = {"id": np.zeros(n, np.int64), "node": np.zeros(n, np.int64),
+               "start": np.zeros(n, np.int64), "slot": np.zeros(n, np.int64),
+               "seg": np.zeros(n, np.int64), "init": np.zeros(n), "ll": np.zeros(n),
+               "free": np.zeros(n, np.int64)}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.paths_ = new
+
+    def _alloc_units(self, n: int) -> None:
+        old = getattr(self, "units_", None)
+        S, C, q = self.S, self.cmax, self.qmax
+        new = {"path": np.zeros(n, np.int64), "model": np.zeros(n, np.int64),
+               "start": np.zeros(n, np.int64), "df": np.zeros((n, S)),
+               "lz": np.zeros((n, S), np.int64), "st": np.zeros((n, C, self.width))}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.units_ = new
+        # scratch of the filter steps (H: regressors and their orthogonal form) and the
+        # per-unit log-likelihood increments of a sample
+        self.scr = (np.zeros((2, q)), np.zeros((q + 1, q + 1)), np.zeros((q + 1, q)),
+                    np.zeros((q, q)), np.zeros((q, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+                    np.zeros(n))
+
+    def _alloc_segs(self, n: int) -> None:
+        old = getattr(self, "segs_", None)
+        new = {"node": np.zeros(n, np.int64), "start": np.zeros(n, np.int64),
+               "prev": np.full(n, -1, np.int64)}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.segs_ = new
+
+    def _alloc_events(self, n_ev: int, n_al: int, n_ll: int) -> None:
+        self.ev = (np.zeros((n_ev, N_EV_COLS), np.int64), np.zeros((n_al, 4), np.int64),
+                   np.zeros(n_ll), np.zeros(n_ll, np.int64), np.zeros((n_al, 2), np.int64),
+                   np.zeros((n_al, 2), np.int64))
+
+    def ensure_room(self) -> None:
+        """Grow the arrays for the worst-case event at the next sample (:func:`run_core`)."""
+        c = self.cnt
+        nP, nU = int(c[C_P]), int(c[C_U])
+        nA = nU * self.S
+        nC = nA * self.K
+        if nP + nC > len(self.paths_["id"]):
+            self._alloc_paths(_cap(nP + nC, 0))
+        if nU + nC * self.maxk > len(self.units_["path"]):
+            self._alloc_units(_cap(nU + nC * self.maxk, 0))
+        if c[C_SEG] + nC > len(self.segs_["node"]):
+            self._compact_segs()
+            if c[C_SEG] + nC > len(self.segs_["node"]):
+                self._alloc_segs(_cap(int(c[C_SEG]) + nC, 0))
+        ev = self.ev
+        if (nA > len(ev[1]) or nC > len(ev[4]) or nP + nC > len(ev[2])):
+            self._alloc_events(len(ev[0]), _cap(max(nA, nC), len(ev[1])),
+                               _cap(nP + nC, len(ev[2])))
+
+    def _compact_segs(self) -> None:
+        """Keep only the segments the active paths' histories reach, renumbered."""
+        n_seg = int(self.cnt[C_SEG])
+        nP = int(self.cnt[C_P])
+        new_seg, n_new = _compact(self.segs_["node"], self.segs_["start"], self.segs_["prev"],
+                                  self.paths_["seg"][:nP], n_seg)
+        self.paths_["seg"][:nP] = new_seg
+        self.cnt[C_SEG] = n_new
+
+    def state(self, xbuf, hist, act) -> tuple:
+        p, u, s = self.paths_, self.units_, self.segs_
+        return (u["path"], u["model"], u["start"], u["df"], u["lz"], u["st"], xbuf.a,
+                xbuf.t0 - xbuf.off, hist.a,
+                hist.t0 - hist.off, self.cnt, p["id"], p["node"], p["start"], p["slot"], p["seg"],
+                p["init"], p["ll"], p["free"], act.a[:, 0], act.t0 - act.off,
+                s["node"], s["start"], s["prev"])
+
+    # -- paths -------------------------------------------------------------------------
+    def add_path(self, pid: int, node: int, start: int, init: float, slot: int,
+                 kinds: list[int], lz: int) -> None:
+        """An initial path (6.4, initialisation) with fresh instances of ``kinds``."""
+        c = self.cnt
+        if c[C_P] + 1 > len(self.paths_["id"]):
+            self._alloc_paths(_cap(int(c[C_P]) + 1, 0))
+        if c[C_U] + len(kinds) > len(self.units_["path"]):
+            self._alloc_units(_cap(int(c[C_U]) + len(kinds), 0))
+        if c[C_SEG] + 1 > len(self.segs_["node"]):
+            self._alloc_segs(_cap(int(c[C_SEG]) + 1, 0))
+        i = int(c[C_P])
+        p = self.paths_
+        p["id"][i], p["node"][i], p["start"][i], p["slot"][i] = pid, node, start, slot
+        p["init"][i] = p["ll"][i] = init
+        g = int(c[C_SEG])
+        self.segs_["node"][g], self.segs_["start"][g], self.segs_["prev"][g] = node, start, -1
+        p["seg"][i] = g
+        c[C_SEG] += 1
+        c[C_P] += 1
+        c[C_ID] = max(int(c[C_ID]), pid + 1)
+        c[C_SLOTS] = max(int(c[C_SLOTS]), slot + 1)
+        for k in kinds:
+            u = self.units_
+            _init_unit(int(c[C_U]), i, k, start, lz, self.cfg[5], u["path"], u["model"],
+                       u["start"], u["df"], u["lz"], u["st"])
+            c[C_U] += 1
+
+    def history(self, seg: int) -> list[tuple[int, int]]:
+        s = self.segs_
+        out = []
+        while seg >= 0:
+            out.append((int(s["node"][seg]), int(s["start"][seg])))
+            seg = int(s["prev"][seg])
+        return out[::-1]
+
+    def min_last_zero(self) -> int | None:
+        nU = int(self.cnt[C_U])
+        return int(self.units_["lz"][:nU].min()) if nU else None
+
+    # -- running -------------------------------------------------------------------------
+    def run(self, t_from: int, t_to: int, t_out: int, xbuf, hist, act, node_prob, map_node,
+            make_events) -> None:
+        """Samples ``t_from .. t_to - 1``; ``make_events(tables)`` turns each batch of event
+        rows into records."""
+        t = t_from
+        while t < t_to:
+            self.ensure_room()
+            need = len(self.paths_["id"])
+            if hist.width < need:
+                hist.widen(need)
+            status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
+                                 self.scr, node_prob, map_node)
+            c = self.cnt
+            if c[C_EV]:
+                ev = self.ev
+                make_events(ev[0][:c[C_EV]], ev[1][:c[C_AL]], ev[2][:c[C_CAND]],
+                            ev[3][:c[C_KEEP]], ev[4][:c[C_SP]], ev[5][:c[C_MG]])
+            c[C_EV:] = 0
+
+
+@numba.njit(cache=True)
+def _compact(snode, sstart, sprev, pseg, n_seg):  # pragma: no cover - compiled
+    """Renumber the segments reachable from ``pseg`` to the front (order kept)."""
+    mark = np.zeros(n_seg, np.bool_)
+    for p in range(pseg.shape[0]):
+        g = pseg[p]
+        while g >= 0 and not mark[g]:
+            mark[g] = True
+            g = sprev[g]
+    new = np.full(n_seg, -1, np.int64)
+    n = 0
+    for g in range(n_seg):
+        if mark[g]:
+            new[g] = n
+            snode[n] = snode[g]
+            sstart[n] = sstart[g]
+            sprev[n] = new[sprev[g]] if sprev[g] >= 0 else -1
+            n += 1
+    out = np.empty(pseg.shape[0], np.int64)
+    for p in range(pseg.shape[0]):
+        out[p] = new[pseg[p]]
+    return out, n
