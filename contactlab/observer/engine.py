@@ -54,160 +54,10 @@ E_TA, E_AL0, E_NAL, E_CAND0, E_NCAND, E_KEEP0, E_NKEEP, E_SP0, E_NSP, E_MG0, E_N
 N_EV_COLS = 11
 
 
-@numba.njit(cache=True, inline="always")
-def _filter_step(ust, u, c, y, q, qmax, mode, est, pcount, H, A, Z, L2, Zs, V2, Zv):
-    """One step (A.32-A.39, A.40-A.42) of the scalar filter of unit ``u``, channel ``c``:
-    :func:`~contactlab.estimators.kalman.kalman_step`'s kernel with m = 1, operation for
-    operation (the tests compare the two to the bit), on the unit's state row of ``ust``
-    (theta, S, Ls, Ve, Lv, count at the offsets of :func:`state_width`) with the
-    regressors in ``H[0, :q]``.  Returns ``(l_c, loglik, alpha)``."""
-    oS = qmax
-    oL = qmax + qmax * qmax
-    oV = qmax + 2 * qmax * qmax
-    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-    if mode == 1:
-        for i in range(q):
-            Zs[i, 0] = H[0, i]
-            for j in range(q):
-                L2[i, j] = ust[u, c, oL + i * qmax + j]
-        tri_append_n(L2, Zs, q, 1)
-        for i in range(q):
-            for j in range(q):
-                ust[u, c, oL + i * qmax + j] = L2[i, j]
-    if mode != 0:
-        for i in range(q):
-            s = H[0, i]
-            for k in range(i):
-                d = ust[u, c, oL + k * qmax + k]
-                if d != 0.0:
-                    s -= (ust[u, c, oL + i * qmax + k] / d) * H[1, k]
-            H[1, i] = s
-    else:
-        for i in range(q):
-            H[1, i] = H[0, i]
-    # innovation (A.34)
-    s = y
-    for i in range(q):
-        s -= H[1, i] * ust[u, c, i]
-    nu = s
-    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-    for i in range(q + 1):
-        for j in range(q + 1):
-            A[i, j] = 0.0
-    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
-    for j in range(q):
-        s = 0.0
-        for k in range(j, q):
-            s += H[1, k] * ust[u, c, oS + k * qmax + j]
-        Z[0, j] = s
-    for i in range(q):
-        for j in range(q):
-            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
-    # Householder reduction to the post-array (A.33)
-    tri_append_n(A, Z, q + 1, q)
-    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-    d = A[0, 0]
-    al = nu / d if d != 0.0 else np.nan
-    lc = 0.0
-    logdet = 0.0
-    lc -= 0.5 * al * al
-    logdet += math.log(A[0, 0])
-    for i in range(q):
-        s = 0.0
-        s += A[1 + i, 0] * al
-        ust[u, c, i] += s
-        for j in range(q):
-            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
-    ll = lc - logdet - _HALF_LOG_2PI
-    # running square-root innovation variance (A.38)
-    if est:
-        cnt = ust[u, c, oV + 2] + 1.0
-        ust[u, c, oV + 2] = cnt
-        nn = pcount + cnt
-        c_old = math.sqrt(1.0 - 1.0 / nn)
-        c_new = math.sqrt(1.0 / nn)
-        Zv[0, 0] = c_new * nu
-        V2[0, 0] = ust[u, c, oV] * c_old
-        tri_append_n(V2, Zv, 1, 1)
-        ust[u, c, oV] = V2[0, 0]
-    return lc, ll, al
-
-
 def state_width(qmax: int) -> int:
     """Length of a unit-channel state row: theta (qmax), S and Ls (qmax x qmax each,
     row-major), then Ve, Lv and the running-variance count."""
     return qmax + 2 * qmax * qmax + 3
-
-
-@numba.njit(cache=True, inline="always")
-def _unit_step(u, t, k, mi, mf, ust, ustart, xa, xbase, H, A, Z, L2, Zs, V2, Zv):
-    """Sample ``t`` of unit ``u`` (model ``k``) over its channels: (log-likelihood summed
-    over the channels, chi-square, normalised innovation sum / sqrt(C)), the statistics
-    of :func:`~contactlab.observer.models._kalman.run_kalman`.  ``mi[k]``: regressor,
-    AR order, mean, q, first column, channels, mode, estimate-noise; ``mf[k]``: the
-    noise prior count."""
-    reg, order, mean, q, col0, C, mode, est = (mi[k, 0], mi[k, 1], mi[k, 2], mi[k, 3],
-                                               mi[k, 4], mi[k, 5], mi[k, 6], mi[k, 7])
-    qmax = H.shape[1]
-    row = t - xbase
-    ll_sum = 0.0
-    chi = 0.0
-    zs = 0.0
-    for c in range(C):
-        col = col0 + c
-        if reg == REG_AR:
-            j = 0
-            if mean:
-                H[0, 0] = 1.0
-                j = 1
-            for i in range(1, order + 1):
-                H[0, j + i - 1] = xa[row - i, col]
-        else:
-            H[0, 0] = 1.0
-            H[0, 1] = float(t - ustart[u])
-        lc, ll, al = _filter_step(ust, u, c, xa[row, col], q, qmax, mode, est != 0, mf[k],
-                                  H, A, Z, L2, Zs, V2, Zv)
-        if C == 1:
-            return ll, lc * -2.0, al
-        ll_sum += ll
-        chi += -2.0 * lc
-        zs += al
-    return ll_sum, chi, zs * (1.0 / math.sqrt(C))
-
-
-@numba.njit(cache=True, inline="always")
-def _detect(u, t, k, chi, z, sa, sb, ssrc, udf, ulz):  # pragma: no cover - compiled
-    """The detector row of unit ``u`` (model ``k``) at ``t``: 6.18 on the increments
-    ``a + b x`` of every test (:meth:`Observer._side_tables`, ``x`` the chi-square or the
-    normalised innovation), noting last zeros; returns the largest statistic."""
-    top = 0.0
-    for s in range(udf.shape[1]):
-        x = sa[k, s] + sb[k, s] * (chi if ssrc[s] == 0 else z)
-        d = cusum_step(udf[u, s], x)
-        udf[u, s] = d
-        if d == 0.0:
-            ulz[u, s] = t
-        if d > top:
-            top = d
-    return top
-
-
-@numba.njit(cache=True, inline="always")
-def _probabilities(nP, pnode, pll, prob, row):  # pragma: no cover - compiled
-    """Node probabilities (6.5) into ``prob[row]``; returns the node of the best path."""
-    best = 0
-    for p in range(1, nP):
-        if pll[p] > pll[best]:
-            best = p
-    top = pll[best]
-    tot = 0.0
-    for p in range(nP):
-        tot += math.exp(pll[p] - top)
-    for k in range(prob.shape[1]):
-        prob[row, k] = 0.0
-    for p in range(nP):
-        prob[row, pnode[p]] += math.exp(pll[p] - top) / tot
-    return pnode[best]
 
 
 @numba.njit(cache=True)
@@ -223,16 +73,18 @@ def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pr
 
 
 @numba.njit(cache=True)
-def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
-    """6.4, "if a change in any model is detected" at ``ta`` (or a path ``gap`` below the
-    best): alarms, candidates with their best predecessors, maximisation over (node,
-    start), spawning with catch-up, pruning; the event recorded in ``ev``."""
+def _spawn(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
+    """6.4, "if a change in any model is detected" at ``ta``: the alarms, the candidates
+    with their best predecessors (step 1), the maximisation over (node, start) (step 2)
+    and the new paths with fresh instances (step 3), each at its initial log-likelihood
+    with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
+    of each new path for the caller's catch-up.  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    H, A, Z, L2, Zs, V2, Zv, inc = scr
+    newp = scr[8]
     S = udf.shape[1]
     K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
@@ -327,7 +179,7 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
             mgt[cnt[C_MG], 0] = j
             mgt[cnt[C_MG], 1] = r
             cnt[C_MG] += 1
-    # spawning (step 3): new paths caught up over the buffered samples r .. ta
+    n_new = 0
     for c in range(nC):
         if not is_new[c]:
             continue
@@ -339,6 +191,7 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
         pnode[p] = j
         pstart[p] = r
         pinit[p] = init
+        pll[p] = init
         if cnt[C_FREE] > 0:
             cnt[C_FREE] -= 1
             sl = free[cnt[C_FREE]]
@@ -350,28 +203,46 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
         snode[g], sstart[g], sprev[g] = j, r, c_prev[c]
         cnt[C_SEG] = g + 1
         pseg[p] = g
-        u0 = cnt[C_U]
+        ha[r - hbase, sl] = init
+        newp[n_new, 0] = p
+        newp[n_new, 1] = cnt[C_U]
         for ik in range(nk_ptr[j], nk_ptr[j + 1]):
             _init_unit(cnt[C_U], p, nk_list[ik], r, r - 1, pst, upath, umodel, ustart, udf,
                        ulz, ust)
             cnt[C_U] += 1
-        u1 = cnt[C_U]
-        ll = init
-        ha[r - hbase, sl] = init
-        for tt in range(r, ta + 1):              # detectors run, no thresholding
-            for u in range(u0, u1):
-                k = umodel[u]
-                lu, chi, z = _unit_step(u, tt, k, mi, mf, ust, ustart, xa, xbase,
-                                        H, A, Z, L2, Zs, V2, Zv)
-                _detect(u, tt, k, chi, z, sa, sb, ssrc, udf, ulz)
-                inc[u - u0] = lu
-            for u in range(u0, u1):
-                ll += inc[u - u0]
-            ha[tt + 1 - hbase, sl] = ll
-        pll[p] = ll
+        newp[n_new, 2] = cnt[C_U]
+        n_new += 1
         spt[cnt[C_SP], 0] = j
         spt[cnt[C_SP], 1] = r
         cnt[C_SP] += 1
+    # the event's alarms, spawned and merged (its record is completed by _prune)
+    e = cnt[C_EV]
+    evt[e, E_TA] = ta
+    evt[e, E_AL0] = cnt[C_AL]
+    evt[e, E_NAL] = nA
+    for i in range(nA):
+        a = cnt[C_AL] + i
+        alt[a, 0] = pid[al_p[i]]
+        alt[a, 1] = pnode[al_p[i]]
+        alt[a, 2] = al_k[i]
+        alt[a, 3] = al_r[i]
+    cnt[C_AL] += nA
+    evt[e, E_SP0] = sp0
+    evt[e, E_NSP] = cnt[C_SP] - sp0
+    evt[e, E_MG0] = mg0
+    evt[e, E_NMG] = cnt[C_MG] - mg0
+    return n_new
+
+
+@numba.njit(cache=True)
+def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
+    """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
+    complete the event record; move the kept paths and their units to the front."""
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
     # pruning: rank, keep mass P_prune, drop those gap below the best
     nP = cnt[C_P]
     order = np.empty(nP, np.int64)
@@ -404,16 +275,6 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     keep = np.sort(keep[:nk])
     # the event record
     e = cnt[C_EV]
-    evt[e, E_TA] = ta
-    evt[e, E_AL0] = cnt[C_AL]
-    evt[e, E_NAL] = nA
-    for i in range(nA):
-        a = cnt[C_AL] + i
-        alt[a, 0] = pid[al_p[i]]
-        alt[a, 1] = pnode[al_p[i]]
-        alt[a, 2] = al_k[i]
-        alt[a, 3] = al_r[i]
-    cnt[C_AL] += nA
     evt[e, E_CAND0] = cnt[C_CAND]
     evt[e, E_NCAND] = nP
     candt[cnt[C_CAND]:cnt[C_CAND] + nP] = pll[:nP]
@@ -422,10 +283,6 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     evt[e, E_NKEEP] = nk
     keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep
     cnt[C_KEEP] += nk
-    evt[e, E_SP0] = sp0
-    evt[e, E_NSP] = cnt[C_SP] - sp0
-    evt[e, E_MG0] = mg0
-    evt[e, E_NMG] = cnt[C_MG] - mg0
     cnt[C_EV] = e + 1
     if nk == nP:
         return
@@ -458,57 +315,231 @@ def _event(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn):  # pragma: no cover
+def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
     ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
-    the sample to resume from once the arrays have room for the worst-case event (every
-    test of every unit crossing with its own change time, every successor new)."""
+    the sample whose event did not fit the arrays (every crossed test with its own change
+    time, every successor new); the caller grows them and resumes at ``t`` with
+    ``pending`` (the sample itself is done, its event is not).
+
+    One loop advances either every unit by the current sample or, after an event, the
+    units of one new path by one of its catch-up samples (its detectors run, no
+    thresholding), so the filter step and the detector row are written once, here, with
+    no array crossing a call in the hot loop.  The filter step is
+    :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
+    (m = 1), operation for operation, on the unit's state row (``state_width``).
+    """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    H, A, Z, L2, Zs, V2, Zv, inc = scr
+    H, A, Z, L2, Zs, V2, Zv, inc, newp = scr
     S = udf.shape[1]
     K = logT.shape[1]
+    qmax = H.shape[1]
+    oS = qmax
+    oL = qmax + qmax * qmax
+    oV = qmax + 2 * qmax * qmax
     maxk = 0
     for j in range(K):
         maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
-    for t in range(t_from, t_to):
-        nP, nU = cnt[C_P], cnt[C_U]
-        nA = nU * S
-        nC = nA * K
-        if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
-                and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
-                and cnt[C_AL] + nA <= alt.shape[0] and cnt[C_CAND] + nP + nC <= candt.shape[0]
-                and cnt[C_KEEP] + nP + nC <= keept.shape[0] and cnt[C_SP] + nC <= spt.shape[0]
-                and cnt[C_MG] + nC <= mgt.shape[0]):
-            return FULL, t
-        # every instance's filter step (A.32-A.39) and detectors (6.18), then path sums (6.10)
+    t = t_from
+    cu = -1                  # catch-up: index of the new path being caught up, -1: none
+    n_new = 0
+    ct = 0                   # its sample
+    cll = 0.0                # its log-likelihood
+    while True:
+        if cu < 0:
+            if t >= t_to:
+                break
+            nP, nU = cnt[C_P], cnt[C_U]
+            ua, ub, tt = 0, (0 if pending else nU), t
+        else:
+            ua, ub, tt = newp[cu, 1], newp[cu, 2], ct
+        row = tt - xbase
         top = 0.0
-        for u in range(nU):
+        for u in range(ua, ub):
             k = umodel[u]
-            lu, chi, z = _unit_step(u, t, k, mi, mf, ust, ustart, xa, xbase, H, A, Z, L2, Zs,
-                                    V2, Zv)
-            d = _detect(u, t, k, chi, z, sa, sb, ssrc, udf, ulz)
-            if d > top:
-                top = d
-            inc[u] = lu
-        event = top > thr
-        for u in range(nU):
-            pll[upath[u]] += inc[u]
-        best = -np.inf
-        for p in range(nP):
-            if pll[p] > best:
-                best = pll[p]
-        hr = t + 1 - hbase
-        for p in range(nP):
-            ha[hr, pslot[p]] = pll[p]
-            if pll[p] < best - gap:
+            q, C, mode, est, pcount = mi[k, 3], mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
+            ll_sum = 0.0
+            chi = 0.0
+            zs = 0.0
+            for c in range(C):
+                col = mi[k, 4] + c
+                # regressors: AR (with the constant first) or [1, t - start]
+                if mi[k, 0] == REG_AR:
+                    j = 0
+                    if mi[k, 2]:
+                        H[0, 0] = 1.0
+                        j = 1
+                    for i in range(1, mi[k, 1] + 1):
+                        H[0, j + i - 1] = xa[row - i, col]
+                else:
+                    H[0, 0] = 1.0
+                    H[0, 1] = float(tt - ustart[u])
+                # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+                if mode == 1:
+                    for i in range(q):
+                        Zs[i, 0] = H[0, i]
+                        for j in range(q):
+                            L2[i, j] = ust[u, c, oL + i * qmax + j]
+                    tri_append_n(L2, Zs, q, 1)
+                    for i in range(q):
+                        for j in range(q):
+                            ust[u, c, oL + i * qmax + j] = L2[i, j]
+                if mode != 0:
+                    for i in range(q):
+                        s = H[0, i]
+                        for kk in range(i):
+                            d = ust[u, c, oL + kk * qmax + kk]
+                            if d != 0.0:
+                                s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
+                        H[1, i] = s
+                else:
+                    for i in range(q):
+                        H[1, i] = H[0, i]
+                # innovation (A.34)
+                s = xa[row, col]
+                for i in range(q):
+                    s -= H[1, i] * ust[u, c, i]
+                nu = s
+                # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+                for i in range(q + 1):
+                    for j in range(q + 1):
+                        A[i, j] = 0.0
+                A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
+                for j in range(q):
+                    s = 0.0
+                    for kk in range(j, q):
+                        s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
+                    Z[0, j] = s
+                for i in range(q):
+                    for j in range(q):
+                        Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+                # Householder reduction to the post-array (A.33)
+                tri_append_n(A, Z, q + 1, q)
+                # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+                d = A[0, 0]
+                al = nu / d if d != 0.0 else np.nan
+                lc = 0.0
+                logdet = 0.0
+                lc -= 0.5 * al * al
+                logdet += math.log(A[0, 0])
+                for i in range(q):
+                    s = 0.0
+                    s += A[1 + i, 0] * al
+                    ust[u, c, i] += s
+                    for j in range(q):
+                        ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+                ll = lc - logdet - _HALF_LOG_2PI
+                # running square-root innovation variance (A.38)
+                if est:
+                    cn = ust[u, c, oV + 2] + 1.0
+                    ust[u, c, oV + 2] = cn
+                    nn = pcount + cn
+                    c_old = math.sqrt(1.0 - 1.0 / nn)
+                    c_new = math.sqrt(1.0 / nn)
+                    Zv[0, 0] = c_new * nu
+                    V2[0, 0] = ust[u, c, oV] * c_old
+                    tri_append_n(V2, Zv, 1, 1)
+                    ust[u, c, oV] = V2[0, 0]
+                # channels add (run_kalman): log-likelihood, chi-square, normalised innovation
+                if C == 1:
+                    ll_sum = ll
+                    chi = lc * -2.0
+                    zs = al
+                else:
+                    ll_sum += ll
+                    chi += -2.0 * lc
+                    zs += al
+            if C > 1:
+                zs = zs * (1.0 / math.sqrt(C))
+            # the detector row (6.18 on a + b x for every test; last zeros noted)
+            for si in range(S):
+                x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else zs)
+                dv = cusum_step(udf[u, si], x)
+                udf[u, si] = dv
+                if dv == 0.0:
+                    ulz[u, si] = tt
+                if dv > top:
+                    top = dv
+            inc[u - ua] = ll_sum
+        if cu >= 0:
+            # catch-up: the new path's log-likelihood after sample ct
+            for u in range(ua, ub):
+                cll += inc[u - ua]
+            p = newp[cu, 0]
+            ha[ct + 1 - hbase, pslot[p]] = cll
+            ct += 1
+            if ct <= t:
+                continue
+            pll[p] = cll
+            cu += 1
+            if cu < n_new:
+                p = newp[cu, 0]
+                ct, cll = pstart[p], pinit[p]
+                continue
+            cu = -1
+            _prune(t, cfg, st, ev)
+        else:
+            # path sums (6.10), history, and the events: a crossing or a path gap below
+            if pending:
                 event = True
-        if event:
-            _event(t, cfg, st, ev, scr)
-        mapn[t - t_out] = _probabilities(cnt[C_P], pnode, pll, nprob, t - t_out)
+                pending = False
+            else:
+                event = top > thr
+                for u in range(nU):
+                    pll[upath[u]] += inc[u]
+                best = -np.inf
+                for p in range(nP):
+                    if pll[p] > best:
+                        best = pll[p]
+                hr = t + 1 - hbase
+                for p in range(nP):
+                    ha[hr, pslot[p]] = pll[p]
+                    if pll[p] < best - gap:
+                        event = True
+            if event:
+                # room for the event: its crossed tests bound the candidates
+                nA = 0
+                for u in range(nU):
+                    for si in range(S):
+                        if udf[u, si] > thr:
+                            nA += 1
+                nC = nA * K
+                if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
+                        and cnt[C_SLOTS] + nC <= ha.shape[1]
+                        and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
+                        and cnt[C_AL] + nA <= alt.shape[0]
+                        and cnt[C_CAND] + nP + nC <= candt.shape[0]
+                        and cnt[C_KEEP] + nP + nC <= keept.shape[0]
+                        and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
+                    return FULL, t
+                n_new = _spawn(t, cfg, st, ev, scr)
+                if n_new > 0:
+                    cu = 0
+                    p = newp[0, 0]
+                    ct, cll = pstart[p], pinit[p]
+                    continue
+                _prune(t, cfg, st, ev)
+        # node probabilities (6.5) and the best path's node after sample t
+        nP = cnt[C_P]
+        best_p = 0
+        for p in range(1, nP):
+            if pll[p] > pll[best_p]:
+                best_p = p
+        top_ll = pll[best_p]
+        tot = 0.0
+        for p in range(nP):
+            tot += math.exp(pll[p] - top_ll)
+        ro = t - t_out
+        for k in range(K):
+            nprob[ro, k] = 0.0
+        for p in range(nP):
+            nprob[ro, pnode[p]] += math.exp(pll[p] - top_ll) / tot
+        mapn[ro] = pnode[best_p]
+        t += 1
     return OK, t_to
 
 
@@ -561,6 +592,10 @@ class Core:
                     np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list)
         self.S = len(side_src)
         self.cnt = np.zeros(N_COUNTERS, np.int64)
+        # scratch of the filter steps (H: regressors and their orthogonal form)
+        q = qmax
+        self.scratch = (np.zeros((2, q)), np.zeros((q + 1, q + 1)), np.zeros((q + 1, q)),
+                        np.zeros((q, q)), np.zeros((q, 1)), np.zeros((1, 1)), np.zeros((1, 1)))
         self._alloc_paths(16)
         self._alloc_units(32)
         self._alloc_segs(256)
@@ -577,6 +612,7 @@ class Core:
             for k, v in old.items():
                 new[k][:len(v)] = v
         self.paths_ = new
+        self.newp = np.zeros((n, 3), np.int64)     # an event's new paths: path, units
 
     def _alloc_units(self, n: int) -> None:
         old = getattr(self, "units_", None)
@@ -588,11 +624,7 @@ class Core:
             for k, v in old.items():
                 new[k][:len(v)] = v
         self.units_ = new
-        # scratch of the filter steps (H: regressors and their orthogonal form) and the
-        # per-unit log-likelihood increments of a sample
-        self.scr = (np.zeros((2, q)), np.zeros((q + 1, q + 1)), np.zeros((q + 1, q)),
-                    np.zeros((q, q)), np.zeros((q, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
-                    np.zeros(n))
+        self.inc = np.zeros(n)          # per-unit log-likelihood increments of a sample
 
     def _alloc_segs(self, n: int) -> None:
         old = getattr(self, "segs_", None)
@@ -608,11 +640,11 @@ class Core:
                    np.zeros(n_ll), np.zeros(n_ll, np.int64), np.zeros((n_al, 2), np.int64),
                    np.zeros((n_al, 2), np.int64))
 
-    def ensure_room(self) -> None:
-        """Grow the arrays for the worst-case event at the next sample (:func:`run_core`)."""
+    def ensure_room(self, hist) -> None:
+        """Grow the arrays for the event pending at the sample :func:`run_core` stopped at."""
         c = self.cnt
         nP, nU = int(c[C_P]), int(c[C_U])
-        nA = nU * self.S
+        nA = int((self.units_["df"][:nU] > self.cfg[6]).sum())
         nC = nA * self.K
         if nP + nC > len(self.paths_["id"]):
             self._alloc_paths(_cap(nP + nC, 0))
@@ -623,9 +655,11 @@ class Core:
             if c[C_SEG] + nC > len(self.segs_["node"]):
                 self._alloc_segs(_cap(int(c[C_SEG]) + nC, 0))
         ev = self.ev
-        if (nA > len(ev[1]) or nC > len(ev[4]) or nP + nC > len(ev[2])):
+        if nA > len(ev[1]) or nC > len(ev[4]) or nP + nC > len(ev[2]):
             self._alloc_events(len(ev[0]), _cap(max(nA, nC), len(ev[1])),
                                _cap(nP + nC, len(ev[2])))
+        if int(c[C_SLOTS]) + nC > hist.width:
+            hist.widen(_cap(int(c[C_SLOTS]) + nC, 0))
 
     def _compact_segs(self) -> None:
         """Keep only the segments the active paths' histories reach, renumbered."""
@@ -690,19 +724,20 @@ class Core:
         """Samples ``t_from .. t_to - 1``; ``make_events(tables)`` turns each batch of event
         rows into records."""
         t = t_from
+        pending = False
         while t < t_to:
-            self.ensure_room()
-            need = len(self.paths_["id"])
-            if hist.width < need:
-                hist.widen(need)
+            if pending:
+                self.ensure_room(hist)
             status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
-                                 self.scr, node_prob, map_node)
+                                 self.scratch + (self.inc, self.newp), node_prob, map_node,
+                                 pending)
             c = self.cnt
             if c[C_EV]:
                 ev = self.ev
                 make_events(ev[0][:c[C_EV]], ev[1][:c[C_AL]], ev[2][:c[C_CAND]],
                             ev[3][:c[C_KEEP]], ev[4][:c[C_SP]], ev[5][:c[C_MG]])
             c[C_EV:] = 0
+            pending = status == FULL
 
 
 @numba.njit(cache=True)
