@@ -335,6 +335,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pr
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
     H, A, Z, L2, Zs, V2, Zv, inc, newp = scr
+    wp = pinit.copy()                     # path weights of a sample (scratch)
     S = udf.shape[1]
     K = logT.shape[1]
     qmax = H.shape[1]
@@ -532,12 +533,13 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pr
         top_ll = pll[best_p]
         tot = 0.0
         for p in range(nP):
-            tot += math.exp(pll[p] - top_ll)
+            wp[p] = math.exp(pll[p] - top_ll)
+            tot += wp[p]
         ro = t - t_out
         for k in range(K):
             nprob[ro, k] = 0.0
         for p in range(nP):
-            nprob[ro, pnode[p]] += math.exp(pll[p] - top_ll) / tot
+            nprob[ro, pnode[p]] += wp[p] / tot
         mapn[ro] = pnode[best_p]
         t += 1
     return OK, t_to

@@ -369,6 +369,7 @@ class Observer:
         S = len(SIDE_TESTS[self.sides])
         self._channels = {s: data[s].shape[1] for s in self.signals}
         self._core = None
+        self._node_names = self.graph.node_names
         if self._start_core():
             return
         # one bank per batch of models (equal ``batch_key``): their instances advance in one run
@@ -606,23 +607,25 @@ class Observer:
 
     def _core_events(self, ev, al, cand, keep, sp, mg) -> None:
         """:class:`ChangeEvent` records from the compiled core's event tables."""
-        names = self.graph.node_names
+        names = self._node_names
         models = self._model_names
         al = al.tolist()
         sp = [(names[j], r) for j, r in sp.tolist()]
         mg = [(names[j], r) for j, r in mg.tolist()]
+        cand, keep = cand.copy(), keep.copy()      # the events hold views of these copies
+        make = ChangeEvent._of
         out = self.events_
         for ta, a0, na, c0, nc, k0, nk, s0, ns, m0, nm in ev.tolist():
-            cl = cand[c0:c0 + nc].copy()
-            kp = keep[k0:k0 + nk].copy()
+            cl = cand[c0:c0 + nc]
+            kp = keep[k0:k0 + nk]
             if na == 0:
-                out.append(ChangeEvent(ta, None, None, None, None, [], [], cl, kp))
+                out.append(make(ta, None, None, None, None, [], [], cl, kp))
                 continue
             for i in range(na):
                 pid, node, k, r = al[a0 + i]
-                out.append(ChangeEvent(ta, pid, names[node], models[k], r,
-                                       sp[s0:s0 + ns] if i == 0 else [],
-                                       mg[m0:m0 + nm] if i == 0 else [], cl, kp))
+                out.append(make(ta, pid, names[node], models[k], r,
+                                sp[s0:s0 + ns] if i == 0 else [],
+                                mg[m0:m0 + nm] if i == 0 else [], cl, kp))
 
     def _core_probabilities(self):
         """(1, K) node probabilities and (1,) MAP node of the core's paths."""
