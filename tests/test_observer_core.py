@@ -219,23 +219,27 @@ def test_models_sharing_a_bank_give_the_results_of_one_bank_each():
     assert sum(len(e.spawned) for e in shared.events) >= 6
 
 
-@pytest.mark.parametrize("structure,estimate", [("plain", False), ("track", True),
-                                                 ("fixed", False)])
-def test_the_compiled_core_gives_the_general_forms_results(structure, estimate):
+@pytest.mark.parametrize("structure,estimate,order_c", [("plain", False, 1), ("track", True, 1),
+                                                         ("fixed", False, 1), ("plain", True, 2)])
+def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, order_c):
     """The compiled core (every filter step, detector, spawn, catch-up and pruning in one
     compiled loop) against the general form (model banks through ``run``) on the same
     stream: the same events, paths and path log-likelihoods to the bit, node probabilities
-    to rounding; AR models of each regressor structure, the running noise estimate, and
-    impact models (time regressors) on a four-node graph."""
+    to rounding; AR models of each regressor structure, the running noise estimate, impact
+    models (time regressors) on a four-node graph, and models of different parameter
+    counts (an AR(2) among AR(1)s)."""
     truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900), ("B", 1300)]
     y = simulate(truth, 1600, 7)
     L = np.array([[1.0, 0.0], [0.2, 1.5]])
 
     def models(cls):
-        out = {k: cls(name=k, order=1, mean=True, theta_mean=[mu, a], theta_sqrt=[0.3, 0.05],
-                      noise_var=v, structure=structure, estimate_noise=estimate,
-                      structure_sqrt=None if structure == "plain" else L)
-               for k, (mu, a, v) in PARAMS.items()}
+        out = {}
+        for k, (mu, a, v) in PARAMS.items():
+            p = order_c if k == "C" else 1
+            out[k] = cls(name=k, order=p, mean=True, theta_mean=[mu, a] + [0.0] * (p - 1),
+                         theta_sqrt=[0.3, 0.05] + [0.05] * (p - 1), noise_var=v,
+                         structure=structure, estimate_noise=estimate,
+                         structure_sqrt=None if structure == "plain" else L)
         imp = ImpactFeature(name="I", theta_mean=[3.0, -0.01], theta_sqrt=[1.0, 0.01],
                             noise_var=1.0)
         if cls is General:

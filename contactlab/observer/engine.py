@@ -315,12 +315,14 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pragma: no cover
+def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
     ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
     the sample whose event did not fit the arrays (every crossed test with its own change
     time, every successor new); the caller grows them and resumes at ``t`` with
-    ``pending`` (the sample itself is done, its event is not).
+    ``pending`` (the sample itself is done, its event is not).  ``qt``: a tuple as long as
+    the parameter count every model shares (the loops of the filter step then have
+    compile-time bounds), or empty when their counts differ.
 
     One loop advances either every unit by the current sample or, after an event, the
     units of one new path by one of its catch-up samples (its detectors run, no
@@ -338,7 +340,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pr
     wp = pinit.copy()                     # path weights of a sample (scratch)
     S = udf.shape[1]
     K = logT.shape[1]
-    qmax = H.shape[1]
+    qc = len(qt)
+    qmax = qc if qc > 0 else H.shape[1]
     oS = qmax
     oL = qmax + qmax * qmax
     oV = qmax + 2 * qmax * qmax
@@ -362,7 +365,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending):  # pr
         top = 0.0
         for u in range(ua, ub):
             k = umodel[u]
-            q, C, mode, est, pcount = mi[k, 3], mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
+            q = qc if qc > 0 else mi[k, 3]
+            C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
             ll_sum = 0.0
             chi = 0.0
             zs = 0.0
@@ -563,6 +567,7 @@ class Core:
         qmax = max(s["q"] for s in specs)
         cmax = max(s["channels"] for s in specs)
         self.qmax, self.cmax, self.width = qmax, cmax, state_width(qmax)
+        self.qt = (0,) * qmax if all(s["q"] == qmax for s in specs) else ()
         K = len(node_kinds)
         self.K = K
         # each model's prior state row per channel (layout of state_width)
@@ -732,7 +737,7 @@ class Core:
                 self.ensure_room(hist)
             status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
                                  self.scratch + (self.inc, self.newp), node_prob, map_node,
-                                 pending)
+                                 pending, self.qt)
             c = self.cnt
             if c[C_EV]:
                 ev = self.ev
