@@ -534,16 +534,19 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  
         for p in range(1, nP):
             if pll[p] > pll[best_p]:
                 best_p = p
-        top_ll = pll[best_p]
-        tot = 0.0
-        for p in range(nP):
-            wp[p] = math.exp(pll[p] - top_ll)
-            tot += wp[p]
         ro = t - t_out
         for k in range(K):
             nprob[ro, k] = 0.0
-        for p in range(nP):
-            nprob[ro, pnode[p]] += wp[p] / tot
+        if nP == 1:                             # exp(0) / exp(0)
+            nprob[ro, pnode[0]] = 1.0
+        else:
+            top_ll = pll[best_p]
+            tot = 0.0
+            for p in range(nP):
+                wp[p] = math.exp(pll[p] - top_ll)
+                tot += wp[p]
+            for p in range(nP):
+                nprob[ro, pnode[p]] += wp[p] / tot
         mapn[ro] = pnode[best_p]
         t += 1
     return OK, t_to

@@ -24,7 +24,18 @@ could still report.  Node probabilities are sums of path probabilities (6.5).
 
 Processing is incremental: :meth:`Observer.process` takes a chunk of any
 length (one sample from a live source, or a whole trace), and any split of a
-stream into chunks gives identical results.  Models whose instances advance by
+stream into chunks gives identical results.
+
+Two forms run it.  When every model is a Kalman filter whose regressors the
+compiled core forms itself (:meth:`FeatureModel.kalman_spec`: the temporal and
+impact models), all of the above -- per sample the filter steps, detectors
+and path sums, per event the alarms, candidates, maximisation, catch-up and
+pruning -- runs in :mod:`contactlab.observer.engine`'s compiled loop over flat
+arrays, and an event costs microseconds.  Otherwise (constraint and velocity
+models) the general form below runs the models through their ``run``; the two
+give the same events, paths and path log-likelihoods (tests compare them).
+
+In the general form, models whose instances advance by
 the same arithmetic from their own state (equal
 :meth:`~contactlab.observer.models.base.FeatureModel.batch_key`, e.g. AR
 models of one order and structure) share one bank.  Within a chunk every bank
@@ -537,7 +548,7 @@ class Observer:
         t0 = self.n_seen_
         end = t0 + n
         if self._core is not None:
-            return self._process_core(data, acts, t0, end)
+            return self._process_core(data, acts, t0, end, action is not None)
         for s in self.signals:
             self._buf[s].append(data[s])
         self._act.append(acts[:, None])
@@ -579,11 +590,11 @@ class Observer:
         self._trim()
         return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
 
-    def _process_core(self, data, acts, t0: int, end: int) -> ObserverStep:
-        """:meth:`process` in the compiled core."""
+    def _process_core(self, data, acts, t0: int, end: int, given: bool) -> ObserverStep:
+        """:meth:`process` in the compiled core (``given``: an action was passed)."""
         n = end - t0
         n_act = len(self.graph.actions or ())
-        if n and (acts.min() < -1 or acts.max() >= n_act):
+        if n and given and (acts.min() < -1 or acts.max() >= n_act):
             raise ValueError(f"action codes must be in 0..{n_act - 1} (graph {self.graph.name!r})")
         self._buf["*"].append(np.concatenate([data[s] for s in self.signals], axis=1)
                               if len(self.signals) > 1 else data[self.signals[0]])
