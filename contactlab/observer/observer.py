@@ -95,7 +95,8 @@ from contactlab.observer.engine import Core
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
-from contactlab.observer.paths import ChangeEvent, PathInfo, RowBuffer, Segment, history
+from contactlab.observer.paths import (ChangeEvent, EventLog, PathInfo, RowBuffer, Segment,
+                                      history)
 
 __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path"]
 
@@ -329,7 +330,7 @@ class Observer:
     def reset(self) -> "Observer":
         """Start over (6.4, initialisation steps 1-6)."""
         self.n_seen_ = 0
-        self.events_: list[ChangeEvent] = []
+        self.events_ = EventLog(self.graph.node_names, self._model_names)
         self._started = False
         self._core = None
         self._next_id = 0
@@ -380,7 +381,6 @@ class Observer:
         S = len(SIDE_TESTS[self.sides])
         self._channels = {s: data[s].shape[1] for s in self.signals}
         self._core = None
-        self._node_names = self.graph.node_names
         if self._start_core():
             return
         # one bank per batch of models (equal ``batch_key``): their instances advance in one run
@@ -611,32 +611,11 @@ class Observer:
         if w0 < end:
             self._hist.extend_to(end + 1)
             self._core.run(w0, end, t0, self._buf["*"], self._hist, self._act, node_prob,
-                           map_node, self._core_events)
+                           map_node, self.events_.add_tables)
         self.n_seen_ = end
         self._trim()
         return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
 
-    def _core_events(self, ev, al, cand, keep, sp, mg) -> None:
-        """:class:`ChangeEvent` records from the compiled core's event tables."""
-        names = self._node_names
-        models = self._model_names
-        al = al.tolist()
-        sp = [(names[j], r) for j, r in sp.tolist()]
-        mg = [(names[j], r) for j, r in mg.tolist()]
-        cand, keep = cand.copy(), keep.copy()      # the events hold views of these copies
-        make = ChangeEvent._of
-        out = self.events_
-        for ta, a0, na, c0, nc, k0, nk, s0, ns, m0, nm in ev.tolist():
-            cl = cand[c0:c0 + nc]
-            kp = keep[k0:k0 + nk]
-            if na == 0:
-                out.append(make(ta, None, None, None, None, [], [], cl, kp))
-                continue
-            for i in range(na):
-                pid, node, k, r = al[a0 + i]
-                out.append(make(ta, pid, names[node], models[k], r,
-                                sp[s0:s0 + ns] if i == 0 else [],
-                                mg[m0:m0 + nm] if i == 0 else [], cl, kp))
 
     def _core_probabilities(self):
         """(1, K) node probabilities and (1,) MAP node of the core's paths."""
