@@ -109,7 +109,7 @@ class EventLog(Sequence):
         return self._ends[-1] if self._ends else 0
 
     def append(self, event: ChangeEvent) -> None:
-        if self._blocks and isinstance(self._blocks[-1], list):
+        if self._blocks and not isinstance(self._blocks[-1][0], tuple):
             self._blocks[-1].append(event)
             self._ends[-1] += 1
         else:
@@ -119,21 +119,28 @@ class EventLog(Sequence):
     def add_tables(self, ev, al, cand, keep, sp, mg) -> None:
         """A batch of the compiled core's event tables (copied)."""
         ev = np.array(ev)
-        n_rec = np.maximum(ev[:, 2], 1)                      # one record per alarm, or one
+        n = len(al) + int(np.count_nonzero(ev[:, 2] == 0))   # one record per alarm, or one
+        tables = (ev, np.array(al), np.array(cand), np.array(keep), np.array(sp), np.array(mg))
+        self._blocks.append([tables, None])
+        self._ends.append(len(self) + n)
+
+    @staticmethod
+    def _index(ev) -> tuple[np.ndarray, np.ndarray]:
+        """Each record's event row and alarm number."""
+        n_rec = np.maximum(ev[:, 2], 1)
         row = np.repeat(np.arange(len(ev)), n_rec)
         first = np.cumsum(n_rec) - n_rec
-        alarm = np.arange(int(n_rec.sum())) - np.repeat(first, n_rec)
-        tables = (ev, np.array(al), np.array(cand), np.array(keep), np.array(sp), np.array(mg))
-        self._blocks.append((tables, row, alarm))
-        self._ends.append(len(self) + len(row))
+        return row, np.arange(int(n_rec.sum())) - np.repeat(first, n_rec)
 
     def _record(self, i: int) -> ChangeEvent:
         b = bisect.bisect_right(self._ends, i)
         block = self._blocks[b]
         j = i - (self._ends[b - 1] if b else 0)
-        if isinstance(block, list):
+        if not isinstance(block[0], tuple):
             return block[j]
-        (ev, al, cand, keep, sp, mg), rows, alarms = block
+        if block[1] is None:
+            block[1] = self._index(block[0][0])
+        (ev, al, cand, keep, sp, mg), (rows, alarms) = block
         ta, a0, na, c0, nc, k0, nk, s0, ns, m0, nm = ev[rows[j]].tolist()
         cl, kp = cand[c0:c0 + nc], keep[k0:k0 + nk]
         if na == 0:
@@ -211,6 +218,11 @@ class RowBuffer:
         n = len(self)
         need = self.off + n + rows
         if need <= self.a.shape[0] and width == self.width:
+            return
+        if width == self.width and n + rows <= self.a.shape[0] // 2:
+            # the live rows and the new ones fit in the front half: move them there
+            self.a[:n] = self.a[self.off:self.off + n]
+            self.off = 0
             return
         cap = max(self.a.shape[0], 2 * (n + rows), 1024) if need > self.a.shape[0] else self.a.shape[0]
         new = np.zeros((cap, width), dtype=self.a.dtype)
