@@ -9,22 +9,29 @@ sums; at a detected change the alarms, the successors and their best
 predecessors, the maximisation over (node, start), the catch-up of the new paths
 over the buffered samples and the pruning -- runs in one compiled loop over flat
 preallocated arrays (:func:`run_core`), so an event costs microseconds.  It is
-:class:`~contactlab.observer.observer.Observer`'s general form step by step (the
-same arithmetic in the same order: the filters by
-:func:`~contactlab.estimators.kalman.kalman_update`, the detectors by
-:func:`~contactlab.detection.cusum.cusum_step`), so the events, paths and path
-log-likelihoods are the general form's; the node probabilities and the pruning
-weights use the C library's ``exp`` and plain sums, which differ from numpy's
-by a few units in the last place.
+:class:`~contactlab.observer.observer.Observer`'s general form step by step, the
+same arithmetic in the same order, so the events, paths and path
+log-likelihoods are the general form's to the bit (the tests run both); the node
+probabilities and the pruning weights use the C library's ``exp`` and plain sums,
+which differ from numpy's by a few units in the last place.
+
+The filter step is :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for
+one scalar filter (m = 1, every channel of the linear feature models is one),
+operation for operation, written once inside :func:`run_core`'s loop (the
+detectors call :func:`~contactlab.detection.cusum.cusum_step`): passed to a
+compiled helper, every array argument costs reference counting on each call,
+which tripled the cost of a step.  When all models share one parameter count
+the loop is compiled for it (the step's loops then have constant bounds: half
+the cost).
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
 log-likelihood history, segment), instances ("units": path, model, start,
-detector statistics and last zeros, filter state per channel) and an
-append-only table of segments ``(node, start, previous segment)`` holding the
-paths' histories (6.1).  The loop stops before a sample at which an event could
-overflow an array (:data:`FULL`); the caller grows the arrays and resumes.
-Events go to tables the caller turns into
-:class:`~contactlab.observer.paths.ChangeEvent` records.
+detector statistics and last zeros, filter state per channel) and a table of
+segments ``(node, start, previous segment)`` holding the paths' histories (6.1),
+compacted to those still reachable when it fills.  The loop stops at an event
+that would overflow an array (:data:`FULL`); the caller grows them and resumes
+with the event.  Events go to tables an
+:class:`~contactlab.observer.paths.EventLog` keeps.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ from contactlab.estimators.householder import tri_append_n
 
 _HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
 
-__all__ = ["REG_AR", "REG_TIME", "OK", "FULL", "run_core", "N_COUNTERS"]
+__all__ = ["REG_AR", "REG_TIME", "OK", "FULL", "Core", "run_core", "state_width"]
 
 #: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
 REG_AR, REG_TIME = 0, 1
@@ -595,7 +602,8 @@ class Core:
                         s["mode"], int(s["estimate_noise"])] for s in specs], np.int64)
         mf = np.array([s["noise_prior_count"] for s in specs], np.float64)
         self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
-                    np.ascontiguousarray(side_b, np.float64), np.ascontiguousarray(side_src, np.int64),
+                    np.ascontiguousarray(side_b, np.float64),
+                    np.ascontiguousarray(side_src, np.int64),
                     pst, float(threshold), float(gap), float(p_keep),
                     -1 if max_paths is None else int(max_paths),
                     np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
