@@ -87,11 +87,11 @@ def _spawn(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
     of each new path for the caller's catch-up.  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list) = cfg
+     nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    newp = scr[8]
+    newp = scr[1]
     S = udf.shape[1]
     K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
@@ -246,7 +246,7 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
     complete the event record; move the kept paths and their units to the front."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list) = cfg
+     nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -339,16 +339,25 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  
     (m = 1), operation for operation, on the unit's state row (``state_width``).
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list) = cfg
+     nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    H, A, Z, L2, Zs, V2, Zv, inc, newp = scr
+    inc, newp = scr
     wp = pinit.copy()                     # path weights of a sample (scratch)
     S = udf.shape[1]
     K = logT.shape[1]
     qc = len(qt)
-    qmax = qc if qc > 0 else H.shape[1]
+    qmax = qc if qc > 0 else q_max
+    # the step's scratch (H: the regressors and their orthogonal form), allocated here:
+    # distinct from every other array for the compiler
+    H = np.zeros((2, qmax))
+    A = np.zeros((qmax + 1, qmax + 1))
+    Z = np.zeros((qmax + 1, qmax))
+    L2 = np.zeros((qmax, qmax))
+    Zs = np.zeros((qmax, 1))
+    V2 = np.zeros((1, 1))
+    Zv = np.zeros((1, 1))
     oS = qmax
     oL = qmax + qmax * qmax
     oV = qmax + 2 * qmax * qmax
@@ -607,13 +616,10 @@ class Core:
                     pst, float(threshold), float(gap), float(p_keep),
                     -1 if max_paths is None else int(max_paths),
                     np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
-                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list)
+                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax)
         self.S = len(side_src)
         self.cnt = np.zeros(N_COUNTERS, np.int64)
-        # scratch of the filter steps (H: regressors and their orthogonal form)
-        q = qmax
-        self.scratch = (np.zeros((2, q)), np.zeros((q + 1, q + 1)), np.zeros((q + 1, q)),
-                        np.zeros((q, q)), np.zeros((q, 1)), np.zeros((1, 1)), np.zeros((1, 1)))
+
         self._alloc_paths(16)
         self._alloc_units(32)
         self._alloc_segs(256)
@@ -747,7 +753,7 @@ class Core:
             if pending:
                 self.ensure_room(hist)
             status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
-                                 self.scratch + (self.inc, self.newp), node_prob, map_node,
+                                 (self.inc, self.newp), node_prob, map_node,
                                  pending, self.qt)
             c = self.cnt
             if c[C_EV]:
