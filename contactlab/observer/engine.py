@@ -80,7 +80,7 @@ def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pr
 
 
 @numba.njit(cache=True)
-def _spawn(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
+def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
     """6.4, "if a change in any model is detected" at ``ta``: the alarms, the candidates
     with their best predecessors (step 1), the maximisation over (node, start) (step 2)
     and the new paths with fresh instances (step 3), each at its initial log-likelihood
@@ -91,7 +91,6 @@ def _spawn(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    newp = scr[1]
     S = udf.shape[1]
     K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
@@ -322,7 +321,7 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  # pragma: no cover
+def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
     ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
     the sample whose event did not fit the arrays (every crossed test with its own change
@@ -343,8 +342,9 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
-    inc, newp = scr
-    wp = pinit.copy()                     # path weights of a sample (scratch)
+    inc = np.empty(upath.shape[0])            # per-unit log-likelihood increments
+    newp = np.empty((pid.shape[0], 3), np.int64)   # an event's new paths: path, units
+    wp = np.empty(pid.shape[0])               # path weights of a sample
     S = udf.shape[1]
     K = logT.shape[1]
     qc = len(qt)
@@ -537,7 +537,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, scr, nprob, mapn, pending, qt):  
                         and cnt[C_KEEP] + nP + nC <= keept.shape[0]
                         and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
                     return FULL, t
-                n_new = _spawn(t, cfg, st, ev, scr)
+                n_new = _spawn(t, cfg, st, ev, newp)
                 if n_new > 0:
                     cu = 0
                     p = newp[0, 0]
@@ -636,7 +636,6 @@ class Core:
             for k, v in old.items():
                 new[k][:len(v)] = v
         self.paths_ = new
-        self.newp = np.zeros((n, 3), np.int64)     # an event's new paths: path, units
 
     def _alloc_units(self, n: int) -> None:
         old = getattr(self, "units_", None)
@@ -648,7 +647,6 @@ class Core:
             for k, v in old.items():
                 new[k][:len(v)] = v
         self.units_ = new
-        self.inc = np.zeros(n)          # per-unit log-likelihood increments of a sample
 
     def _alloc_segs(self, n: int) -> None:
         old = getattr(self, "segs_", None)
@@ -753,7 +751,7 @@ class Core:
             if pending:
                 self.ensure_room(hist)
             status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
-                                 (self.inc, self.newp), node_prob, map_node,
+                                 node_prob, map_node,
                                  pending, self.qt)
             c = self.cnt
             if c[C_EV]:

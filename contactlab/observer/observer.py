@@ -90,7 +90,7 @@ import numba
 import numpy as np
 
 from contactlab import defaults as D
-from contactlab.detection.cusum import cusum_step
+from contactlab.detection.cusum import all_finite, cusum_step
 from contactlab.observer.engine import Core
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
@@ -511,7 +511,7 @@ class Observer:
             if self._started and a.shape[1] != self._channels[s]:
                 raise ValueError(f"signal {s!r} has {a.shape[1]} channels; earlier chunks had "
                                  f"{self._channels[s]}")
-            if not np.all(np.isfinite(a)):
+            if not all_finite(a.reshape(-1)):
                 raise ValueError(f"signal {s!r} has NaN or infinite values")
             if n is not None and a.shape[0] != n:
                 raise ValueError(f"signals have different lengths ({n} and {a.shape[0]})")
