@@ -619,6 +619,7 @@ class Core:
                     np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax)
         self.S = len(side_src)
         self.cnt = np.zeros(N_COUNTERS, np.int64)
+        self._acts = None
 
         self._alloc_paths(16)
         self._alloc_units(32)
@@ -693,12 +694,15 @@ class Core:
         self.cnt[C_SEG] = n_new
 
     def state(self, xbuf, hist, act) -> tuple:
+        """The state tuple of :func:`run_core` (buffers: storage and global row of its first
+        row)."""
         p, u, s = self.paths_, self.units_, self.segs_
+        if self._acts is None or self._acts.base is not act.a:
+            self._acts = act.a[:, 0]
         return (u["path"], u["model"], u["start"], u["df"], u["lz"], u["st"], xbuf.a,
-                xbuf.t0 - xbuf.off, hist.a,
-                hist.t0 - hist.off, self.cnt, p["id"], p["node"], p["start"], p["slot"], p["seg"],
-                p["init"], p["ll"], p["free"], act.a[:, 0], act.t0 - act.off,
-                s["node"], s["start"], s["prev"])
+                xbuf.t0 - xbuf.off, hist.a, hist.t0 - hist.off, self.cnt, p["id"], p["node"],
+                p["start"], p["slot"], p["seg"], p["init"], p["ll"], p["free"], self._acts,
+                act.t0 - act.off, s["node"], s["start"], s["prev"])
 
     # -- paths -------------------------------------------------------------------------
     def add_path(self, pid: int, node: int, start: int, init: float, slot: int,

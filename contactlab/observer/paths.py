@@ -214,12 +214,13 @@ class RowBuffer:
         return self.a.shape[1]
 
     def _reserve(self, rows: int, width: int | None = None) -> None:
-        width = self.width if width is None else max(width, self.width)
-        n = len(self)
-        need = self.off + n + rows
-        if need <= self.a.shape[0] and width == self.width:
+        cap, have = self.a.shape
+        n = self.t_end - self.t0
+        if (width is None or width <= have) and self.off + n + rows <= cap:
             return
-        if width == self.width and n + rows <= self.a.shape[0] // 2:
+        width = have if width is None else max(width, have)
+        need = self.off + n + rows
+        if width == have and n + rows <= cap // 2:
             # the live rows and the new ones fit in the front half: move them there
             self.a[:n] = self.a[self.off:self.off + n]
             self.off = 0
@@ -235,17 +236,18 @@ class RowBuffer:
 
     def append(self, rows: np.ndarray) -> None:
         rows = np.asarray(rows)
-        self._reserve(len(rows))
-        s = self.off + len(self)
-        self.a[s:s + len(rows), :rows.shape[1]] = rows
-        self.t_end += len(rows)
+        k = rows.shape[0]
+        self._reserve(k)
+        s = self.off + self.t_end - self.t0
+        self.a[s:s + k, :rows.shape[1]] = rows
+        self.t_end += k
 
     def extend_to(self, t_end: int) -> None:
         """Grow to ``t_end`` with zero rows."""
         if t_end > self.t_end:
             k = t_end - self.t_end
             self._reserve(k)
-            s = self.off + len(self)
+            s = self.off + self.t_end - self.t0
             self.a[s:s + k] = 0
             self.t_end = t_end
 
@@ -260,7 +262,7 @@ class RowBuffer:
         keep_from = min(max(keep_from, self.t0), self.t_end)
         self.off += keep_from - self.t0
         self.t0 = keep_from
-        if self.off >= max(len(self), 1024):
-            n = len(self)
+        n = self.t_end - keep_from
+        if self.off >= max(n, 1024):
             self.a[:n] = self.a[self.off:self.off + n]
             self.off = 0
