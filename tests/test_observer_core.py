@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy import integrate, stats
@@ -269,6 +271,11 @@ def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, 
         np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
         np.testing.assert_array_equal(a.kept, b.kept)
     assert fast.map_path == slow.map_path
+    # the event log of the core (records made when read): indexing, slices, plain JSON
+    log = core_obs.events_
+    assert len(log) == len(slow.events) and log[-1].to_dict() == slow.events[-1].to_dict()
+    assert [e.to_dict() for e in log[3:9]] == [e.to_dict() for e in slow.events[3:9]]
+    json.dumps([e.to_dict() for e in log])
     np.testing.assert_array_equal(fast.map_node, slow.map_node)
     np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
     assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \

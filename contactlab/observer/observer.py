@@ -277,7 +277,8 @@ class Observer:
         (the thesis had no probabilities, 6.2).  Graphs without probabilities are the same
         either way.
 
-    State: ``n_seen_`` samples processed; ``events_`` all events so far;
+    State: ``n_seen_`` samples processed; ``events_`` all events so far (an
+    :class:`~contactlab.observer.paths.EventLog`);
     ``buffer_len_`` samples in the measurement buffer; :meth:`paths` the
     active paths; :meth:`map_path` the best path's history.
     """
@@ -594,7 +595,9 @@ class Observer:
         """:meth:`process` in the compiled core (``given``: an action was passed)."""
         n = end - t0
         n_act = len(self.graph.actions or ())
-        if n and given and (acts.min() < -1 or acts.max() >= n_act):
+        if given and not n_act:
+            acts = np.full(n, -1, dtype=np.int64)    # a graph without actions ignores them
+        elif n and given and (acts.min() < -1 or acts.max() >= n_act):
             raise ValueError(f"action codes must be in 0..{n_act - 1} (graph {self.graph.name!r})")
         self._buf["*"].append(np.concatenate([data[s] for s in self.signals], axis=1)
                               if len(self.signals) > 1 else data[self.signals[0]])
