@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy import integrate, stats
@@ -188,25 +190,96 @@ def test_chunking_gives_identical_results():
     assert len([e for e in results[0].events if e.model]) >= 3
 
 
+class General(TemporalFeature):
+    """An AR model the compiled core does not run (no ``kalman_spec``): the observer's
+    general form, model banks advanced through ``run``."""
+
+    def kalman_spec(self, channels):
+        return None
+
+
 def test_models_sharing_a_bank_give_the_results_of_one_bank_each():
     """AR models of one structure run in one bank (batch_key); each model alone in its
     bank (batch_key None) must give the same events, paths and probabilities."""
-    class Alone(TemporalFeature):
+    class Alone(General):
         def batch_key(self):
             return None
 
     truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900)]
     y = simulate(truth, 1200, 5)
     g = graph(["A", "B", "C"])
+    shared = {k: General(name=k, order=1, mean=True, theta_mean=[mu, a], theta_sqrt=[0.3, 0.05],
+                         noise_var=v, structure="plain") for k, (mu, a, v) in PARAMS.items()}
     alone = {k: Alone(name=k, order=1, mean=True, theta_mean=[mu, a], theta_sqrt=[0.3, 0.05],
                       noise_var=v, structure="plain") for k, (mu, a, v) in PARAMS.items()}
-    shared_obs, alone_obs = Observer(g, ar_models()), Observer(g, alone)
+    shared_obs, alone_obs = Observer(g, shared), Observer(g, alone)
     shared, single = observe(shared_obs, y, chunk=100), observe(alone_obs, y, chunk=100)
     assert len(shared_obs._banks) == 1 and len(alone_obs._banks) == 3
     np.testing.assert_array_equal(shared.node_prob, single.node_prob)
     assert shared.map_path == single.map_path
     assert [e.to_dict() for e in shared.events] == [e.to_dict() for e in single.events]
     assert sum(len(e.spawned) for e in shared.events) >= 6
+
+
+@pytest.mark.parametrize("structure,estimate,order_c", [("plain", False, 1), ("track", True, 1),
+                                                         ("fixed", False, 1), ("plain", True, 2)])
+def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, order_c):
+    """The compiled core (every filter step, detector, spawn, catch-up and pruning in one
+    compiled loop) against the general form (model banks through ``run``) on the same
+    stream: the same events, paths and path log-likelihoods to the bit, node probabilities
+    to rounding; AR models of each regressor structure, the running noise estimate, impact
+    models (time regressors) on a four-node graph, and models of different parameter
+    counts (an AR(2) among AR(1)s)."""
+    truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900), ("B", 1300)]
+    y = simulate(truth, 1600, 7)
+    L = np.array([[1.0, 0.0], [0.2, 1.5]])
+
+    def models(cls):
+        out = {}
+        for k, (mu, a, v) in PARAMS.items():
+            p = order_c if k == "C" else 1
+            out[k] = cls(name=k, order=p, mean=True, theta_mean=[mu, a] + [0.0] * (p - 1),
+                         theta_sqrt=[0.3, 0.05] + [0.05] * (p - 1), noise_var=v,
+                         structure=structure, estimate_noise=estimate,
+                         structure_sqrt=None if structure == "plain" else L)
+        imp = ImpactFeature(name="I", theta_mean=[3.0, -0.01], theta_sqrt=[1.0, 0.01],
+                            noise_var=1.0)
+        if cls is General:
+            class GeneralImpact(ImpactFeature):
+                def kalman_spec(self, channels):
+                    return None
+            imp = GeneralImpact(name="I", theta_mean=[3.0, -0.01], theta_sqrt=[1.0, 0.01],
+                                noise_var=1.0)
+        out["I"] = imp
+        return out
+
+    doc = {"name": "t", "models": {**{k: {"kind": "temporal"} for k in PARAMS},
+                                   "I": {"kind": "impact"}},
+           "nodes": [{"name": k, "models": k} for k in [*PARAMS, "I"]],
+           "edges": ["* -> *"], "initial": "uniform"}
+    g = parse_graph(doc)
+    core_obs, general_obs = Observer(g, models(TemporalFeature)), Observer(g, models(General))
+    fast = observe(core_obs, y, chunk=333)
+    slow = observe(general_obs, y, chunk=333)
+    assert core_obs._core is not None and general_obs._core is None
+    assert len([e for e in slow.events if e.model]) >= 5
+    assert len(fast.events) == len(slow.events)
+    for a, b in zip(fast.events, slow.events):
+        assert (a.time, a.path, a.node, a.model, a.change_time) == \
+            (b.time, b.path, b.node, b.model, b.change_time)
+        assert (a.spawned, a.merged) == (b.spawned, b.merged)
+        np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
+        np.testing.assert_array_equal(a.kept, b.kept)
+    assert fast.map_path == slow.map_path
+    # the event log of the core (records made when read): indexing, slices, plain JSON
+    log = core_obs.events_
+    assert len(log) == len(slow.events) and log[-1].to_dict() == slow.events[-1].to_dict()
+    assert [e.to_dict() for e in log[3:9]] == [e.to_dict() for e in slow.events[3:9]]
+    json.dumps([e.to_dict() for e in log])
+    np.testing.assert_array_equal(fast.map_node, slow.map_node)
+    np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
+    assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \
+        [(p.id, p.node, p.start, p.loglik, p.history) for p in slow.paths]
 
 
 @pytest.mark.parametrize("p_prune", [0.9, 0.999])

@@ -28,7 +28,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["tri_append", "forward_subst", "back_subst_t"]
+__all__ = ["tri_append", "tri_append_n", "forward_subst", "back_subst_t"]
 
 
 @numba.njit(cache=True)
@@ -46,8 +46,13 @@ def tri_append(L, Z):
     as ``-s / (L[i, i] + ||x||)`` (Parlett) to avoid cancellation, so the
     reflected diagonal is ``+||x||`` in both cases.
     """
-    q = L.shape[0]
-    k = Z.shape[1]
+    tri_append_n(L, Z, L.shape[0], Z.shape[1])
+
+
+@numba.njit(cache=True)
+def tri_append_n(L, Z, q, k):
+    """:func:`tri_append` on the leading ``q x q`` block of ``L`` and ``q x k`` block of
+    ``Z`` (scratch arrays larger than the factor: no views in compiled loops)."""
     for i in range(q):
         s = 0.0
         for j in range(k):

@@ -24,7 +24,18 @@ could still report.  Node probabilities are sums of path probabilities (6.5).
 
 Processing is incremental: :meth:`Observer.process` takes a chunk of any
 length (one sample from a live source, or a whole trace), and any split of a
-stream into chunks gives identical results.  Models whose instances advance by
+stream into chunks gives identical results.
+
+Two forms run it.  When every model is a Kalman filter whose regressors the
+compiled core forms itself (:meth:`FeatureModel.kalman_spec`: the temporal and
+impact models), all of the above -- per sample the filter steps, detectors
+and path sums, per event the alarms, candidates, maximisation, catch-up and
+pruning -- runs in :mod:`contactlab.observer.engine`'s compiled loop over flat
+arrays, and an event costs microseconds.  Otherwise (constraint and velocity
+models) the general form below runs the models through their ``run``; the two
+give the same events, paths and path log-likelihoods (tests compare them).
+
+In the general form, models whose instances advance by
 the same arithmetic from their own state (equal
 :meth:`~contactlab.observer.models.base.FeatureModel.batch_key`, e.g. AR
 models of one order and structure) share one bank.  Within a chunk every bank
@@ -80,11 +91,13 @@ import numba
 import numpy as np
 
 from contactlab import defaults as D
-from contactlab.detection.cusum import cusum_step
+from contactlab.detection.cusum import all_finite, cusum_step
+from contactlab.observer.engine import Core
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
-from contactlab.observer.paths import ChangeEvent, PathInfo, RowBuffer, Segment, history
+from contactlab.observer.paths import (ChangeEvent, EventLog, PathInfo, RowBuffer, Segment,
+                                      history)
 
 __all__ = ["Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path"]
 
@@ -265,7 +278,8 @@ class Observer:
         (the thesis had no probabilities, 6.2).  Graphs without probabilities are the same
         either way.
 
-    State: ``n_seen_`` samples processed; ``events_`` all events so far;
+    State: ``n_seen_`` samples processed; ``events_`` all events so far (an
+    :class:`~contactlab.observer.paths.EventLog`);
     ``buffer_len_`` samples in the measurement buffer; :meth:`paths` the
     active paths; :meth:`map_path` the best path's history.
     """
@@ -318,8 +332,9 @@ class Observer:
     def reset(self) -> "Observer":
         """Start over (6.4, initialisation steps 1-6)."""
         self.n_seen_ = 0
-        self.events_: list[ChangeEvent] = []
+        self.events_ = EventLog(self.graph.node_names, self._model_names)
         self._started = False
+        self._core = None
         self._next_id = 0
         self._paths: list[_Path] = []
         self._arrays = None                     # cached arrays of _paths (_path_arrays)
@@ -363,9 +378,13 @@ class Observer:
         return self._arrays
 
     def _start(self, data: dict[str, np.ndarray]) -> None:
-        """First data: channel counts are known; build the banks and the initial instances."""
+        """First data: channel counts are known; build the banks and the initial instances
+        (or the compiled core, :meth:`_start_core`)."""
         S = len(SIDE_TESTS[self.sides])
         self._channels = {s: data[s].shape[1] for s in self.signals}
+        self._core = None
+        if self._start_core():
+            return
         # one bank per batch of models (equal ``batch_key``): their instances advance in one run
         self._banks: list[ModelBank] = []
         first: dict = {}
@@ -412,6 +431,53 @@ class Observer:
                 self._append_units([i], [k],
                                    np.zeros((1, S)), np.full((1, S), L - 1, dtype=np.int64))
 
+    def _start_core(self) -> bool:
+        """The compiled core (:mod:`contactlab.observer.engine`) when every model runs in it:
+        one measurement buffer of all signals' channels, the initial paths as arrays."""
+        specs, col, first = [], 0, {}
+        for s in self.signals:
+            first[s] = col
+            col += self._channels[s]
+        for name in self._model_names:
+            m = self.models[name]
+            try:
+                m.check_channels(self._channels[m.signal])
+            except ValueError as exc:
+                raise ValueError(f"model {name!r}: {exc}") from None
+            spec = m.kalman_spec(self._channels[m.signal])
+            if spec is None:
+                return False
+            specs.append(dict(spec, col=first[m.signal]))
+        ms = [self.models[k] for k in self._model_names]
+        self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
+        self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
+        self._side_tables()
+        K = self.graph.n_nodes
+        codes = [None] + list(range(len(self.graph.actions or ())))
+        succ = np.zeros((len(codes), K, K), dtype=np.int64)
+        n_succ = np.zeros((len(codes), K), dtype=np.int64)
+        log_t = np.full((len(codes), K, K), -np.inf)
+        for a1, a in enumerate(codes):
+            T = self._transition_table(a)
+            for i in range(K):
+                js = self._successors(i, a)
+                n_succ[a1, i] = len(js)
+                succ[a1, i, :len(js)] = js
+                log_t[a1, i] = T[i]
+        self._core = Core(specs=specs, node_kinds=self._node_kinds, side_a=self._side_a,
+                          side_b=self._side_b, side_src=self._side_src,
+                          threshold=self.threshold, gap=self.gap,
+                          p_keep=self.p_prune * (1 - 1e-12), max_paths=self.max_paths,
+                          succ=succ, n_succ=n_succ, log_t=log_t)
+        self._buf = {"*": RowBuffer(col, t0=0)}
+        self._act = RowBuffer(1, t0=0, dtype=np.int64)
+        self._started = True
+        for p in self._paths:
+            self._core.add_path(p.id, p.node, p.start, p.init, p.slot, self._node_kinds[p.node],
+                                self.lag - 1)
+        self._paths = []
+        return True
+
     def _append_units(self, paths, models, df, lz) -> None:
         models = np.asarray(models, dtype=np.int64)
         self._u_path = np.concatenate([self._u_path, np.asarray(paths, dtype=np.int64)])
@@ -447,7 +513,7 @@ class Observer:
             if self._started and a.shape[1] != self._channels[s]:
                 raise ValueError(f"signal {s!r} has {a.shape[1]} channels; earlier chunks had "
                                  f"{self._channels[s]}")
-            if not np.all(np.isfinite(a)):
+            if not all_finite(a.reshape(-1)):
                 raise ValueError(f"signal {s!r} has NaN or infinite values")
             if n is not None and a.shape[0] != n:
                 raise ValueError(f"signals have different lengths ({n} and {a.shape[0]})")
@@ -483,6 +549,8 @@ class Observer:
             self._start(data)
         t0 = self.n_seen_
         end = t0 + n
+        if self._core is not None:
+            return self._process_core(data, acts, t0, end, action is not None)
         for s in self.signals:
             self._buf[s].append(data[s])
         self._act.append(acts[:, None])
@@ -523,6 +591,47 @@ class Observer:
         self.n_seen_ = end
         self._trim()
         return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
+
+    def _process_core(self, data, acts, t0: int, end: int, given: bool) -> ObserverStep:
+        """:meth:`process` in the compiled core (``given``: an action was passed)."""
+        n = end - t0
+        n_act = len(self.graph.actions or ())
+        if given and not n_act:
+            acts = np.full(n, -1, dtype=np.int64)    # a graph without actions ignores them
+        elif n and given and (acts.min() < -1 or acts.max() >= n_act):
+            raise ValueError(f"action codes must be in 0..{n_act - 1} (graph {self.graph.name!r})")
+        self._buf["*"].append(np.concatenate([data[s] for s in self.signals], axis=1)
+                              if len(self.signals) > 1 else data[self.signals[0]])
+        self._act.append(acts[:, None])
+        K = self.graph.n_nodes
+        node_prob = np.empty((n, K))
+        map_node = np.empty(n, dtype=np.int64)
+        n_events = len(self.events_)
+        w0 = min(max(t0, self.lag), end)
+        if w0 > t0:                              # warm-up: nothing scored yet
+            np_, mn = self._core_probabilities()
+            node_prob[:w0 - t0] = np_
+            map_node[:w0 - t0] = mn
+        if w0 < end:
+            self._hist.extend_to(end + 1)
+            self._core.run(w0, end, t0, self._buf["*"], self._hist, self._act, node_prob,
+                           map_node, self.events_.add_tables)
+        self.n_seen_ = end
+        self._trim()
+        return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
+
+
+    def _core_probabilities(self):
+        """(1, K) node probabilities and (1,) MAP node of the core's paths."""
+        p = self._core.paths_
+        nP = int(self._core.cnt[0])
+        ll = p["ll"][:nP]
+        nodes = p["node"][:nP]
+        M = np.zeros((nP, self.graph.n_nodes))
+        M[np.arange(nP), nodes] = 1.0
+        w = np.exp(ll - ll.max())
+        w /= w.sum()
+        return (w @ M)[None, :], nodes[np.argmax(ll)][None]
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
@@ -858,9 +967,14 @@ class Observer:
 
     def _trim(self) -> None:
         """Shorten the buffers to the earliest change time still possible (6.4)."""
-        if not len(self._lz):
+        if self._core is not None:
+            min_lz = self._core.min_last_zero()
+            if min_lz is None:
+                return
+        elif not len(self._lz):
             return
-        min_lz = int(self._lz.min())
+        else:
+            min_lz = int(self._lz.min())
         for b in self._buf.values():
             b.trim(min_lz + 1 - self.lag)
         self._act.trim(min_lz + 1 - self.lag)
@@ -869,6 +983,8 @@ class Observer:
     # -- output ----------------------------------------------------------------------
     def paths(self) -> list[PathInfo]:
         """The active paths, most probable first."""
+        if self._started and self._core is not None:
+            return self._core_paths()
         if not self._paths:
             return []
         w = np.exp(self._ll - self._ll.max())
@@ -879,8 +995,23 @@ class Observer:
                for p, ll, q in zip(self._paths, self._ll, w)]
         return sorted(out, key=lambda x: -x.loglik)
 
+    def _core_paths(self) -> list[PathInfo]:
+        c = self._core
+        nP = int(c.cnt[0])
+        p = c.paths_
+        ll = p["ll"][:nP]
+        w = np.exp(ll - ll.max())
+        w /= w.sum()
+        names = self.graph.node_names
+        out = [PathInfo(int(p["id"][i]), names[p["node"][i]], int(p["start"][i]), float(ll[i]),
+                        float(w[i]), [(names[n], s) for n, s in c.history(int(p["seg"][i]))])
+               for i in range(nP)]
+        return sorted(out, key=lambda x: -x.loglik)
+
     def node_probabilities(self) -> np.ndarray:
         """(K,) current node probabilities."""
+        if self._started and self._core is not None:
+            return self._core_probabilities()[0][0]
         return self._probabilities(self._ll[None, :])[0][0]
 
     def map_path(self) -> list[tuple[str, int]]:

@@ -83,6 +83,15 @@ class FeatureModel:
     def run(self, state: dict, x: np.ndarray, *, t0: int, starts: np.ndarray):
         raise NotImplementedError
 
+    def kalman_spec(self, channels: int) -> dict | None:
+        """None, or how the observer's compiled core (:mod:`contactlab.observer.engine`)
+        runs this model itself: a square-root Kalman filter per channel (m = 1) with
+        ``reg`` (``REG_AR``: AR regressors of ``order`` with a constant first if ``mean``;
+        ``REG_TIME``: ``[1, t - start]``), ``q`` parameters, ``mode``, ``estimate_noise``,
+        ``noise_prior_count``, ``channels`` and ``prior`` (:meth:`init_state` of one
+        instance), exactly as :meth:`run` would."""
+        return None
+
 
 class ModelBank:
     """All active instances of one :class:`FeatureModel`, as one batch.

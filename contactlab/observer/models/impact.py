@@ -81,6 +81,14 @@ class ImpactFeature(FeatureModel):
                 np.repeat(self.noise_var, rep, 0), np.broadcast_to(np.eye(2), (channels, 2, 2)))
         return repeat_state(cache[channels], len(starts))
 
+    def kalman_spec(self, channels):
+        if type(self).run is not ImpactFeature.run or type(self).init_state is not ImpactFeature.init_state:
+            return None
+        from contactlab.observer.engine import REG_TIME
+        return {"reg": REG_TIME, "order": 0, "mean": True, "q": 2, "mode": MODE_PLAIN,
+                "estimate_noise": False, "noise_prior_count": 8.0, "channels": channels,
+                "prior": self.init_state(np.zeros(1, dtype=np.int64), channels)}
+
     def run(self, state, x, *, t0, starts):
         N, C = x.shape
         U = len(starts)

@@ -137,6 +137,16 @@ class TemporalFeature(FeatureModel):
         return (type(self), self.signal, self.ar.order, self.ar.mean, self.structure, self.estimate_noise,
                 self.noise_prior_count)
 
+    def kalman_spec(self, channels):
+        if type(self).run is not TemporalFeature.run or type(self).init_state is not TemporalFeature.init_state:
+            return None
+        from contactlab.observer.engine import REG_AR
+        return {"reg": REG_AR, "order": self.ar.order, "mean": bool(self.ar.mean),
+                "q": self.ar.n_params, "mode": MODES[self.structure],
+                "estimate_noise": bool(self.estimate_noise),
+                "noise_prior_count": float(self.noise_prior_count), "channels": channels,
+                "prior": self.init_state(np.zeros(1, dtype=np.int64), channels)}
+
     def run(self, state, x, *, t0, starts):
         return run_kalman(state, self.ar.regressors(x), x[self.lag:], mode=MODES[self.structure],
                           estimate_noise=self.estimate_noise,

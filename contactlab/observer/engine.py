@@ -1,0 +1,790 @@
+"""The observer's compiled core (6.4) for graphs whose models are all Kalman filters.
+
+When every model of a graph is a square-root Kalman filter whose regressors the
+core can form itself (:meth:`FeatureModel.kalman_spec`: the AR regressors of
+:class:`~contactlab.observer.models.temporal.TemporalFeature`, the time since the
+start of :class:`~contactlab.observer.models.impact.ImpactFeature`), the whole of
+6.4 -- per sample the instances' filter steps, the Page-Hinkley tests and the path
+sums; at a detected change the alarms, the successors and their best
+predecessors, the maximisation over (node, start), the catch-up of the new paths
+over the buffered samples and the pruning -- runs in one compiled loop over flat
+preallocated arrays (:func:`run_core`), so an event costs microseconds.  It is
+:class:`~contactlab.observer.observer.Observer`'s general form step by step, the
+same arithmetic in the same order, so the events, paths and path
+log-likelihoods are the general form's to the bit (the tests run both); the node
+probabilities and the pruning weights use the C library's ``exp`` and plain sums,
+which differ from numpy's by a few units in the last place.
+
+The filter step is :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for
+one scalar filter (m = 1, every channel of the linear feature models is one),
+operation for operation, written once inside :func:`run_core`'s loop (the
+detectors call :func:`~contactlab.detection.cusum.cusum_step`): passed to a
+compiled helper, every array argument costs reference counting on each call,
+which tripled the cost of a step.  When all models share one parameter count
+the loop is compiled for it (the step's loops then have constant bounds: half
+the cost).
+
+State: paths (id, node, start, initial and current log-likelihood, column of the
+log-likelihood history, segment), instances ("units": path, model, start,
+detector statistics and last zeros, filter state per channel) and a table of
+segments ``(node, start, previous segment)`` holding the paths' histories (6.1),
+compacted to those still reachable when it fills.  The loop stops at an event
+that would overflow an array (:data:`FULL`); the caller grows them and resumes
+with the event.  Events go to tables an
+:class:`~contactlab.observer.paths.EventLog` keeps.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from contactlab.detection.cusum import cusum_step
+from contactlab.estimators.householder import tri_append_n
+
+_HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
+
+__all__ = ["REG_AR", "REG_TIME", "OK", "FULL", "Core", "run_core", "state_width"]
+
+#: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
+REG_AR, REG_TIME = 0, 1
+#: :func:`run_core` status: done, or stopped before a sample for room
+OK, FULL = 0, 1
+# counters: paths, units, segments, free slots, slots, next path id, events, alarms,
+# candidate log-likelihoods, kept indices, spawned, merged
+C_P, C_U, C_SEG, C_FREE, C_SLOTS, C_ID, C_EV, C_AL, C_CAND, C_KEEP, C_SP, C_MG = range(12)
+N_COUNTERS = 12
+# columns of the event table
+E_TA, E_AL0, E_NAL, E_CAND0, E_NCAND, E_KEEP0, E_NKEEP, E_SP0, E_NSP, E_MG0, E_NMG = range(11)
+N_EV_COLS = 11
+
+
+def state_width(qmax: int) -> int:
+    """Length of a unit-channel state row: theta (qmax), S and Ls (qmax x qmax each,
+    row-major), then Ve, Lv and the running-variance count."""
+    return qmax + 2 * qmax * qmax + 3
+
+
+@numba.njit(cache=True)
+def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pragma: no cover
+    """Unit ``u`` of path ``p``: a fresh instance of model ``k`` started at ``r`` (its
+    prior state row, detectors at zero with last zero ``lz``)."""
+    upath[u] = p
+    umodel[u] = k
+    ustart[u] = r
+    udf[u, :] = 0.0
+    ulz[u, :] = lz
+    ust[u] = pst[k]
+
+
+@numba.njit(cache=True)
+def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
+    """6.4, "if a change in any model is detected" at ``ta``: the alarms, the candidates
+    with their best predecessors (step 1), the maximisation over (node, start) (step 2)
+    and the new paths with fresh instances (step 3), each at its initial log-likelihood
+    with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
+    of each new path for the caller's catch-up.  Returns the number of new paths."""
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list, q_max) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
+    S = udf.shape[1]
+    K = logT.shape[1]
+    nP, nU = cnt[C_P], cnt[C_U]
+    # alarms: every test that crossed, each distinct change time (its last zero + 1)
+    al_p = np.empty(nU * S, np.int64)
+    al_k = np.empty(nU * S, np.int64)
+    al_r = np.empty(nU * S, np.int64)
+    rs = np.empty(S, np.int64)
+    nA = 0
+    for u in range(nU):
+        nr = 0
+        for s in range(S):
+            if udf[u, s] > thr:
+                r = ulz[u, s] + 1
+                dup = False
+                for i in range(nr):
+                    if rs[i] == r:
+                        dup = True
+                if not dup:
+                    i = nr
+                    while i > 0 and rs[i - 1] > r:
+                        rs[i] = rs[i - 1]
+                        i -= 1
+                    rs[i] = r
+                    nr += 1
+        if nr == 0:
+            continue
+        for s in range(S):                       # step 4: reset the spawning model's test
+            udf[u, s] = 0.0
+            ulz[u, s] = ta
+        for i in range(nr):
+            al_p[nA] = upath[u]
+            al_k[nA] = umodel[u]
+            al_r[nA] = rs[i]
+            nA += 1
+    # candidates (step 1) in alarm order, each from its best tracked predecessor
+    c_j = np.empty(nA * K, np.int64)
+    c_r = np.empty(nA * K, np.int64)
+    c_init = np.empty(nA * K)
+    c_prev = np.empty(nA * K, np.int64)
+    nC = 0
+    for i in range(nA):
+        r = al_r[i]
+        a1 = aa[r - abase] + 1
+        node = pnode[al_p[i]]
+        for jj in range(n_succ[a1, node]):
+            j = succ[a1, node, jj]
+            seen = False
+            for c in range(nC):
+                if c_j[c] == j and c_r[c] == r:
+                    seen = True
+                    break
+            if seen:
+                continue
+            best = -np.inf
+            prev = -1
+            hr = r - hbase
+            for p in range(nP):
+                if pstart[p] <= r:
+                    v = ha[hr, pslot[p]] + logT[a1, pnode[p], j]
+                    if v > best:
+                        best = v
+                        prev = pseg[p]
+            c_j[nC] = j
+            c_r[nC] = r
+            c_init[nC] = best
+            c_prev[nC] = prev
+            nC += 1
+    # maximisation over (node, start) (step 2)
+    sp0, mg0 = cnt[C_SP], cnt[C_MG]
+    is_new = np.zeros(nC, np.bool_)
+    for c in range(nC):
+        j, r, init = c_j[c], c_r[c], c_init[c]
+        found = -1
+        for p in range(nP):
+            if pnode[p] == j and pstart[p] == r:
+                found = p
+                break
+        if found < 0:
+            is_new[c] = True
+        elif init > pinit[found]:
+            delta = init - pinit[found]
+            pll[found] += delta
+            sl = pslot[found]
+            for tt in range(r, ta + 2):
+                ha[tt - hbase, sl] += delta
+            pinit[found] = init
+            g = cnt[C_SEG]
+            snode[g], sstart[g], sprev[g] = j, r, c_prev[c]
+            cnt[C_SEG] = g + 1
+            pseg[found] = g
+            mgt[cnt[C_MG], 0] = j
+            mgt[cnt[C_MG], 1] = r
+            cnt[C_MG] += 1
+    n_new = 0
+    for c in range(nC):
+        if not is_new[c]:
+            continue
+        j, r, init = c_j[c], c_r[c], c_init[c]
+        p = cnt[C_P]
+        cnt[C_P] = p + 1
+        pid[p] = cnt[C_ID]
+        cnt[C_ID] += 1
+        pnode[p] = j
+        pstart[p] = r
+        pinit[p] = init
+        pll[p] = init
+        if cnt[C_FREE] > 0:
+            cnt[C_FREE] -= 1
+            sl = free[cnt[C_FREE]]
+        else:
+            sl = cnt[C_SLOTS]
+            cnt[C_SLOTS] += 1
+        pslot[p] = sl
+        g = cnt[C_SEG]
+        snode[g], sstart[g], sprev[g] = j, r, c_prev[c]
+        cnt[C_SEG] = g + 1
+        pseg[p] = g
+        ha[r - hbase, sl] = init
+        newp[n_new, 0] = p
+        newp[n_new, 1] = cnt[C_U]
+        for ik in range(nk_ptr[j], nk_ptr[j + 1]):
+            _init_unit(cnt[C_U], p, nk_list[ik], r, r - 1, pst, upath, umodel, ustart, udf,
+                       ulz, ust)
+            cnt[C_U] += 1
+        newp[n_new, 2] = cnt[C_U]
+        n_new += 1
+        spt[cnt[C_SP], 0] = j
+        spt[cnt[C_SP], 1] = r
+        cnt[C_SP] += 1
+    # the event's alarms, spawned and merged (its record is completed by _prune)
+    e = cnt[C_EV]
+    evt[e, E_TA] = ta
+    evt[e, E_AL0] = cnt[C_AL]
+    evt[e, E_NAL] = nA
+    for i in range(nA):
+        a = cnt[C_AL] + i
+        alt[a, 0] = pid[al_p[i]]
+        alt[a, 1] = pnode[al_p[i]]
+        alt[a, 2] = al_k[i]
+        alt[a, 3] = al_r[i]
+    cnt[C_AL] += nA
+    evt[e, E_SP0] = sp0
+    evt[e, E_NSP] = cnt[C_SP] - sp0
+    evt[e, E_MG0] = mg0
+    evt[e, E_NMG] = cnt[C_MG] - mg0
+    return n_new
+
+
+@numba.njit(cache=True)
+def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
+    """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
+    complete the event record; move the kept paths and their units to the front."""
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list, q_max) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
+    # pruning: rank, keep mass P_prune, drop those gap below the best
+    nP = cnt[C_P]
+    order = np.empty(nP, np.int64)
+    for i in range(nP):                         # stable sort, largest first
+        x = pll[i]
+        j = i
+        while j > 0 and pll[order[j - 1]] < x:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = i
+    top = pll[order[0]]
+    w = np.empty(nP)
+    tot = 0.0
+    for i in range(nP):
+        w[i] = math.exp(pll[i] - top)
+        tot += w[i]
+    n_keep = nP
+    cum = 0.0
+    for i in range(nP):
+        cum += w[order[i]] / tot
+        if cum >= p_keep:
+            n_keep = i + 1
+            break
+    keep = np.empty(n_keep, np.int64)
+    nk = 0
+    for i in range(n_keep):
+        if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
+            keep[nk] = order[i]
+            nk += 1
+    keep = np.sort(keep[:nk])
+    # the event record
+    e = cnt[C_EV]
+    evt[e, E_CAND0] = cnt[C_CAND]
+    evt[e, E_NCAND] = nP
+    candt[cnt[C_CAND]:cnt[C_CAND] + nP] = pll[:nP]
+    cnt[C_CAND] += nP
+    evt[e, E_KEEP0] = cnt[C_KEEP]
+    evt[e, E_NKEEP] = nk
+    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep
+    cnt[C_KEEP] += nk
+    cnt[C_EV] = e + 1
+    if nk == nP:
+        return
+    # compaction: kept paths and their units move to the front, dropped slots are freed
+    remap = np.full(nP, -1, np.int64)
+    for n in range(nk):
+        remap[keep[n]] = n
+    for i in range(nP):
+        if remap[i] < 0:
+            free[cnt[C_FREE]] = pslot[i]
+            cnt[C_FREE] += 1
+    for n in range(nk):
+        i = keep[n]
+        pid[n], pnode[n], pstart[n], pslot[n] = pid[i], pnode[i], pstart[i], pslot[i]
+        pseg[n], pinit[n], pll[n] = pseg[i], pinit[i], pll[i]
+    cnt[C_P] = nk
+    n = 0
+    for u in range(cnt[C_U]):
+        p = remap[upath[u]]
+        if p < 0:
+            continue
+        if n != u:
+            umodel[n], ustart[n] = umodel[u], ustart[u]
+            udf[n] = udf[u]
+            ulz[n] = ulz[u]
+            ust[n] = ust[u]
+        upath[n] = p
+        n += 1
+    cnt[C_U] = n
+
+
+@numba.njit(cache=True)
+def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
+    """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
+    ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
+    the sample whose event did not fit the arrays (every crossed test with its own change
+    time, every successor new); the caller grows them and resumes at ``t`` with
+    ``pending`` (the sample itself is done, its event is not).  ``qt``: a tuple as long as
+    the parameter count every model shares (the loops of the filter step then have
+    compile-time bounds), or empty when their counts differ.
+
+    One loop advances either every unit by the current sample or, after an event, the
+    units of one new path by one of its catch-up samples (its detectors run, no
+    thresholding), so the filter step and the detector row are written once, here, with
+    no array crossing a call in the hot loop.  The filter step is
+    :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
+    (m = 1), operation for operation, on the unit's state row (``state_width``).
+    """
+    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
+     nk_list, q_max) = cfg
+    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
+     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
+    evt, alt, candt, keept, spt, mgt = ev
+    inc = np.empty(upath.shape[0])            # per-unit log-likelihood increments
+    newp = np.empty((pid.shape[0], 3), np.int64)   # an event's new paths: path, units
+    wp = np.empty(pid.shape[0])               # path weights of a sample
+    S = udf.shape[1]
+    K = logT.shape[1]
+    qc = len(qt)
+    qmax = qc if qc > 0 else q_max
+    # the step's scratch (H: the regressors and their orthogonal form), allocated here:
+    # distinct from every other array for the compiler
+    H = np.zeros((2, qmax))
+    A = np.zeros((qmax + 1, qmax + 1))
+    Z = np.zeros((qmax + 1, qmax))
+    L2 = np.zeros((qmax, qmax))
+    Zs = np.zeros((qmax, 1))
+    V2 = np.zeros((1, 1))
+    Zv = np.zeros((1, 1))
+    oS = qmax
+    oL = qmax + qmax * qmax
+    oV = qmax + 2 * qmax * qmax
+    maxk = 0
+    for j in range(K):
+        maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
+    t = t_from
+    cu = -1                  # catch-up: index of the new path being caught up, -1: none
+    n_new = 0
+    ct = 0                   # its sample
+    cll = 0.0                # its log-likelihood
+    while True:
+        if cu < 0:
+            if t >= t_to:
+                break
+            nP, nU = cnt[C_P], cnt[C_U]
+            ua, ub, tt = 0, (0 if pending else nU), t
+        else:
+            ua, ub, tt = newp[cu, 1], newp[cu, 2], ct
+        row = tt - xbase
+        top = 0.0
+        for u in range(ua, ub):
+            k = umodel[u]
+            q = qc if qc > 0 else mi[k, 3]
+            C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
+            ll_sum = 0.0
+            chi = 0.0
+            zs = 0.0
+            for c in range(C):
+                col = mi[k, 4] + c
+                # regressors: AR (with the constant first) or [1, t - start]
+                if mi[k, 0] == REG_AR:
+                    j = 0
+                    if mi[k, 2]:
+                        H[0, 0] = 1.0
+                        j = 1
+                    for i in range(1, mi[k, 1] + 1):
+                        H[0, j + i - 1] = xa[row - i, col]
+                else:
+                    H[0, 0] = 1.0
+                    H[0, 1] = float(tt - ustart[u])
+                # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+                if mode == 1:
+                    for i in range(q):
+                        Zs[i, 0] = H[0, i]
+                        for j in range(q):
+                            L2[i, j] = ust[u, c, oL + i * qmax + j]
+                    tri_append_n(L2, Zs, q, 1)
+                    for i in range(q):
+                        for j in range(q):
+                            ust[u, c, oL + i * qmax + j] = L2[i, j]
+                if mode != 0:
+                    for i in range(q):
+                        s = H[0, i]
+                        for kk in range(i):
+                            d = ust[u, c, oL + kk * qmax + kk]
+                            if d != 0.0:
+                                s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
+                        H[1, i] = s
+                else:
+                    for i in range(q):
+                        H[1, i] = H[0, i]
+                # innovation (A.34)
+                s = xa[row, col]
+                for i in range(q):
+                    s -= H[1, i] * ust[u, c, i]
+                nu = s
+                # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+                for i in range(q + 1):
+                    for j in range(q + 1):
+                        A[i, j] = 0.0
+                A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
+                for j in range(q):
+                    s = 0.0
+                    for kk in range(j, q):
+                        s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
+                    Z[0, j] = s
+                for i in range(q):
+                    for j in range(q):
+                        Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+                # Householder reduction to the post-array (A.33)
+                tri_append_n(A, Z, q + 1, q)
+                # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+                d = A[0, 0]
+                al = nu / d if d != 0.0 else np.nan
+                lc = 0.0
+                logdet = 0.0
+                lc -= 0.5 * al * al
+                logdet += math.log(A[0, 0])
+                for i in range(q):
+                    s = 0.0
+                    s += A[1 + i, 0] * al
+                    ust[u, c, i] += s
+                    for j in range(q):
+                        ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+                ll = lc - logdet - _HALF_LOG_2PI
+                # running square-root innovation variance (A.38)
+                if est:
+                    cn = ust[u, c, oV + 2] + 1.0
+                    ust[u, c, oV + 2] = cn
+                    nn = pcount + cn
+                    c_old = math.sqrt(1.0 - 1.0 / nn)
+                    c_new = math.sqrt(1.0 / nn)
+                    Zv[0, 0] = c_new * nu
+                    V2[0, 0] = ust[u, c, oV] * c_old
+                    tri_append_n(V2, Zv, 1, 1)
+                    ust[u, c, oV] = V2[0, 0]
+                # channels add (run_kalman): log-likelihood, chi-square, normalised innovation
+                if C == 1:
+                    ll_sum = ll
+                    chi = lc * -2.0
+                    zs = al
+                else:
+                    ll_sum += ll
+                    chi += -2.0 * lc
+                    zs += al
+            if C > 1:
+                zs = zs * (1.0 / math.sqrt(C))
+            # the detector row (6.18 on a + b x for every test; last zeros noted)
+            for si in range(S):
+                x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else zs)
+                dv = cusum_step(udf[u, si], x)
+                udf[u, si] = dv
+                if dv == 0.0:
+                    ulz[u, si] = tt
+                if dv > top:
+                    top = dv
+            inc[u - ua] = ll_sum
+        if cu >= 0:
+            # catch-up: the new path's log-likelihood after sample ct
+            for u in range(ua, ub):
+                cll += inc[u - ua]
+            p = newp[cu, 0]
+            ha[ct + 1 - hbase, pslot[p]] = cll
+            ct += 1
+            if ct <= t:
+                continue
+            pll[p] = cll
+            cu += 1
+            if cu < n_new:
+                p = newp[cu, 0]
+                ct, cll = pstart[p], pinit[p]
+                continue
+            cu = -1
+            _prune(t, cfg, st, ev)
+        else:
+            # path sums (6.10), history, and the events: a crossing or a path gap below
+            if pending:
+                event = True
+                pending = False
+            else:
+                event = top > thr
+                for u in range(nU):
+                    pll[upath[u]] += inc[u]
+                best = -np.inf
+                for p in range(nP):
+                    if pll[p] > best:
+                        best = pll[p]
+                hr = t + 1 - hbase
+                for p in range(nP):
+                    ha[hr, pslot[p]] = pll[p]
+                    if pll[p] < best - gap:
+                        event = True
+            if event:
+                # room for the event: its crossed tests bound the candidates
+                nA = 0
+                for u in range(nU):
+                    for si in range(S):
+                        if udf[u, si] > thr:
+                            nA += 1
+                nC = nA * K
+                if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
+                        and cnt[C_SLOTS] + nC <= ha.shape[1]
+                        and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
+                        and cnt[C_AL] + nA <= alt.shape[0]
+                        and cnt[C_CAND] + nP + nC <= candt.shape[0]
+                        and cnt[C_KEEP] + nP + nC <= keept.shape[0]
+                        and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
+                    return FULL, t
+                n_new = _spawn(t, cfg, st, ev, newp)
+                if n_new > 0:
+                    cu = 0
+                    p = newp[0, 0]
+                    ct, cll = pstart[p], pinit[p]
+                    continue
+                _prune(t, cfg, st, ev)
+        # node probabilities (6.5) and the best path's node after sample t
+        nP = cnt[C_P]
+        best_p = 0
+        for p in range(1, nP):
+            if pll[p] > pll[best_p]:
+                best_p = p
+        ro = t - t_out
+        for k in range(K):
+            nprob[ro, k] = 0.0
+        if nP == 1:                             # exp(0) / exp(0)
+            nprob[ro, pnode[0]] = 1.0
+        else:
+            top_ll = pll[best_p]
+            tot = 0.0
+            for p in range(nP):
+                wp[p] = math.exp(pll[p] - top_ll)
+                tot += wp[p]
+            for p in range(nP):
+                nprob[ro, pnode[p]] += wp[p] / tot
+        mapn[ro] = pnode[best_p]
+        t += 1
+    return OK, t_to
+
+
+def _cap(need: int, have: int) -> int:
+    return max(have, 2 * need, 16)
+
+
+class Core:
+    """The arrays of :func:`run_core` for one observer, their growth, and its events.
+
+    ``specs``: each model's :meth:`~contactlab.observer.models.base.FeatureModel.kalman_spec`
+    (in the observer's model order) with its first column in the measurement buffer.
+    """
+
+    def __init__(self, *, specs: list[dict], node_kinds: list[list[int]], side_a, side_b,
+                 side_src, threshold: float, gap: float, p_keep: float, max_paths: int | None,
+                 succ, n_succ, log_t):
+        M = len(specs)
+        qmax = max(s["q"] for s in specs)
+        cmax = max(s["channels"] for s in specs)
+        self.qmax, self.cmax, self.width = qmax, cmax, state_width(qmax)
+        self.qt = (0,) * qmax if all(s["q"] == qmax for s in specs) else ()
+        K = len(node_kinds)
+        self.K = K
+        # each model's prior state row per channel (layout of state_width)
+        pst = np.zeros((M, cmax, self.width))
+        oS, oL, oV = qmax, qmax + qmax * qmax, qmax + 2 * qmax * qmax
+        for k, s in enumerate(specs):
+            q, prior = s["q"], s["prior"]
+            for c in range(s["channels"]):
+                pst[k, c, :q] = prior["theta"][0, c]
+                for i in range(q):
+                    pst[k, c, oS + i * qmax:oS + i * qmax + q] = prior["S"][0, c, i]
+                    pst[k, c, oL + i * qmax:oL + i * qmax + q] = prior["Ls"][0, c, i]
+                pst[k, c, oV] = prior["Ve"][0, c, 0, 0]
+                pst[k, c, oV + 1] = prior["Lv"][0, c, 0, 0]
+                pst[k, c, oV + 2] = prior["vcount"][0, c]
+        nk_ptr = np.zeros(K + 1, np.int64)
+        for j, ks in enumerate(node_kinds):
+            nk_ptr[j + 1] = nk_ptr[j] + len(ks)
+        nk_list = np.array([k for ks in node_kinds for k in ks], np.int64)
+        self.maxk = max(len(ks) for ks in node_kinds)
+        mi = np.array([[s["reg"], s["order"], int(s["mean"]), s["q"], s["col"], s["channels"],
+                        s["mode"], int(s["estimate_noise"])] for s in specs], np.int64)
+        mf = np.array([s["noise_prior_count"] for s in specs], np.float64)
+        self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
+                    np.ascontiguousarray(side_b, np.float64),
+                    np.ascontiguousarray(side_src, np.int64),
+                    pst, float(threshold), float(gap), float(p_keep),
+                    -1 if max_paths is None else int(max_paths),
+                    np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
+                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax)
+        self.S = len(side_src)
+        self.cnt = np.zeros(N_COUNTERS, np.int64)
+        self._acts = None
+
+        self._alloc_paths(16)
+        self._alloc_units(32)
+        self._alloc_segs(256)
+        self._alloc_events(256, 1024, 4096)
+
+    # -- arrays ------------------------------------------------------------------------
+    def _alloc_paths(self, n: int) -> None:
+        old = getattr(self, "paths_", None)
+        new = {"id": np.zeros(n, np.int64), "node": np.zeros(n, np.int64),
+               "start": np.zeros(n, np.int64), "slot": np.zeros(n, np.int64),
+               "seg": np.zeros(n, np.int64), "init": np.zeros(n), "ll": np.zeros(n),
+               "free": np.zeros(n, np.int64)}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.paths_ = new
+
+    def _alloc_units(self, n: int) -> None:
+        old = getattr(self, "units_", None)
+        S, C, q = self.S, self.cmax, self.qmax
+        new = {"path": np.zeros(n, np.int64), "model": np.zeros(n, np.int64),
+               "start": np.zeros(n, np.int64), "df": np.zeros((n, S)),
+               "lz": np.zeros((n, S), np.int64), "st": np.zeros((n, C, self.width))}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.units_ = new
+
+    def _alloc_segs(self, n: int) -> None:
+        old = getattr(self, "segs_", None)
+        new = {"node": np.zeros(n, np.int64), "start": np.zeros(n, np.int64),
+               "prev": np.full(n, -1, np.int64)}
+        if old is not None:
+            for k, v in old.items():
+                new[k][:len(v)] = v
+        self.segs_ = new
+
+    def _alloc_events(self, n_ev: int, n_al: int, n_ll: int) -> None:
+        self.ev = (np.zeros((n_ev, N_EV_COLS), np.int64), np.zeros((n_al, 4), np.int64),
+                   np.zeros(n_ll), np.zeros(n_ll, np.int64), np.zeros((n_al, 2), np.int64),
+                   np.zeros((n_al, 2), np.int64))
+
+    def ensure_room(self, hist) -> None:
+        """Grow the arrays for the event pending at the sample :func:`run_core` stopped at."""
+        c = self.cnt
+        nP, nU = int(c[C_P]), int(c[C_U])
+        nA = int((self.units_["df"][:nU] > self.cfg[6]).sum())
+        nC = nA * self.K
+        if nP + nC > len(self.paths_["id"]):
+            self._alloc_paths(_cap(nP + nC, 0))
+        if nU + nC * self.maxk > len(self.units_["path"]):
+            self._alloc_units(_cap(nU + nC * self.maxk, 0))
+        if c[C_SEG] + nC > len(self.segs_["node"]):
+            self._compact_segs()
+            if c[C_SEG] + nC > len(self.segs_["node"]):
+                self._alloc_segs(_cap(int(c[C_SEG]) + nC, 0))
+        ev = self.ev
+        if nA > len(ev[1]) or nC > len(ev[4]) or nP + nC > len(ev[2]):
+            self._alloc_events(len(ev[0]), _cap(max(nA, nC), len(ev[1])),
+                               _cap(nP + nC, len(ev[2])))
+        if int(c[C_SLOTS]) + nC > hist.width:
+            hist.widen(_cap(int(c[C_SLOTS]) + nC, 0))
+
+    def _compact_segs(self) -> None:
+        """Keep only the segments the active paths' histories reach, renumbered."""
+        n_seg = int(self.cnt[C_SEG])
+        nP = int(self.cnt[C_P])
+        new_seg, n_new = _compact(self.segs_["node"], self.segs_["start"], self.segs_["prev"],
+                                  self.paths_["seg"][:nP], n_seg)
+        self.paths_["seg"][:nP] = new_seg
+        self.cnt[C_SEG] = n_new
+
+    def state(self, xbuf, hist, act) -> tuple:
+        """The state tuple of :func:`run_core` (buffers: storage and global row of its first
+        row)."""
+        p, u, s = self.paths_, self.units_, self.segs_
+        if self._acts is None or self._acts.base is not act.a:
+            self._acts = act.a[:, 0]
+        return (u["path"], u["model"], u["start"], u["df"], u["lz"], u["st"], xbuf.a,
+                xbuf.t0 - xbuf.off, hist.a, hist.t0 - hist.off, self.cnt, p["id"], p["node"],
+                p["start"], p["slot"], p["seg"], p["init"], p["ll"], p["free"], self._acts,
+                act.t0 - act.off, s["node"], s["start"], s["prev"])
+
+    # -- paths -------------------------------------------------------------------------
+    def add_path(self, pid: int, node: int, start: int, init: float, slot: int,
+                 kinds: list[int], lz: int) -> None:
+        """An initial path (6.4, initialisation) with fresh instances of ``kinds``."""
+        c = self.cnt
+        if c[C_P] + 1 > len(self.paths_["id"]):
+            self._alloc_paths(_cap(int(c[C_P]) + 1, 0))
+        if c[C_U] + len(kinds) > len(self.units_["path"]):
+            self._alloc_units(_cap(int(c[C_U]) + len(kinds), 0))
+        if c[C_SEG] + 1 > len(self.segs_["node"]):
+            self._alloc_segs(_cap(int(c[C_SEG]) + 1, 0))
+        i = int(c[C_P])
+        p = self.paths_
+        p["id"][i], p["node"][i], p["start"][i], p["slot"][i] = pid, node, start, slot
+        p["init"][i] = p["ll"][i] = init
+        g = int(c[C_SEG])
+        self.segs_["node"][g], self.segs_["start"][g], self.segs_["prev"][g] = node, start, -1
+        p["seg"][i] = g
+        c[C_SEG] += 1
+        c[C_P] += 1
+        c[C_ID] = max(int(c[C_ID]), pid + 1)
+        c[C_SLOTS] = max(int(c[C_SLOTS]), slot + 1)
+        for k in kinds:
+            u = self.units_
+            _init_unit(int(c[C_U]), i, k, start, lz, self.cfg[5], u["path"], u["model"],
+                       u["start"], u["df"], u["lz"], u["st"])
+            c[C_U] += 1
+
+    def history(self, seg: int) -> list[tuple[int, int]]:
+        s = self.segs_
+        out = []
+        while seg >= 0:
+            out.append((int(s["node"][seg]), int(s["start"][seg])))
+            seg = int(s["prev"][seg])
+        return out[::-1]
+
+    def min_last_zero(self) -> int | None:
+        nU = int(self.cnt[C_U])
+        return int(self.units_["lz"][:nU].min()) if nU else None
+
+    # -- running -------------------------------------------------------------------------
+    def run(self, t_from: int, t_to: int, t_out: int, xbuf, hist, act, node_prob, map_node,
+            make_events) -> None:
+        """Samples ``t_from .. t_to - 1``; ``make_events(tables)`` turns each batch of event
+        rows into records."""
+        t = t_from
+        pending = False
+        while t < t_to:
+            if pending:
+                self.ensure_room(hist)
+            status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
+                                 node_prob, map_node,
+                                 pending, self.qt)
+            c = self.cnt
+            if c[C_EV]:
+                ev = self.ev
+                make_events(ev[0][:c[C_EV]], ev[1][:c[C_AL]], ev[2][:c[C_CAND]],
+                            ev[3][:c[C_KEEP]], ev[4][:c[C_SP]], ev[5][:c[C_MG]])
+            c[C_EV:] = 0
+            pending = status == FULL
+
+
+@numba.njit(cache=True)
+def _compact(snode, sstart, sprev, pseg, n_seg):  # pragma: no cover - compiled
+    """Renumber the segments reachable from ``pseg`` to the front (order kept)."""
+    mark = np.zeros(n_seg, np.bool_)
+    for p in range(pseg.shape[0]):
+        g = pseg[p]
+        while g >= 0 and not mark[g]:
+            mark[g] = True
+            g = sprev[g]
+    new = np.full(n_seg, -1, np.int64)
+    n = 0
+    for g in range(n_seg):
+        if mark[g]:
+            new[g] = n
+            snode[n] = snode[g]
+            sstart[n] = sstart[g]
+            sprev[n] = new[sprev[g]] if sprev[g] >= 0 else -1
+            n += 1
+    out = np.empty(pseg.shape[0], np.int64)
+    for p in range(pseg.shape[0]):
+        out[p] = new[pseg[p]]
+    return out, n
