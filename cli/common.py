@@ -48,6 +48,9 @@ class ContactlabGroup(_ClosingBars):
                 signum = interrupt.received()
                 if signum:  # the interrupt was swallowed on the way (e.g. in a finaliser)
                     _exit_interrupted(signum)
+                sys.stdout.flush()
+        except BrokenPipeError:
+            _exit_broken_pipe()
         except click.UsageError as err:
             where = err.ctx.command_path if err.ctx is not None else PROG
             click.echo(f"{where}: error: {err.format_message()} (see '{where} --help')", err=True)
@@ -74,6 +77,8 @@ class ContactlabGroup(_ClosingBars):
             _exit_interrupted(interrupt.interrupt_signal(err))
         except (click.exceptions.Exit, click.ClickException, click.exceptions.Abort):
             raise
+        except BrokenPipeError:
+            _exit_broken_pipe()
         except Exception as err:  # noqa: BLE001 - the one place that reports the unexpected
             if _debug(ctx):
                 raise
@@ -84,6 +89,20 @@ class ContactlabGroup(_ClosingBars):
             click.echo(f"{PROG}: internal error: {type(err).__name__}: {msg} "
                        f"(run '{PROG} --debug ...' for the traceback)", err=True)
             ctx.exit(1)
+
+
+def _exit_broken_pipe() -> None:
+    """The reader of stdout went away (``contactlab ... | head``): stop without a word, with
+    the status a process killed by SIGPIPE has (128 + 13); stdout goes to /dev/null so that
+    Python's final flush does not fail again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    sys.exit(141)
 
 
 def _exit_interrupted(signum: int) -> None:

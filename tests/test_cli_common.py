@@ -142,3 +142,14 @@ def test_counts_read_in_the_right_number():
     from contactlab.cli.common import count
 
     assert [count(n, "trial") for n in (0, 1, 2)] == ["0 trials", "1 trial", "2 trials"]
+
+
+def test_a_closed_pipe_stops_quietly():
+    """``contactlab reproduce --list | head``: when stdout's reader has gone, the command
+    stops without a message, with the status of a process killed by SIGPIPE (141)."""
+    proc = subprocess.Popen([sys.executable, "-m", "contactlab", "reproduce", "--list"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()                     # the reader goes away before anything is read
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141
+    assert err == ""

@@ -149,7 +149,7 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             prev = -1
             hr = r - hbase
             for p in range(nP):
-                if pstart[p] <= r:
+                if pstart[p] < r:           # an instance explains a sample (fig 6.2)
                     v = ha[hr, pslot[p]] + logT[a1, pnode[p], j]
                     if v > best:
                         best = v
@@ -187,7 +187,7 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             cnt[C_MG] += 1
     n_new = 0
     for c in range(nC):
-        if not is_new[c]:
+        if not is_new[c] or c_prev[c] < 0:       # no path began before r
             continue
         j, r, init = c_j[c], c_r[c], c_init[c]
         p = cnt[C_P]
