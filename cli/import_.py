@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from contactlab.archive import import_csv, parse_column_map, summarize
-from contactlab.cli.common import count, echo_json, json_option, quiet_option
+from contactlab.cli.common import PROG, count, echo_json, json_option, quiet_option
 from contactlab.errors import UsageError
 
 
@@ -60,14 +60,21 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
       contactlab import strokes/*.csv --out imported.h5 --rate 1000 --columns "strain=s*"
       contactlab import run1.csv --out recording.h5 --columns columns.json --force
 
-    A recording without strain gauges (wrench and position only) is analysed
-    with --signal wrench in segment and train.
+    A recording without strain gauges (wrench and position only) needs no flag:
+    segment, train and label read its wrench (--signal defaults to strain only
+    where a trial has strain gauges).  The analysis expects at least 50 Hz; a
+    slower time base (a time column in milliseconds?) is imported with a warning.
     """
     names = None if label_names is None else [n.strip() for n in label_names.split(",")]
     path = import_csv(list(csv_files), out=out, columns=columns, rate_hz=rate_hz, force=force,
                       label_names=names, controller=controller, environment=environment,
                       quiet=quiet)
     summary = summarize(path)
+    slow = [t for t in summary["trials"] if t.get("rate_hz") and t["rate_hz"] < 50.0]
+    for t in slow[:3]:
+        click.echo(f"{PROG}: warning: {path}: trial {t['id']}: {t['rate_hz']:.3g} Hz, below the "
+                   "50 Hz the analysis expects (time in milliseconds? give seconds, or --rate)",
+                   err=True)
     if as_json:
         echo_json({"file": str(path), "trials": [t["id"] for t in summary["trials"]],
                    "n_samples": summary["n_samples"], "duration_s": summary["duration_s"]})

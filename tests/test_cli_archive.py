@@ -121,6 +121,20 @@ def test_import_then_validate_and_info(tmp_path):
     assert forced.stdout.strip() == f"{out}: imported 1 trial, 200 samples (0.4 s)"
 
 
+def test_import_warns_of_a_time_base_below_50_hz(tmp_path):
+    """A time column in milliseconds reads as 0.5 Hz: imported, with one warning line."""
+    write_csv(tmp_path / "ms.csv", n=100, rate_hz=0.5)
+    write_csv(tmp_path / "s.csv", n=100, rate_hz=500.0)
+    out = tmp_path / "runs.h5"
+    slow = run("import", tmp_path / "ms.csv", "--out", out, "--columns", MAP, "-q")
+    assert slow.exit_code == 0
+    assert slow.stderr.strip().splitlines() == [
+        f"contactlab: warning: {out}: trial ms: 0.5 Hz, below the 50 Hz the analysis expects "
+        "(time in milliseconds? give seconds, or --rate)"]
+    fast = run("import", tmp_path / "s.csv", "--out", out, "--columns", MAP, "-q", "--force")
+    assert fast.exit_code == 0 and fast.stderr == ""
+
+
 def test_import_reads_a_json_column_map(tmp_path):
     write_csv(tmp_path / "a.csv", n=50)
     cols = tmp_path / "cols.json"

@@ -61,17 +61,34 @@ def test_force_threshold_peer_on_the_same_points():
     assert ForceThreshold(k=3).fit(f, c).k_ == 3
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--label-map", "1=free,2"], "--label-map: entry 2 '2' is not LABEL=NODE"),
-    (["--label-map", "1=free,1=contact"], "label '1' mapped twice"),
-    (["--label-map", "1=table"], "'table' is not a node or trained label"),
+@pytest.mark.parametrize("args, message, code", [
+    (["--label-map", "1=free,2"], "--label-map: entry 2 '2' is not LABEL=NODE", 2),
+    (["--label-map", "1=free,1=contact"], "label '1' mapped twice", 2),
+    (["--label-map", "1=table"], "'table' is not a node or trained label", 1),
+    (["--label-map", "x=free,y=contact"], "--label-map maps none of the recording's labels "
+                                          "(its labels: 0, 1, 2", 1),
+    (["--label-map", "one=free,2=contact"], "--label-map entries matching no label: one", 1),
 ])
-def test_bad_label_map_is_one_line(tmp_path, args, message):
+def test_bad_label_map_is_one_line(tmp_path, args, message, code):
+    """Malformed maps are usage errors (exit 2); maps that name no label of the recording,
+    or leave a node untrained because an entry matches nothing, name the archive (exit 1)."""
     train = _archive(tmp_path, "rec1", 11, 100.0)
     r = run_cli("train", train, "--graph", "free-contact", *args, "--out", tmp_path / "m.h5")
-    assert r.exit_code != 0
+    assert r.exit_code == code
     assert message in r.output
     assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output
+
+
+def test_recognize_refuses_a_label_map_matching_no_label(tmp_path):
+    train = _archive(tmp_path, "rec1", 11, 100.0)
+    test = _archive(tmp_path, "rec2", 12, 100.0)
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", MAP,
+                "--out", tmp_path / "m.h5")
+    assert r.exit_code == 0, r.output
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", tmp_path / "m.h5",
+                "--label-map", "x=free", "--no-write")
+    assert r.exit_code == 1
+    assert "rec2.h5" in r.output and "maps none of the recording's labels" in r.output
 
 
 def test_bad_graph_constraint_is_one_line(tmp_path):

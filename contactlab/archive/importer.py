@@ -221,8 +221,17 @@ def _numeric(path: Path, frame: pd.DataFrame, col: str) -> np.ndarray:
     bad = ~np.isfinite(values)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
+        row = frame.iloc[i]
+        given = int(row.notna().sum())
+        if row.iloc[given:].isna().all() and row.iloc[:given].notna().all() \
+                and given < len(row):
+            raise DataError(f"data row {i + 1} ends after {given} of {len(row)} fields (a "
+                            "line cut short?)", file=str(path), field=col)
+        cell = frame[col].iloc[i]
+        shown = (repr(cell) if isinstance(cell, str) else "empty" if pd.isna(cell)
+                 else str(float(cell)))
         raise DataError(f"{int(bad.sum())} empty or non-numeric cells (first: data row {i + 1}, "
-                        f"{frame[col].iloc[i]!r})", file=str(path), field=col)
+                        f"{shown})", file=str(path), field=col)
     return values
 
 

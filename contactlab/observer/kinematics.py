@@ -22,13 +22,14 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from contactlab.errors import DataError
+from contactlab.errors import DataError, UsageError
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.constraint import K, ConstraintFeature, parse_constraint
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
-           "read_kinematic_models", "parse_label_map", "check_label_map", "KINEMATIC_SIGNALS"]
+           "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
+           "KINEMATIC_SIGNALS"]
 
 KINEMATIC_SIGNALS = ("contact", "velocity")
 _VELOCITY = {"velocity-fixed": FixedVelocity, "velocity-moving": MovingVelocity}
@@ -47,7 +48,7 @@ def kinematic_specs(graph: FeatureGraph) -> dict:
 def parse_label_map(text: str | None, *, field: str = "--label-map") -> dict | None:
     """``"1=free,2=contact,3=free"`` -> ``{"1": "free", ...}`` (None for None/empty).
 
-    DataError naming the field for a malformed entry or a label mapped twice."""
+    UsageError (exit 2) naming the option for a malformed entry or a label mapped twice."""
     if text is None or not str(text).strip():
         return None
     out: dict[str, str] = {}
@@ -55,11 +56,26 @@ def parse_label_map(text: str | None, *, field: str = "--label-map") -> dict | N
         src, eq, dst = part.partition("=")
         src, dst = src.strip(), dst.strip()
         if not eq or not src or not dst:
-            raise DataError(f"entry {k + 1} {part.strip()!r} is not LABEL=NODE", field=field)
+            raise UsageError(f"{field}: entry {k + 1} {part.strip()!r} is not LABEL=NODE")
         if src in out and out[src] != dst:
-            raise DataError(f"label {src!r} mapped twice ({out[src]!r}, {dst!r})", field=field)
+            raise UsageError(f"{field}: label {src!r} mapped twice ({out[src]!r}, {dst!r})")
         out[src] = dst
     return out
+
+
+def check_map_sources(label_map: dict | None, label_names, *, file=None,
+                      field: str = "ground_truth/labels") -> None:
+    """DataError when ``label_map`` maps none of ``label_names`` (the recording's own
+    labels): a map made for other labels (a typo, another recording's names) would
+    otherwise leave every sample unlabelled without a word.  A map may name labels a
+    recording lacks, as long as one of its entries matches."""
+    if not label_map or label_names is None:
+        return
+    names = {str(n) for n in label_names}
+    if not any(str(src) in names for src in label_map):
+        raise DataError(f"--label-map maps none of the recording's labels (its labels: "
+                        f"{', '.join(sorted(names)) or 'none'}; the map's: "
+                        f"{', '.join(map(str, label_map))})", file=file, field=field)
 
 
 def check_label_map(label_map: dict | None, graph: FeatureGraph,

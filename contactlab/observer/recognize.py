@@ -37,6 +37,7 @@ from contactlab import defaults as D
 from contactlab.archive.results import TrialResults
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
+from contactlab.observer.kinematics import check_map_sources
 from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.metrics import confusion_matrix
@@ -140,6 +141,10 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
             and np.any(np.asarray(act) < 0):
         raise DataError("action codes not declared by the graph", file=str(path) if path
                         else None, field=f"/trials/{trial.id}/measurements/action")
+    if getattr(trial, "labels", None) is not None:
+        check_map_sources(label_map, getattr(trial, "label_names", None),
+                          file=str(path) if path else None,
+                          field=f"/trials/{trial.id}/ground_truth/labels")
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act,
                   chunk=chunk)
     truth = truth_codes(relabel(trial, label_map), index, graph.node_names)

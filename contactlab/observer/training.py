@@ -52,9 +52,9 @@ from contactlab import __version__
 from contactlab import defaults as D
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
-from contactlab.observer.kinematics import (KINEMATIC_SIGNALS, fit_kinematic_models,
-                                            kinematic_specs, read_kinematic_models,
-                                            write_kinematic_models)
+from contactlab.observer.kinematics import (KINEMATIC_SIGNALS, check_map_sources,
+                                            fit_kinematic_models, kinematic_specs,
+                                            read_kinematic_models, write_kinematic_models)
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.fileio import sha256_file
 from contactlab.signals import REDUCE, relabel, trial_signals, truth_codes, window_of
@@ -299,6 +299,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     feats = {lab: [] for lab in temporal_specs}
     segs: dict[str, list] = {lab: [] for lab in impact_specs}
     seen_labels: set = set()
+    raw_labels: set = set()
     ids_used = []
     fs = None
     with open_archive(path) as arch:
@@ -307,6 +308,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             trial = arch.trial(tid)
             if trial.labels is None:
                 continue
+            raw_labels.update(str(n) for n in (trial.label_names or []))
             trial = relabel(trial, label_map)
             seen_labels.update(n for n in (trial.label_names or []) if n is not None)
             data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
@@ -332,6 +334,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     if not ids_used:
         raise DataError("no trial has ground-truth labels", file=str(path),
                         field="/trials/*/ground_truth/labels")
+    check_map_sources(label_map, raw_labels, file=str(path), field="/trials/*/ground_truth/labels")
     temporal = {}
     for lab, parts in feats.items():
         spec = temporal_specs[lab]
@@ -360,8 +363,11 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         impacts[lab] = m
     missing = sorted(lab for lab in kin_labels if lab not in seen_labels)
     if missing:
+        unmatched = [src for src in (label_map or {}) if str(src) not in raw_labels]
         raise DataError(f"no label {missing[0]!r} in the ground truth (labels: "
-                        f"{', '.join(sorted(seen_labels))})", file=str(path),
+                        f"{', '.join(sorted(seen_labels))}"
+                        + (f"; --label-map entries matching no label: {', '.join(unmatched)}"
+                           if unmatched else "") + ")", file=str(path),
                         field="ground_truth/labels" + (" (after --label-map)" if label_map
                                                        else ""))
     kinematic = fit_kinematic_models(graph, kin_runs, source=str(path))

@@ -134,10 +134,13 @@ def fit_class(label: str, features: BlockFeatures, *, block: int) -> TemporalMod
     """
     K, C, q = features.orthogonal.shape
     if K == 0:
-        raise ValueError(f"class {label!r} has no training blocks")
+        raise ValueError(f"class {label!r} has no training blocks: none of its labelled runs "
+                         f"is {block} conditioned samples long (a shorter --block, or more "
+                         "runs)")
     if K <= q:
         raise ValueError(f"class {label!r} has {K} training block{'s' * (K != 1)}; the "
-                         f"covariance of {q} parameters needs at least {q + 1}")
+                         f"covariance of {q} parameters needs at least {q + 1} (a shorter "
+                         "--block, or more runs)")
     x = features.orthogonal
     if not np.isfinite(x).all() or not np.isfinite(features.noise_var).all():
         raise ValueError(f"class {label!r}: some blocks have a singular AR fit "
