@@ -248,7 +248,8 @@ def load_graph(path) -> FeatureGraph:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise DataError("no such file", file=str(path)) from None
+        raise DataError("no such file, nor a bundled graph (bundled: "
+                        f"{', '.join(sorted(bundled_graphs()))})", file=str(path)) from None
     except OSError as exc:
         raise DataError(f"cannot read ({exc.strerror})", file=str(path)) from None
     try:
