@@ -203,6 +203,14 @@ def _increments(stat, kinds, a, b, src):  # pragma: no cover
     return out
 
 
+def _mixture(ll: np.ndarray, nodes: np.ndarray, M: np.ndarray):
+    """(rows, K) node probabilities (6.5: sums of the paths' probabilities, ``M`` the (P, K)
+    one-hot node matrix) and (rows,) MAP node from (rows, P) path log-likelihoods."""
+    w = np.exp(ll - ll.max(axis=1, keepdims=True))
+    w /= w.sum(axis=1, keepdims=True)
+    return w @ M, nodes[np.argmax(ll, axis=1)]
+
+
 @dataclass(eq=False)
 class _Path:
     id: int
@@ -554,15 +562,9 @@ class Observer:
         for s in self.signals:
             self._buf[s].append(data[s])
         self._act.append(acts[:, None])
-        K = self.graph.n_nodes
-        node_prob = np.empty((n, K))
-        map_node = np.empty(n, dtype=np.int64)
         n_events = len(self.events_)
-        w0 = min(max(t0, self.lag), end)
-        if w0 > t0:                              # warm-up: nothing scored yet
-            np_, mn = self._probabilities(self._ll[None, :])
-            node_prob[:w0 - t0] = np_
-            map_node[:w0 - t0] = mn
+        node_prob, map_node, w0 = self._chunk_outputs(
+            t0, end, lambda: self._probabilities(self._ll[None, :]))
         if w0 < end:
             self._hist.extend_to(end + 1)
         for ws in range(w0, end, WINDOW):
@@ -603,15 +605,8 @@ class Observer:
         self._buf["*"].append(np.concatenate([data[s] for s in self.signals], axis=1)
                               if len(self.signals) > 1 else data[self.signals[0]])
         self._act.append(acts[:, None])
-        K = self.graph.n_nodes
-        node_prob = np.empty((n, K))
-        map_node = np.empty(n, dtype=np.int64)
         n_events = len(self.events_)
-        w0 = min(max(t0, self.lag), end)
-        if w0 > t0:                              # warm-up: nothing scored yet
-            np_, mn = self._core_probabilities()
-            node_prob[:w0 - t0] = np_
-            map_node[:w0 - t0] = mn
+        node_prob, map_node, w0 = self._chunk_outputs(t0, end, self._core_probabilities)
         if w0 < end:
             self._hist.extend_to(end + 1)
             self._core.run(w0, end, t0, self._buf["*"], self._hist, self._act, node_prob,
@@ -620,25 +615,32 @@ class Observer:
         self._trim()
         return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
 
+    def _chunk_outputs(self, t0: int, end: int, probabilities):
+        """A chunk's (n, K) node probabilities and (n,) MAP nodes, the warm-up rows before
+        the first scored sample (``lag``) filled from ``probabilities()``, and that sample."""
+        n = end - t0
+        node_prob = np.empty((n, self.graph.n_nodes))
+        map_node = np.empty(n, dtype=np.int64)
+        w0 = min(max(t0, self.lag), end)
+        if w0 > t0:                              # warm-up: nothing scored yet
+            np_, mn = probabilities()
+            node_prob[:w0 - t0] = np_
+            map_node[:w0 - t0] = mn
+        return node_prob, map_node, w0
 
     def _core_probabilities(self):
         """(1, K) node probabilities and (1,) MAP node of the core's paths."""
         p = self._core.paths_
         nP = int(self._core.cnt[0])
-        ll = p["ll"][:nP]
         nodes = p["node"][:nP]
         M = np.zeros((nP, self.graph.n_nodes))
         M[np.arange(nP), nodes] = 1.0
-        w = np.exp(ll - ll.max())
-        w /= w.sum()
-        return (w @ M)[None, :], nodes[np.argmax(ll)][None]
+        return _mixture(p["ll"][None, :nP], nodes, M)
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
         nodes, _, M = self._path_arrays()
-        w = np.exp(ll - ll.max(axis=1, keepdims=True))
-        w /= w.sum(axis=1, keepdims=True)
-        return w @ M, nodes[np.argmax(ll, axis=1)]
+        return _mixture(ll, nodes, M)
 
     def _write_hist(self, t_first: int, trace: np.ndarray) -> None:
         if len(trace):

@@ -143,6 +143,16 @@ _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 from contactlab.sim import constants as C
 
 
+def _mode_hz(k: float, m1: float, m2: float) -> float:
+    """Natural frequency of two masses joined by a spring of stiffness ``k``, Hz (physics)."""
+    return math.sqrt(k * (1.0 / m1 + 1.0 / m2)) / (2.0 * math.pi)
+
+
+def _mode_damping(k: float, m1: float, m2: float, ratio: float) -> float:
+    """Damping of that spring for ``ratio`` of critical on the reduced mass, N s/m."""
+    return 2.0 * ratio * math.sqrt(k * (m1 * m2 / (m1 + m2)))
+
+
 @dataclass(frozen=True)
 class Apparatus:
     """Mechanical parameters of the robot + sensor + fingertip (defaults from :mod:`constants`)."""
@@ -234,9 +244,8 @@ class Apparatus:
         reduced mass)."""
         if self.rigid_cable:
             return 0.0
-        rest = self.robot_mass - self.rotor_mass + self.shell_mass
-        mu = self.rotor_mass * rest / (self.rotor_mass + rest)
-        return 2.0 * self.cable_damping_ratio * math.sqrt(self.cable_stiffness * mu)
+        return _mode_damping(self.cable_stiffness, self.rotor_mass, self._cable_rest,
+                             self.cable_damping_ratio)
 
     @property
     def cable_mode_hz(self) -> float:
@@ -244,18 +253,20 @@ class Apparatus:
         rigid cables)."""
         if self.rigid_cable:
             return 0.0
-        rest = self.robot_mass - self.rotor_mass + self.shell_mass
-        return math.sqrt(self.cable_stiffness * (1.0 / self.rotor_mass + 1.0 / rest)) / (2.0 * math.pi)
+        return _mode_hz(self.cable_stiffness, self.rotor_mass, self._cable_rest)
+
+    @property
+    def _cable_rest(self) -> float:
+        """What the rotors pull through the cables: the rest of the robot and the shell, kg."""
+        return self.robot_mass - self.rotor_mass + self.shell_mass
 
     @property
     def link_damping(self) -> float:
         """Damping of the link's bending, N s/m (LINK_DAMPING_RATIO on the mode's reduced mass)."""
         if self.rigid_link:
             return 0.0
-        tip = self.link_mass + self.shell_mass
-        rest = self.robot_mass - self.link_tip_mass
-        mu = rest * tip / (rest + tip)
-        return 2.0 * self.link_damping_ratio * math.sqrt(self.link_stiffness * mu)
+        return _mode_damping(self.link_stiffness, self.robot_mass - self.link_tip_mass,
+                             self.link_mass + self.shell_mass, self.link_damping_ratio)
 
     @property
     def drive_mode_hz(self) -> float:
@@ -263,9 +274,8 @@ class Apparatus:
         rigid link)."""
         if self.rigid_link:
             return 0.0
-        tip = self.link_mass + self.shell_mass
-        rest = self.robot_mass - self.link_tip_mass
-        return math.sqrt(self.link_stiffness * (1.0 / rest + 1.0 / tip)) / (2.0 * math.pi)
+        return _mode_hz(self.link_stiffness, self.robot_mass - self.link_tip_mass,
+                        self.link_mass + self.shell_mass)
 
     @property
     def drive_sag(self) -> float:
