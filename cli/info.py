@@ -41,9 +41,12 @@ def _row(trial: dict) -> list[str]:
     if labels is None:
         label_text = "-"
     elif labels["counts"]:
-        label_text = ", ".join(f"{k} {v}" for k, v in labels["counts"].items())
+        # labels the trial never uses are left out (integer-coded imports name every code
+        # from 0 up; --json keeps every count)
+        parts = [f"{k} {v}" for k, v in labels["counts"].items() if v]
         if labels["unlabelled"]:
-            label_text += f", unlabelled {labels['unlabelled']}"
+            parts.append(f"unlabelled {labels['unlabelled']}")
+        label_text = ", ".join(parts) or "-"
     else:
         label_text = ", ".join(labels["names"]) + " (segments only)"
     return [trial["id"], f"{trial['duration_s']:.3f}", str(trial["n_samples"]),

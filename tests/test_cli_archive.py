@@ -86,8 +86,8 @@ def test_missing_file(tmp_path, verb):
     missing = tmp_path / "nope.h5"
     result = run(verb, missing)
     assert result.exit_code == 1
-    out = result.stderr if verb == "info" else result.stdout
-    assert f"{missing}: no such file" in out
+    assert result.stderr.strip().splitlines() == [f"contactlab: error: {missing}: no such file"]
+    assert result.stdout == ""
 
 
 def test_info_on_a_non_archive_is_one_line_without_traceback(tmp_path):
@@ -165,3 +165,12 @@ def test_import_missing_column_is_one_line_naming_file_and_column(tmp_path):
     assert len(lines) == 1 and "Traceback" not in proc.stderr
     assert lines[0].startswith(f"contactlab: error: {tmp_path / 'a.csv'}: mz: no such column")
     assert not out.exists()
+
+
+def test_info_lists_only_the_integer_codes_a_recording_uses(tmp_path):
+    # codes 1 and 2 only: the archive names every code from 0 up, info shows the two used
+    write_csv(tmp_path / "run.csv", states=(1, 2))
+    out = tmp_path / "coded.h5"
+    assert run("import", tmp_path / "run.csv", "--out", out, "--columns", MAP).exit_code == 0
+    row = run("info", out).stdout.strip().splitlines()[-1]
+    assert "1 195, 2 200, unlabelled 5" in row and "0 0" not in row
