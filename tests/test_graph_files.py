@@ -158,3 +158,17 @@ def test_bundled_graph_names_resolve_from_any_directory(tmp_path, monkeypatch):
     assert {"hf-context", "hf-context-free"} <= set(bundled_graphs())
     for name in ("hf-context", "hf-context.toml", "datasets_spec/graphs/hf-context.toml"):
         assert load_graph(name).name == "hf-context"
+
+
+@pytest.mark.parametrize("name", ["free-contact", "guarded-move"])
+def test_drawing_keeps_every_word_inside_the_image(tmp_path, name):
+    # long node descriptions sit beside the outer nodes: the saved image must hold them
+    # whole, so a margin of white all round (nothing drawn touches the border)
+    import matplotlib.image as mpimg
+
+    from contactlab.observer.draw import draw_graph
+    from contactlab.observer.graph import load_graph
+
+    img = mpimg.imread(draw_graph(load_graph(name), tmp_path / "g.png"))[..., :3]
+    for edge in (img[:4], img[-4:], img[:, :4], img[:, -4:]):
+        assert edge.min() > 0.99

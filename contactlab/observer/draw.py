@@ -64,10 +64,17 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
     ang = np.pi / 2 - 2 * np.pi * np.arange(K) / K
     xy = np.c_[np.cos(ang), np.sin(ang)] if K > 1 else np.zeros((1, 2))
     cmap = plt.get_cmap("tab10")
+    # marker diameter (points) wide enough for the longest node name at 9 pt (~5.5 pt a
+    # character), so names like "contact" stay inside their node; arrows stop at its edge
+    diam = max(30.0, 5.5 * max(len(n.name) for n in graph.nodes) + 10.0)
+    crowded = K > CROWDED              # small markers, names only: words would overlap
+    if crowded:
+        diam = max(2.0, min(7.0, 500.0 / K))
+    lw = 0.4 if crowded else 1.2
 
     def arrow(i, j, color, rad):
         ax.annotate("", xy=xy[j], xytext=xy[i], arrowprops=dict(
-            arrowstyle="-|>", color=color, lw=1.2, shrinkA=16, shrinkB=16,
+            arrowstyle="-|>", color=color, lw=lw, shrinkA=diam / 2 + 1, shrinkB=diam / 2 + 1,
             connectionstyle=f"arc3,rad={rad}"))
 
     for i, j in sorted(graph.edges):
@@ -83,8 +90,19 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
     loops = False
     for k, n in enumerate(graph.nodes):
         face = plt.get_cmap("Reds")(0.15 + 0.7 * p[k]) if probabilities is not None else "white"
-        ax.scatter(*xy[k], s=900, marker="D" if n.transient else "o", facecolor=face,
+        ax.scatter(*xy[k], s=diam ** 2, marker="D" if n.transient else "o", facecolor=face,
                    edgecolor="black", zorder=3)
+        if crowded and K > 2 * CROWDED:
+            continue
+        if crowded:
+            # the name radially outside its node, turned to read along the radius
+            u = xy[k] / max(np.hypot(*xy[k]), 1e-12)
+            rot = float(np.degrees(np.arctan2(u[1], u[0])))
+            rot = rot - 180 if rot > 90 else rot + 180 if rot < -90 else rot
+            ax.annotate(n.name, xy=xy[k], xytext=tuple((6 + 1.6 * len(n.name)) * u),
+                        textcoords="offset points", ha="center", va="center", fontsize=5,
+                        zorder=4, rotation=rot, rotation_mode="anchor")
+            continue
         ax.text(*xy[k], n.name, ha="center", va="center", zorder=4, fontsize=9)
         # the description goes outside the circle, away from the edges between nodes,
         # on a white box so that arrows passing behind it do not cross the words
@@ -99,9 +117,13 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
         loops |= bool(loop)
         models = "/".join(n.model_names)
         ax.annotate(f"{loop}{n.label}\n[{models}] p0={n.initial:.2g}", xy=xy[k],
-                    xytext=tuple(20 * u), textcoords="offset points", ha=ha, va=va,
+                    xytext=tuple((diam / 2 + 5) * u), textcoords="offset points", ha=ha, va=va,
                     fontsize=7, zorder=5,
                     bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
+    if crowded:
+        ax.text(0.5, -0.02, f"{K} nodes: {'names, ' if K > 2 * CROWDED else ''}descriptions and models omitted "
+                f"(contactlab graph show lists them)", transform=ax.transAxes, ha="center",
+                va="top", fontsize=7)
     if loops:
         handles.append(plt.Line2D([], [], ls="none", marker="$\u21bb$", color="0.3",
                                   label="self-transition"))
@@ -117,6 +139,9 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
     ax.axis("off")
     ax.set_title(graph.title, fontsize=10)
 
+
+#: Above this many nodes a drawing shows names only (descriptions would overlap).
+CROWDED = 24
 
 #: File suffixes draw_graph writes (the format follows the suffix).
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -134,7 +159,9 @@ def draw_graph(graph: FeatureGraph, path, *, force: bool = False, probabilities=
     try:
         plot_graph(graph, ax, probabilities=probabilities)
         with atomic_path(path, force=force) as tmp:
-            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=120)
+            # tight: descriptions beside the outer nodes reach past the axes
+            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=120,
+                        bbox_inches="tight", pad_inches=0.15)
     finally:
         plt.close(fig)
     return path
