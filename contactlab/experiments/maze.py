@@ -113,47 +113,60 @@ def _track(graph, parts, paths, traces, action, rng, chain):
     return out
 
 
+def tracking_setup(doc, fp, tmp: Path, seed: int, *, n_trials: int | None = None,
+                   impact_constraint: str = "floor"):
+    """Simulate the maze spec's trials (seed ``seed``) into ``tmp/test.h5`` and training
+    runs (``seed + 1``), and train the observer graph
+    (:func:`contactlab.maze.tracking.observer_graph`): ``(graph, models, trained, test)``,
+    the models built for the observer, the trained :class:`GraphModels` and the test
+    archive's path."""
+    train = record_spec(SPEC, tmp / "train.h5", seed=seed + 1, n_trials=TRAIN_TRIALS)
+    # 9.2 added connections from measurements of the routes it tracked, the return
+    # too: the spec's action-5 run, simulated with the training seed
+    spec = load_spec(SPEC)
+    back = sum(g.trials for g in spec.groups[:-1])
+    record(SimSource(spec, first=back), out=train, n_trials=TRAIN_RETURNS, seed=seed + 1,
+           append=True, quiet=True, log=lambda m: None)
+    test = record_spec(SPEC, tmp / "test.h5", seed=seed, n_trials=n_trials)
+    # 9.2's extra connections from measurements: the training runs' own node sequences;
+    # and impacts that may be missed (9.1.2)
+    traces, impacts = measured_traces(train, fp.partitions)
+    fp = with_missed_impacts(with_traces(fp, traces, impacts))
+    graph = parse_graph(observer_graph(graph_document(fp), fp, labels_present(train),
+                                       impact_constraint=impact_constraint))
+    graph, trained, models = bind_models(graph, train_graph(train, graph))
+    return graph, models, trained, test, fp
+
+
+def track(trial, graph, models, trained, fp, **kw) -> dict:
+    """:func:`track_trial` from the trial's action start, in the node its action starts from."""
+    back = str(trial.attrs.get("group", "")).startswith("action-5")
+    rec = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
+                      start_node=str(GOAL if back else START), reduce=trained.reduce, **kw)
+    rec["back"] = back
+    return rec
+
+
 def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
                    n_trials: int | None = None, impact_constraint: str = "floor") -> dict:
-    """Simulate the maze spec's trials (seed ``seed``) and training runs (``seed + 1``), train
-    the observer graph (:func:`contactlab.maze.tracking.observer_graph`) and follow every
-    trial from its action's start: per trial the :func:`track_trial` record, with the graph's
-    transition probabilities (``trials``) and without (``free_transitions``, as in 6.4)."""
+    """Simulate and train (:func:`tracking_setup`) and follow every trial from its action's
+    start: per trial the :func:`track_trial` record, with the graph's transition
+    probabilities (``trials``) and without (``free_transitions``, as in 6.4)."""
     import shutil
 
     tmp = Path(out_dir) / "tmp"
     tmp.mkdir(parents=True, exist_ok=True)
     try:
-        train = record_spec(SPEC, tmp / "train.h5", seed=seed + 1, n_trials=TRAIN_TRIALS)
-        # 9.2 added connections from measurements of the routes it tracked, the return
-        # too: the spec's action-5 run, simulated with the training seed
-        spec = load_spec(SPEC)
-        back = sum(g.trials for g in spec.groups[:-1])
-        record(SimSource(spec, first=back), out=train, n_trials=TRAIN_RETURNS, seed=seed + 1,
-               append=True, quiet=True, log=lambda m: None)
-        test = record_spec(SPEC, tmp / "test.h5", seed=seed, n_trials=n_trials)
-        # 9.2's extra connections from measurements: the training runs' own node sequences;
-        # and impacts that may be missed (9.1.2)
-        traces, impacts = measured_traces(train, fp.partitions)
-        fp = with_missed_impacts(with_traces(fp, traces, impacts))
-        graph = parse_graph(observer_graph(graph_document(fp), fp, labels_present(train),
-                                           impact_constraint=impact_constraint))
-        graph, trained, models = bind_models(graph, train_graph(train, graph))
+        graph, models, trained, test, fp = tracking_setup(
+            doc, fp, tmp, seed, n_trials=n_trials, impact_constraint=impact_constraint)
         out, out_free = [], []
         with open_archive(test) as arch:
             ids = arch.trial_ids
             with bar(total=len(ids), desc="maze observer", quiet=quiet, unit="trial") as pbar:
                 for tid in ids:
                     trial = arch.trial(tid)
-                    back = str(trial.attrs.get("group", "")).startswith("action-5")
-                    start = str(GOAL if back else START)
-                    rec = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
-                                      start_node=start, reduce=trained.reduce)
-                    free = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
-                                       start_node=start, reduce=trained.reduce, transitions="none")
-                    rec["back"] = free["back"] = back
-                    out.append(rec)
-                    out_free.append(free)
+                    out.append(track(trial, graph, models, trained, fp))
+                    out_free.append(track(trial, graph, models, trained, fp, transitions="none"))
                     pbar.update(1)
         return {"graph": graph, "trials": out, "free_transitions": out_free}
     finally:

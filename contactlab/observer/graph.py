@@ -119,6 +119,8 @@ class FeatureGraph:
     #: the probability mass the observer keeps when pruning for this graph (None: default;
     #: 1.0: paths are rejected by the log-likelihood gap alone, as in 9.1.1)
     p_prune: float | None = None
+    #: successor table per action code (filled on first use; not part of the graph)
+    _succ: dict = field(default_factory=dict, compare=False, repr=False)
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -161,10 +163,17 @@ class FeatureGraph:
 
     def successors(self, node: int, action=None) -> tuple[int, ...]:
         """Nodes a path in ``node`` may change to (itself if it self-transitions), sorted."""
-        out = {j for i, j in self.active_edges(action) if i == node}
-        if self.nodes[node].self_transition:
-            out.add(node)
-        return tuple(sorted(out))
+        key = None if action is None or not self.action_edges else self.action_index(action)
+        table = self._succ.get(key)
+        if table is None:                    # one pass over the edges for every node
+            out = [set() for _ in self.nodes]
+            for i, j in self.active_edges(action):
+                out[i].add(j)
+            for i, n in enumerate(self.nodes):
+                if n.self_transition:
+                    out[i].add(i)
+            table = self._succ[key] = tuple(tuple(sorted(s)) for s in out)
+        return table[node]
 
     def adjacency(self, action=None) -> np.ndarray:
         """(K, K) boolean: ``[i, j]`` when a path in i may change to j (self-transitions on the diagonal)."""
