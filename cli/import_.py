@@ -38,13 +38,17 @@ class ColumnMap(click.ParamType):
               help="Sample rate in Hz [default: 1 / median time step of each file].")
 @click.option("--label-names", default=None,
               help="Comma-separated label names; label cells must be one of them (or codes).")
+@click.option("--delimiter", default=None, metavar="NAME",
+              type=click.Choice(["comma", "semicolon", "tab", "pipe", "space"]),
+              help="Field delimiter [default: found from each file's first lines; a "
+                   "semicolon file with decimal commas is read as such].")
 @click.option("--controller", default="", help="Controller attribute of every trial.")
 @click.option("--environment", default="", help="Environment attribute of every trial.")
 @click.option("--force", is_flag=True, help="Replace OUT if it exists.")
 @json_option
 @quiet_option
-def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, environment, force,
-               as_json, quiet):
+def import_cmd(csv_files, out, columns, rate_hz, label_names, delimiter, controller,
+               environment, force, as_json, quiet):
     """Import CSV_FILES into the archive OUT, one trial per file (id = file stem).
 
     --columns maps archive fields to CSV columns: FIELD=COL[,COL...]
@@ -59,6 +63,8 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
           --columns "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"
       contactlab import strokes/*.csv --out imported.h5 --rate 1000 --columns "strain=s*"
       contactlab import run1.csv --out recording.h5 --columns columns.json --force
+      contactlab import run-eu.csv --out eu.h5 --columns "time=t;wrench=fx,fy,fz,tx,ty,tz" \\
+          --delimiter semicolon
 
     A recording without strain gauges (wrench and position only) needs no flag:
     segment, train and label read its wrench (--signal defaults to strain only
@@ -68,7 +74,7 @@ def import_cmd(csv_files, out, columns, rate_hz, label_names, controller, enviro
     names = None if label_names is None else [n.strip() for n in label_names.split(",")]
     path = import_csv(list(csv_files), out=out, columns=columns, rate_hz=rate_hz, force=force,
                       label_names=names, controller=controller, environment=environment,
-                      quiet=quiet)
+                      quiet=quiet, delimiter=delimiter)
     summary = summarize(path)
     slow = [t for t in summary["trials"] if t.get("rate_hz") and t["rate_hz"] < 50.0]
     for t in slow[:3]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -226,3 +227,33 @@ def test_imported_labels_drive_estimate_by_truth_and_segment_scoring(tmp_path):
     r = run_cli("segment", out, "--signal", "wrench", "--json", "--quiet")
     assert r.exit_code == 0, r.output
     assert one_json_object(r.stdout)["metrics"]["overall"]["n_true"] == 1
+
+
+@pytest.mark.parametrize("sep, decimal_comma", [(";", True), (";", False), ("\t", False),
+                                                 (" ", False), ("|", False)])
+def test_other_delimiters_read_the_same_numbers(tmp_path, sep, decimal_comma):
+    # the same table written with another delimiter (and decimal commas, as spreadsheets
+    # of many locales export) imports to the values of the comma file
+    write_csv(tmp_path / "ref.csv", seed=3)
+    frame = pd.read_csv(tmp_path / "ref.csv").drop(columns=["note", "state"])
+    text = frame.to_csv(sep=sep, index=False, float_format="%.9g")
+    if decimal_comma:
+        text = re.sub(r"(\d)\.(\d)", r"\1,\2", text)
+    (tmp_path / "other.csv").write_text(text)
+    cmap = parse_column_map(MAP.replace("; labels=state", "").replace("s*", "s[0-7]"))
+    ref = import_csv([tmp_path / "ref.csv"], out=tmp_path / "a.h5", columns=cmap, quiet=True)
+    got = import_csv([tmp_path / "other.csv"], out=tmp_path / "b.h5", columns=cmap, quiet=True)
+    with open_archive(ref) as a, open_archive(got) as b:
+        ta, tb = a.trial("ref"), b.trial("other")
+        for field in ("time", "wrench", "position", "strain", "action"):
+            np.testing.assert_allclose(getattr(tb, field), getattr(ta, field), rtol=1e-8)
+
+
+def test_a_delimiter_that_is_not_the_files_is_a_one_line_error(tmp_path):
+    write_csv(tmp_path / "run.csv")
+    with pytest.raises(DataError, match="run.csv"):
+        import_csv([tmp_path / "run.csv"], out=tmp_path / "o.h5", columns=parse_column_map(MAP),
+                   delimiter="tab", quiet=True)
+    with pytest.raises(UsageError, match="unknown delimiter"):
+        import_csv([tmp_path / "run.csv"], out=tmp_path / "o.h5", columns=parse_column_map(MAP),
+                   delimiter="#", quiet=True)

@@ -127,6 +127,10 @@ def _write_csvs(root: Path) -> None:
         lines += [",".join([*(f"{cols[c][k]:.6g}" for c in cols), state[k]])
                   for k in range(t.size)]
         (root / name).write_text("\n".join(lines) + "\n")
+    # a spreadsheet export of many locales: semicolons, decimal commas
+    lines = [";".join(cols)] + [";".join(f"{cols[c][k]:.6f}".replace(".", ",") for c in cols)
+                                for k in range(t.size)]
+    (root / "run-eu.csv").write_text("\n".join(lines) + "\n")
     (root / "strokes").mkdir()
     for k in range(2):
         s = rng.normal(size=(500, 8))

@@ -8,13 +8,20 @@ A column map says which CSV columns hold which archive field::
 Vector fields take a list of names, a comma-separated string, or glob patterns
 (``s*``, ``s[0-7]``) matched against the header in file order. As text (the
 CLI's ``--columns``) the same map reads ``time=t;wrench=fx,fy,fz,tx,ty,tz;strain=s*``.
+
+The delimiter is found from the file's first lines (comma, semicolon, tab, '|' or
+runs of spaces; :func:`sniff_delimiter`) unless given; a semicolon file whose
+numbers carry decimal commas (``1,5``, as spreadsheets in many locales write them)
+is read with the decimal comma.
 """
 
 from __future__ import annotations
 
+import csv
 import fnmatch
 import json
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -32,6 +39,9 @@ SCALAR_FIELDS = ("time", "labels", "action")
 #: Fields that take several columns; the width is fixed by the schema where it says so.
 VECTOR_FIELDS = ("strain", "wrench", "position", "velocity")
 FIELDS = SCALAR_FIELDS + VECTOR_FIELDS
+#: Delimiters the importer recognises, by name (``--delimiter``) and character.
+DELIMITERS = {"comma": ",", "semicolon": ";", "tab": "\t", "pipe": "|", "space": " "}
+_DECIMAL_COMMA = re.compile(r"(?:^|;)\s*-?\d+,\d+\s*(?:;|$)", re.MULTILINE)
 #: Largest integer label code: codes name classes 0..code, each stored as a label
 #: name; a code beyond this is a data error, not a thousand-class labelling.
 MAX_LABEL_CODE = 1023
@@ -91,17 +101,49 @@ def normalize_column_map(columns: dict) -> dict[str, list[str]]:
     return out
 
 
+def sniff_delimiter(path: Path, sample: str | None = None) -> tuple[str, str]:
+    """``(delimiter, decimal)`` of a CSV file from its first lines: the character of
+    :data:`DELIMITERS` that splits the header and the next lines into the same number of
+    fields (comma first; a space delimiter means runs of spaces), and ``","`` as the
+    decimal mark when the delimiter is a semicolon and the numbers carry decimal commas.
+    DataError (file) when the file cannot be read."""
+    if sample is None:
+        try:
+            with open(path, newline="", encoding="utf-8-sig") as f:
+                sample = "".join(line for _, line in zip(range(20), f))
+        except (OSError, UnicodeDecodeError) as err:
+            raise DataError(f"cannot be read as CSV ({err})", file=str(path)) from None
+    lines = [ln for ln in sample.splitlines() if ln.strip()][:20]
+    delim = ","
+    for d in (",", ";", "\t", "|", " "):
+        counts = {len(next(csv.reader([ln], delimiter=d, skipinitialspace=True)))
+                  for ln in lines} if d != " " else {len(ln.split()) for ln in lines}
+        if lines and len(counts) == 1 and counts.pop() > 1:
+            delim = d
+            break
+    decimal = "," if delim == ";" and _DECIMAL_COMMA.search("\n".join(lines[1:])) else "."
+    return delim, decimal
+
+
 def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike,
                columns: dict, rate_hz: float | None = None, force: bool = False,
                label_names: Sequence[str] | None = None, controller: str = "",
-               environment: str = "", quiet: bool = False) -> Path:
+               environment: str = "", quiet: bool = False,
+               delimiter: str | None = None) -> Path:
     """Write one archive trial per CSV file (trial id = file stem); return ``out``.
 
     ``rate_hz`` defaults to 1 / the median time step of each file; with no time
     column it is required and times are i / rate_hz. Label columns may hold
     names (collected over all files in order of appearance, or checked against
     ``label_names``) or integer codes; empty cells are unlabelled (-1).
+    ``delimiter``: a name or character of :data:`DELIMITERS` (default: found per file,
+    :func:`sniff_delimiter`).
     """
+    if delimiter is not None:
+        delimiter = DELIMITERS.get(delimiter, delimiter)
+        if delimiter not in DELIMITERS.values():
+            raise UsageError(f"unknown delimiter {delimiter!r}; use one of "
+                             f"{', '.join(DELIMITERS)}")
     mapping = normalize_column_map(columns)
     paths = [Path(p) for p in csv_paths]
     if not paths:
@@ -117,7 +159,7 @@ def import_csv(csv_paths: Sequence[str | os.PathLike], *, out: str | os.PathLike
     dup = next((s for s in stems if stems.count(s) > 1), None)
     if dup is not None:
         raise UsageError(f"two CSV files give the same trial id {dup!r}")
-    tables = [_read_table(p, mapping, rate_hz)
+    tables = [_read_table(p, mapping, rate_hz, delimiter)
               for p in progress(paths, total=len(paths), desc="import", quiet=quiet, unit="file")]
     names = _label_names(tables, paths, mapping, label_names)
     for path, table in zip(paths, tables):  # every check before the first byte is written
@@ -144,9 +186,14 @@ def _is_pattern(name: str) -> bool:
     return any(c in name for c in "*?[")
 
 
-def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None) -> dict:
+def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None,
+                delimiter: str | None = None) -> dict:
+    sep, decimal = sniff_delimiter(path)
+    if delimiter is not None:
+        sep, decimal = delimiter, (decimal if delimiter == sep else ".")
     try:
-        frame = pd.read_csv(path, skipinitialspace=True)
+        frame = pd.read_csv(path, skipinitialspace=True, decimal=decimal,
+                            **({"sep": r"\s+"} if sep == " " else {"sep": sep}))
     except (OSError, ValueError, UnicodeDecodeError, pd.errors.ParserError) as err:
         first = str(err).splitlines()[0] if str(err) else type(err).__name__
         raise DataError(f"cannot be read as CSV ({first})", file=str(path)) from None
