@@ -64,15 +64,18 @@ predictive covariance: chi-square with ``k`` degrees of freedom; only its increa
 (6.14, :attr:`FeatureModel.tests`): a residual below the trained noise is no other
 contact.
 
-All instances advance together over a chunk with numpy (cumulative sums; for
-the estimated frame batched 3x3 eigen-decompositions over samples x
-instances): no per-sample Python loop.
+All instances advance together over a chunk: a fixed frame in one compiled pass
+over samples x instances (:func:`_fixed_kernel`; numpy's calls cost more than the
+arithmetic on the observer's short catch-up runs), an estimated frame with numpy
+(batched 3x3 eigen-decompositions over samples x instances): no per-sample Python
+loop.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD, CartesianConstraint
@@ -313,14 +316,11 @@ class ConstraintFeature(FeatureModel):
 
     def _run_fixed(self, state, xs, ws, c):
         m = self.degree
-        N_, T_ = self.frame[:, :m], self.frame[:, m:]
-        z = xs @ N_                                      # (N, m) motion along the normals
-        f = np.broadcast_to((ws @ T_)[:, None, :], (len(xs), c.shape[1], K - m))
-        cz = np.concatenate([np.zeros((1, m)), np.cumsum(z, axis=0)[:-1]], axis=0)
-        tot = state["sum"][None, :, :] + cz[:, None, :]                 # (N, U, m)
-        e = z[:, None, :] - tot / (self.kappa0 + c)[:, :, None]
-        ll, chi2 = self._score(e, f, c)
-        state["sum"] += z.sum(axis=0)[None, :]
+        ll, chi2 = _fixed_kernel(np.ascontiguousarray(xs), np.ascontiguousarray(ws),
+                                 np.ascontiguousarray(self.frame[:, :m]),
+                                 np.ascontiguousarray(self.frame[:, m:]), state["sum"],
+                                 np.ascontiguousarray(c[0]), self.kappa0, self._Vn_inv,
+                                 self._Vf_inv, self._logdet_n, self._logdet_f)
         return ll, chi2
 
     def _run_estimated(self, state, xs, ws, c):
@@ -361,6 +361,63 @@ class ConstraintFeature(FeatureModel):
         state["sxx"] += (xs.T @ xs)[None]
         state["sww"] += (ws.T @ ws)[None]
         return ll, chi2
+
+
+@numba.njit(cache=True)
+def _fixed_kernel(xs, ws, Nf, Tf, sums, c0, kappa0, Vn_inv, Vf_inv, logdet_n,
+                  logdet_f):  # pragma: no cover - compiled
+    """:meth:`ConstraintFeature._score` of a fixed frame over samples x instances in one
+    compiled pass: per sample t the motion along the normals ``z_t = N^T xs_t`` and the
+    force along the free directions ``f_t = T^T ws_t``; per instance u the residual
+    ``e = z_t - (sums_u + z_0 + .. + z_{t-1}) / (kappa0 + c)`` with ``c = c0_u + t``
+    samples before t.  ``sums`` (U, m) is advanced in place by the chunk's total."""
+    n, k = xs.shape
+    U, m = sums.shape[0], Nf.shape[1]
+    ll = np.empty((n, U))
+    chi2 = np.empty((n, U))
+    z = np.zeros(m)
+    f = np.zeros(k - m)
+    e = np.zeros(m)
+    cz = np.zeros(m)                                     # z_0 + .. + z_{t-1}
+    for t in range(n):
+        for i in range(m):
+            acc = 0.0
+            for j in range(k):
+                acc += xs[t, j] * Nf[j, i]
+            z[i] = acc
+        qf = 0.0
+        if m < k:
+            for i in range(k - m):
+                acc = 0.0
+                for j in range(k):
+                    acc += ws[t, j] * Tf[j, i]
+                f[i] = acc
+            for i in range(k - m):
+                for j in range(k - m):
+                    qf += f[i] * Vf_inv[i, j] * f[j]
+        for u in range(U):
+            v = 0.0
+            q = 0.0
+            if m:
+                cc = kappa0 + c0[u] + t
+                g = 1.0 + 1.0 / cc
+                for i in range(m):
+                    e[i] = z[i] - (sums[u, i] + cz[i]) / cc
+                for i in range(m):
+                    for j in range(m):
+                        q += e[i] * Vn_inv[i, j] * e[j]
+                q /= g
+                v -= 0.5 * (q + logdet_n + m * math.log(g) + m * LOG_2PI)
+            if m < k:
+                v -= 0.5 * (qf + logdet_f + (k - m) * LOG_2PI)
+            ll[t, u] = v
+            chi2[t, u] = q + qf
+        for i in range(m):
+            cz[i] += z[i]
+    for u in range(U):
+        for i in range(m):
+            sums[u, i] += cz[i]
+    return ll, chi2
 
 
 def misalignment(N, T, N0, T0) -> np.ndarray:
