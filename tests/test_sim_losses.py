@@ -68,7 +68,7 @@ def test_ringing_after_an_impact_decays_within_the_impact_interval_cap():
     # ~250 Hz robot-on-sensor ringing after the last bounce dies out by itself, the impact
     # interval closes before IMPACT_MAX_DURATION_S, and the resting finger is then close to
     # the sensor's noise floor (above it by the amplifiers' force noise the pressed sensor
-    # carries, constants.AMPLIFIER_FORCE_NOISE: ~1 mN against the wrench noise's 2.6 mN).
+    # carries, constants.AMPLIFIER_FORCE_NOISE: ~0.1 mN against the wrench noise's 2.6 mN).
     sen = StrainGaugeSensor()
     noise_diff = math.sqrt(2.0 * ((sen.noise_lsb * sen.lsb_v) ** 2 + sen.lsb_v ** 2 / 12.0))
     for seed in (0, 1):
@@ -145,14 +145,17 @@ def test_a_pressed_still_finger_carries_the_motors_force_noise_through_the_conta
     # 7.3.3: pressed is louder than stationary.  The stuck drive is compliant before it breaks
     # away (constants.ROBOT_PRESLIDING_DISPLACEMENT): the amplifiers' random force moves the
     # robot by fractions of a micrometre; free, robot and shell move together, pressed, the
-    # sensor carries it.  With a rigid stick the motors' noise never reaches the sensor.
+    # sensor carries it.  With a rigid stick the motors' noise never reaches the sensor.  The
+    # sensor's true force (before the gauges' noise): how much of it shows above the electronic
+    # floor is the amplifiers' level (constants.AMPLIFIER_FORCE_NOISE, the apparatus experiment)
     def hf_rms(env, app):
         ctrl = PositionController(moves=(Move((0.0, 0.0, -0.003), 0.2, 0.0),))
         r = simulate(environment=env, controller=ctrl, duration_s=1.0, seed=1, start=(0, 0, R + 0.0002),
                      apparatus=app)
         assert not r.moving[500:].any()
-        return np.sqrt(np.mean(np.diff(r.strain[500:], axis=0) ** 2))
+        return np.sqrt(np.mean(np.diff(r.wrench_true[500:, :3], axis=0) ** 2))
 
     compliant, rigid = Apparatus(), Apparatus(robot_presliding=0.0)
-    assert hf_rms(plane(material="polished_aluminium"), compliant) > 1.3 * hf_rms(free_space(), compliant)
-    assert hf_rms(plane(material="polished_aluminium"), rigid) < 1.05 * hf_rms(free_space(), rigid)
+    pressed = hf_rms(plane(material="polished_aluminium"), compliant)
+    assert pressed > 1.5 * hf_rms(free_space(), compliant)
+    assert hf_rms(plane(material="polished_aluminium"), rigid) < 0.05 * pressed

@@ -98,14 +98,26 @@ the commutator's roughness, strands of the capstan cable rolling on and off the 
 brushed motors' friction torque ripples by 20-30 % of its mean (their no-load current ripple);
 0.25.  The pattern repeats every shaft revolution (a circular commutator), with wavelengths
 on the commutator surface (radius BRUSH_TRACK_RADIUS) from BRUSH_WAVELENGTH_MIN to one bar
-pitch: at 50 mm/s of tip travel, 14 mm/s of brush sliding, i.e. 7 Hz (bars) to 1.4 kHz."""
+pitch: at 50 mm/s of tip travel, 14 mm/s of brush sliding, i.e. 7 Hz (bars) to 2.8 kHz."""
 
 BRUSH_TRACK_RADIUS = 3.5e-3
 """datasheet-level: commutator radius of a 25 mm brushed motor (RE 25 class), m."""
 
-BRUSH_WAVELENGTH_MIN = 10e-6
-"""physics: shortest roughness wavelength of a turned and worn commutator the brush face
-(graphite, ~1 mm wide but riding on a few asperities) still feels, m."""
+BRUSH_WAVELENGTH_MIN = 5e-6
+"""physics, identified (thesis 7.3.3, a signal fact): shortest wavelength along the commutator of
+the brush friction's ripple, m.  A graphite brush touches a turned and worn copper commutator at a
+few load-bearing spots (a-spots) of micrometres to ~10 um (electrical-contact theory; the surface's
+roughness, Ra ~0.2-0.8 um, has its asperities at those spacings), and its friction fluctuates as
+spots are born and die: wavelengths below the spot size average out, so the cutoff lies between
+~1 and ~10 um.  Within that range it is identified from 7.3.3's "Moving is a sufficiently higher
+level of vibration that it is never confused with the stationary vibration level": with the
+ripple's rms fixed (BRUSH_FRICTION_VARIATION), the cutoff sets how much of it lies above ~100 Hz
+of a slow move, where the sensor's strain difference sees it.  Measured by the apparatus
+experiment (seeds 1-5, rigid robot, amplifier noise 0.1 mN): at 10 um the slow 7.3 x-moves
+(12 mm/s in their first unit) sit 0.04-0.06 nats above the stationary floor and the H0/H1
+normal-fit error is 0.024-0.059; at 5 um it is 0.0001-0.004 (0.0004-0.0075 at the default
+AMPLIFIER_FORCE_NOISE; moving-vs-stationary).  The table over one revolution (:func:`dynamics.brush_ripple_table`) resolves it (16384
+points on the 22 mm track, 1.3 um apart)."""
 
 ROBOT_VISCOUS_DAMPING = 0.1
 """physics: viscous damping on the robot mass, N s/m, from the motors' back-EMF
@@ -162,17 +174,19 @@ only through the shell's inertia.
 
 The default apparatus keeps the cables rigid (``Apparatus.cable_stiffness = 0``); ``[apparatus]
 cable_stiffness_n_per_m = 40000`` turns them on.  Measured by the apparatus experiment with this
-stiffness and ROTOR_MASS (seeds 1-5; its page measures every fact both ways): moving separates
-from stationary as 7.3.3 says (H0/H1 normal-fit error 0.000-0.001, moving +0.41-0.45 nats above
-the floor, rigid: 0.037-0.082, +0.14-0.16) and 21 of 22 facts hold on every seed, but pressed
-rises more (+0.62-0.72 nats, rigid +0.30-0.34): the amplifiers' force noise (AMPLIFIER_FORCE_NOISE)
-reaches a pressed arm that the drive's friction, now acting on the rotors only, no longer damps,
-and 7.3.3's order (pressed between stationary and moving) fails by 0.09-0.23.  With the cables the
-simulator's own tests also measure a finger resting on sanded aluminium louder than one sliding
-over it, the arm's ringing on a pressed sensor outlasting the impact-interval cap, and a stroke's
-frozen finger vibrating above the moving threshold (fig 7.5's last phase lost): the pressed
-arm's damping (joint bearings, cable hysteresis) and the amplifiers' noise would have to be known
-before the cables can be the default."""
+stiffness and ROTOR_MASS (seeds 1-5, the other constants at their defaults): moving separates from
+stationary further than on the rigid robot (H0/H1 normal-fit error 0.000, moving +0.39-0.44 nats
+above the floor, rigid +0.27-0.30), but the rotors' resonance passes the brush ripple's short
+wavelengths (BRUSH_WAVELENGTH_MIN) to the arm so amplified that the drive's vibration masks the
+textures while stroking (sample A's unit-mean normal-fit error 0.16-0.22, wood no louder than
+polished aluminium) and a pressed finger rises to +0.10-0.13 nats; 22-23 of 25 facts hold.
+Measured earlier with the cables as the simulator's default (amplifier noise 1 mN): a finger
+resting on sanded aluminium louder than one sliding over it, the arm's ~240 Hz ringing on a
+pressed sensor (damped only by the cables and the sensor: the drive's friction acts on the rotors)
+outlasting the impact-interval cap, and the encoder-feedback integral force loop, its encoders on
+the rotors behind the cables' compliance, hunting against walls and corners.  The arm's own
+damping (joint bearings, cable hysteresis) would have to be known before the cables can be the
+default."""
 
 CABLE_DAMPING_RATIO = 0.03
 """physics: damping of the cable mode as a ratio of critical: stranded steel cables on capstans
@@ -194,7 +208,9 @@ cable-driven arms of this size have their first structural modes at 100-300 Hz (
 The default apparatus keeps the link rigid (``Apparatus.link_stiffness = 0``), because a
 lumped tip cannot be what the sensor's base is at both frequencies the thesis measured.
 Measured by the apparatus experiment with this stiffness and LINK_TIP_MASS (its page measures
-every fact both ways; seeds 1-5): the drive's brush ripple reaches the sensor through the mode,
+every fact both ways; seeds 1-5, with the earlier 1 mN AMPLIFIER_FORCE_NOISE and 10 um
+BRUSH_WAVELENGTH_MIN; with the present ones 19-22 of 25 hold, pressed only +0.006-0.010 nats above
+stationary, post-impact ringing 544-582 Hz, sample A's error 0.18-0.22): the drive's brush ripple reaches the sensor through the mode,
 moving separates from stationary (7.3.3; H0/H1 normal-fit error 0.0015-0.011) and pressed falls
 between them (the link filters the amplifiers' noise on its way to a pressed sensor; H2 - H0
 +0.02-0.04 nats, H0/H2 the largest confusion) -- but the sensor then rings on a 15 g base: 890
@@ -262,15 +278,33 @@ itself (the servo's force command is rounded to FORCE_RESOLUTION at every tick,
 of this size; while it is constant (the robot at rest, its encoders still) the error is a
 constant force, and only AMPLIFIER_FORCE_NOISE stays random."""
 
-AMPLIFIER_FORCE_NOISE = 1.0e-3
-"""datasheet-level: random force at the tip from the motors' current amplifiers, N rms per axis,
-one independent draw per servo tick (the random part of the control wrench w of 4.12).
-Linear current amplifiers of the period hold the motor current to ~0.5 mA rms of noise
-(sense-resistor and op-amp noise over their few-kHz loop bandwidth; 0.05 % of a 1 A range,
-0.02-0.1 % is the usual spread); with a torque constant of ~23 mN m/A (RE 25 class) and
-MOTOR_RAD_PER_TIP_M = 80 /m that is 0.5e-3 x 0.023 x 80 ~ 1 mN at the tip.  It is what a
-still robot's motors shake it with (the DAC's error is then constant, CONTROL_ERROR_STD), and
-through a pressed contact it reaches the sensor (ROBOT_PRESLIDING_DISPLACEMENT)."""
+AMPLIFIER_FORCE_NOISE = 2.0e-4
+"""datasheet-level, identified (thesis 7.3.3, 9.1.3, signal facts): random force at the tip from
+the motors' current amplifiers, N rms per axis, one independent draw per servo tick (the random
+part of the control wrench w of 4.12).  Its mechanisms bound it.  The current loop's own noise
+(sense-resistor and op-amp noise, ~10 nV/sqrt(Hz) over a few-kHz loop bandwidth) is a few uA; the
+command from the servo computer's DAC board adds its analogue output noise (0.1-1 mV rms over the
+amplifier's bandwidth for the 12-bit boards of the period) times the amplifier's transconductance
+(a few tenths of A/V): 30-300 uA.  With a torque constant of ~23 mN m/A (RE 25 class) and
+MOTOR_RAD_PER_TIP_M = 80 /m, 1 uA is 1.8 uN at the tip, so 5 uN to 0.5 mN.  Within that range the
+value is identified from what the thesis says of the signals: a pressed, still finger is louder
+than a free, still one ("extra vibration sensed when the robot is touching an object", 7.3.3),
+but only a little -- stationary and pressed are the two states its vibration tells apart worst,
+moving is well above both; and the integral force controller slides without stick-slip (9.1.3),
+which the noise helps by dithering the drive's stiction.  0.2 mN (~110 uA).  Measured by the
+apparatus experiment (seeds 1-5): pressed 0.051-0.056 nats above stationary, its normal-fit
+error against stationary the largest of the three by 0.10-0.16; stuck fraction of the force
+controller on wood 0.020-0.053 (criterion 0.05; seeds 6-12 0.019-0.047).  At 0.1-0.15 mN the
+pressed facts hold as well, at 0.25 mN an impact's ringing on seed 3 is labelled shorter than
+0.1 s; at 1 mN (0.5 mA, an earlier value) a pressed finger is 0.3 nats above stationary on the
+rigid robot and 0.6-0.7 nats with the capstan cables, louder than a moving one.  At every level
+tried the encoder-feedback integral force loop, pushed along the normal of a maze wall's edge
+(tests/test_sim_maze.py, x wall), falls on some seeds into a ~290 Hz limit cycle across one
+encoder count, the robot on the pressed sensor fed by the derivative term's encoder steps: 3 of
+seeds 1-12 at 0.2 mN, 6-7 at 0.15-0.175 mN, 7 at 0.25 mN, 6 at 1 mN (3 at 1 mN with the earlier
+10 um BRUSH_WAVELENGTH_MIN).  It is what a still robot's motors shake it with (the DAC's error is then constant,
+CONTROL_ERROR_STD), and through a pressed contact it reaches the sensor
+(ROBOT_PRESLIDING_DISPLACEMENT)."""
 
 ENCODER_RESOLUTION = 0.03e-3
 """datasheet: PHANToM 1.0 nominal position resolution "> 1000 dpi" = 0.03 mm,

@@ -420,7 +420,7 @@ def _quantise(x, res):
     return math.floor(x / res + 0.5) * res
 
 
-def brush_ripple_table(variation: float, *, seed: int = C.CALIBRATION_SEED, n: int = 8192,
+def brush_ripple_table(variation: float, *, seed: int = C.CALIBRATION_SEED, n: int = 16384,
                        radius: float = C.BRUSH_TRACK_RADIUS,
                        wavelength_min: float = C.BRUSH_WAVELENGTH_MIN,
                        bars: int = C.COMMUTATOR_SEGMENTS) -> np.ndarray:
