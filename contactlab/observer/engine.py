@@ -320,6 +320,163 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     cnt[C_U] = n
 
 
+@numba.njit(cache=True, inline="always")
+def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, lv,
+           vc):  # pragma: no cover - compiled
+    """One filter step for two parameters on scalars: :func:`run_core`'s general step
+    (``kalman_step``'s kernel for m = 1) written out for q = 2, operation for operation, so
+    the state stays in registers (the general step's scratch arrays live in memory, and
+    every pass through memory lengthens the step's dependent chain).  ``g0, g1``: the
+    regressors; state: parameters, their square-root covariance ``S`` (row-major), the
+    structure factor ``L`` (lower), the square-root noise estimate and its count, the fixed
+    square-root noise.  Returns the new state, the innovation, its normalised form, the
+    quadratic term ``-al^2 / 2`` and the log-likelihood."""
+    # structure update (A.41): tri_append_n(L, psi^T, 2, 1) written out
+    if mode == 1:
+        z0, z1 = g0, g1
+        s = 0.0
+        s += z0 * z0
+        a = l00
+        if s == 0.0:
+            if a < 0.0:
+                l00 = -l00
+                l10 = -l10
+        else:
+            nrm = math.sqrt(a * a + s)
+            if a <= 0.0:
+                v0 = a - nrm
+            else:
+                v0 = -s / (a + nrm)
+            beta = 2.0 / (v0 * v0 + s)
+            w = l10 * v0
+            w += z1 * z0
+            w *= beta
+            l10 -= w * v0
+            z1 -= w * z0
+            l00 = nrm
+        s = 0.0
+        s += z1 * z1
+        a = l11
+        if s == 0.0:
+            if a < 0.0:
+                l11 = -l11
+        else:
+            l11 = math.sqrt(a * a + s)
+    # orthogonal regressors psi~ (A.40, A.42)
+    h0 = g0
+    h1 = g1
+    if mode != 0:
+        d = l00
+        if d != 0.0:
+            h1 -= (l10 / d) * h0
+    # innovation (A.34)
+    nu = y
+    nu -= h0 * th0
+    nu -= h1 * th1
+    # pre-array (A.32) [[Lv, 0 | psi S], [0, 0 | S]] and tri_append_n(A, Z, 3, 2) (A.33)
+    a00 = ve if est else lv
+    a10 = 0.0
+    a20 = 0.0
+    a11 = 0.0
+    a21 = 0.0
+    a22 = 0.0
+    z00 = 0.0
+    z00 += h0 * s00
+    z00 += h1 * s10
+    z01 = 0.0
+    z01 += h1 * s11
+    z10, z11, z20, z21 = s00, s01, s10, s11
+    # row 0
+    s = 0.0
+    s += z00 * z00
+    s += z01 * z01
+    a = a00
+    if s == 0.0:
+        if a < 0.0:
+            a00 = -a00
+            a10 = -a10
+            a20 = -a20
+    else:
+        nrm = math.sqrt(a * a + s)
+        if a <= 0.0:
+            v0 = a - nrm
+        else:
+            v0 = -s / (a + nrm)
+        beta = 2.0 / (v0 * v0 + s)
+        w = a10 * v0
+        w += z10 * z00
+        w += z11 * z01
+        w *= beta
+        a10 -= w * v0
+        z10 -= w * z00
+        z11 -= w * z01
+        w = a20 * v0
+        w += z20 * z00
+        w += z21 * z01
+        w *= beta
+        a20 -= w * v0
+        z20 -= w * z00
+        z21 -= w * z01
+        a00 = nrm
+    # rows 1 and 2 begin with a11 = a21 = a22 = 0, which shortens them exactly: with
+    # s = (0 + x^2) + y^2 (never -0) and a = +0, a * a + s is s; s == 0 leaves them (a < 0
+    # fails); nrm = sqrt(s) > 0 (or NaN), so v0 = a - nrm is -nrm and v0 * v0 is nrm * nrm;
+    # w = a21 * v0 = -0 and -0 + x is x for every x.  The dependent chain from one sample to
+    # the next runs through these rows, so each addition saved is saved per step.
+    # row 1
+    s = z10 * z10
+    s += z11 * z11
+    if s != 0.0:
+        nrm = math.sqrt(s)
+        v0 = -nrm
+        beta = 2.0 / (nrm * nrm + s)
+        w = z20 * z10
+        w += z21 * z11
+        w *= beta
+        a21 -= w * v0
+        z20 -= w * z10
+        z21 -= w * z11
+        a11 = nrm
+    # row 2
+    s = z20 * z20
+    s += z21 * z21
+    if s != 0.0:
+        a22 = math.sqrt(s)
+    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+    d = a00
+    al = nu / d if d != 0.0 else np.nan
+    lc = 0.0
+    logdet = 0.0
+    lc -= 0.5 * al * al
+    logdet += math.log(a00)
+    s = 0.0
+    s += a10 * al
+    th0 += s
+    s = 0.0
+    s += a20 * al
+    th1 += s
+    ll = lc - logdet - _HALF_LOG_2PI
+    # running square-root innovation variance (A.38): tri_append_n(V, Zv, 1, 1)
+    if est:
+        vc = vc + 1.0
+        nn = pcount + vc
+        c_old = math.sqrt(1.0 - 1.0 / nn)
+        c_new = math.sqrt(1.0 / nn)
+        zv = c_new * nu
+        v2 = ve * c_old
+        s = 0.0
+        s += zv * zv
+        a = v2
+        if s == 0.0:
+            if a < 0.0:
+                v2 = -v2
+        else:
+            v2 = math.sqrt(a * a + s)
+        ve = v2
+    # the post-array's upper entry A[1, 2] stays zero: S01 = 0
+    return th0, th1, a11, 0.0, a21, a22, l00, l10, l11, ve, vc, al, lc, ll
+
+
 @numba.njit(cache=True)
 def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
@@ -365,21 +522,23 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     for j in range(K):
         maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
     t = t_from
-    cu = -1                  # catch-up: index of the new path being caught up, -1: none
+    catch = False            # catching up the new paths of an event
     n_new = 0
-    ct = 0                   # its sample
-    cll = 0.0                # its log-likelihood
+    ct = 0                   # the catch-up's sample
+    ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
     while True:
-        if cu < 0:
+        if not catch:
             if t >= t_to:
                 break
             nP, nU = cnt[C_P], cnt[C_U]
             ua, ub, tt = 0, (0 if pending else nU), t
         else:
-            ua, ub, tt = newp[cu, 1], newp[cu, 2], ct
+            ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
         for u in range(ua, ub):
+            if catch and ustart[u] > tt:
+                continue                        # a new instance not yet begun
             k = umodel[u]
             q = qc if qc > 0 else mi[k, 3]
             C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
@@ -388,83 +547,114 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             zs = 0.0
             for c in range(C):
                 col = mi[k, 4] + c
-                # regressors: AR (with the constant first) or [1, t - start]
-                if mi[k, 0] == REG_AR:
-                    j = 0
-                    if mi[k, 2]:
+                if qc == 2:
+                    # two parameters: the same step on scalars (_step2)
+                    if mi[k, 0] == REG_AR:
+                        if mi[k, 2]:
+                            g0 = 1.0
+                            g1 = xa[row - 1, col]
+                        else:
+                            g0 = xa[row - 1, col]
+                            g1 = xa[row - 2, col]
+                    else:
+                        g0 = 1.0
+                        g1 = float(tt - ustart[u])
+                    (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
+                     ll) = _step2(xa[row, col], g0, g1, mode, est, pcount, ust[u, c, 0],
+                                  ust[u, c, 1], ust[u, c, 2], ust[u, c, 3], ust[u, c, 4],
+                                  ust[u, c, 5], ust[u, c, 6], ust[u, c, 8], ust[u, c, 9],
+                                  ust[u, c, 10], ust[u, c, 11], ust[u, c, 12])
+                    ust[u, c, 0] = th0
+                    ust[u, c, 1] = th1
+                    ust[u, c, 2] = s00
+                    ust[u, c, 3] = s01
+                    ust[u, c, 4] = s10
+                    ust[u, c, 5] = s11
+                    if mode == 1:
+                        ust[u, c, 6] = l00
+                        ust[u, c, 8] = l10
+                        ust[u, c, 9] = l11
+                    if est:
+                        ust[u, c, 10] = ve
+                        ust[u, c, 12] = vc
+                else:
+                    # regressors: AR (with the constant first) or [1, t - start]
+                    if mi[k, 0] == REG_AR:
+                        j = 0
+                        if mi[k, 2]:
+                            H[0, 0] = 1.0
+                            j = 1
+                        for i in range(1, mi[k, 1] + 1):
+                            H[0, j + i - 1] = xa[row - i, col]
+                    else:
                         H[0, 0] = 1.0
-                        j = 1
-                    for i in range(1, mi[k, 1] + 1):
-                        H[0, j + i - 1] = xa[row - i, col]
-                else:
-                    H[0, 0] = 1.0
-                    H[0, 1] = float(tt - ustart[u])
-                # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-                if mode == 1:
+                        H[0, 1] = float(tt - ustart[u])
+                    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+                    if mode == 1:
+                        for i in range(q):
+                            Zs[i, 0] = H[0, i]
+                            for j in range(q):
+                                L2[i, j] = ust[u, c, oL + i * qmax + j]
+                        tri_append_n(L2, Zs, q, 1)
+                        for i in range(q):
+                            for j in range(q):
+                                ust[u, c, oL + i * qmax + j] = L2[i, j]
+                    if mode != 0:
+                        for i in range(q):
+                            s = H[0, i]
+                            for kk in range(i):
+                                d = ust[u, c, oL + kk * qmax + kk]
+                                if d != 0.0:
+                                    s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
+                            H[1, i] = s
+                    else:
+                        for i in range(q):
+                            H[1, i] = H[0, i]
+                    # innovation (A.34)
+                    s = xa[row, col]
                     for i in range(q):
-                        Zs[i, 0] = H[0, i]
-                        for j in range(q):
-                            L2[i, j] = ust[u, c, oL + i * qmax + j]
-                    tri_append_n(L2, Zs, q, 1)
-                    for i in range(q):
-                        for j in range(q):
-                            ust[u, c, oL + i * qmax + j] = L2[i, j]
-                if mode != 0:
-                    for i in range(q):
-                        s = H[0, i]
-                        for kk in range(i):
-                            d = ust[u, c, oL + kk * qmax + kk]
-                            if d != 0.0:
-                                s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
-                        H[1, i] = s
-                else:
-                    for i in range(q):
-                        H[1, i] = H[0, i]
-                # innovation (A.34)
-                s = xa[row, col]
-                for i in range(q):
-                    s -= H[1, i] * ust[u, c, i]
-                nu = s
-                # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-                for i in range(q + 1):
-                    for j in range(q + 1):
-                        A[i, j] = 0.0
-                A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
-                for j in range(q):
-                    s = 0.0
-                    for kk in range(j, q):
-                        s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
-                    Z[0, j] = s
-                for i in range(q):
+                        s -= H[1, i] * ust[u, c, i]
+                    nu = s
+                    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+                    for i in range(q + 1):
+                        for j in range(q + 1):
+                            A[i, j] = 0.0
+                    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
                     for j in range(q):
-                        Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
-                # Householder reduction to the post-array (A.33)
-                tri_append_n(A, Z, q + 1, q)
-                # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-                d = A[0, 0]
-                al = nu / d if d != 0.0 else np.nan
-                lc = 0.0
-                logdet = 0.0
-                lc -= 0.5 * al * al
-                logdet += math.log(A[0, 0])
-                for i in range(q):
-                    s = 0.0
-                    s += A[1 + i, 0] * al
-                    ust[u, c, i] += s
-                    for j in range(q):
-                        ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
-                ll = lc - logdet - _HALF_LOG_2PI
-                # running square-root innovation variance (A.38)
-                if est:
-                    cn = ust[u, c, oV + 2] + 1.0
-                    ust[u, c, oV + 2] = cn
-                    nn = pcount + cn
-                    c_old = math.sqrt(1.0 - 1.0 / nn)
-                    c_new = math.sqrt(1.0 / nn)
-                    Zv[0, 0] = c_new * nu
-                    V2[0, 0] = ust[u, c, oV] * c_old
-                    tri_append_n(V2, Zv, 1, 1)
-                    ust[u, c, oV] = V2[0, 0]
+                        s = 0.0
+                        for kk in range(j, q):
+                            s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
+                        Z[0, j] = s
+                    for i in range(q):
+                        for j in range(q):
+                            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+                    # Householder reduction to the post-array (A.33)
+                    tri_append_n(A, Z, q + 1, q)
+                    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+                    d = A[0, 0]
+                    al = nu / d if d != 0.0 else np.nan
+                    lc = 0.0
+                    logdet = 0.0
+                    lc -= 0.5 * al * al
+                    logdet += math.log(A[0, 0])
+                    for i in range(q):
+                        s = 0.0
+                        s += A[1 + i, 0] * al
+                        ust[u, c, i] += s
+                        for j in range(q):
+                            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+                    ll = lc - logdet - _HALF_LOG_2PI
+                    # running square-root innovation variance (A.38)
+                    if est:
+                        cn = ust[u, c, oV + 2] + 1.0
+                        ust[u, c, oV + 2] = cn
+                        nn = pcount + cn
+                        c_old = math.sqrt(1.0 - 1.0 / nn)
+                        c_new = math.sqrt(1.0 / nn)
+                        Zv[0, 0] = c_new * nu
+                        V2[0, 0] = ust[u, c, oV] * c_old
+                        tri_append_n(V2, Zv, 1, 1)
+                        ust[u, c, oV] = V2[0, 0]
                 # channels add (run_kalman): log-likelihood, chi-square, normalised innovation
                 if C == 1:
                     ll_sum = ll
@@ -481,27 +671,30 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                 x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else zs)
                 dv = cusum_step(udf[u, si], x)
                 udf[u, si] = dv
-                if dv == 0.0:
-                    ulz[u, si] = tt
-                if dv > top:
-                    top = dv
+                # selects, not branches: a branch on the step's result that the
+                # processor mispredicts holds the next instance's step until this one
+                # has finished, which serialises the instances' dependent chains
+                lz = ulz[u, si]
+                ulz[u, si] = tt if dv == 0.0 else lz
+                top = dv if dv > top else top
             inc[u - ua] = ll_sum
-        if cu >= 0:
-            # catch-up: the new path's log-likelihood after sample ct
-            for u in range(ua, ub):
-                cll += inc[u - ua]
-            p = newp[cu, 0]
-            ha[ct + 1 - hbase, pslot[p]] = cll
+        if catch:
+            # catch-up: each new path begun by ct, its log-likelihood after sample ct
+            for i in range(n_new):
+                p = newp[i, 0]
+                if pstart[p] > ct:
+                    continue
+                cll = ccll[i]
+                for u in range(newp[i, 1], newp[i, 2]):
+                    cll += inc[u - ua]
+                ccll[i] = cll
+                ha[ct + 1 - hbase, pslot[p]] = cll
             ct += 1
             if ct <= t:
                 continue
-            pll[p] = cll
-            cu += 1
-            if cu < n_new:
-                p = newp[cu, 0]
-                ct, cll = pstart[p], pinit[p]
-                continue
-            cu = -1
+            for i in range(n_new):
+                pll[newp[i, 0]] = ccll[i]
+            catch = False
             _prune(t, cfg, st, ev)
         else:
             # path sums (6.10), history, and the events: a crossing or a path gap below
@@ -539,9 +732,15 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     return FULL, t
                 n_new = _spawn(t, cfg, st, ev, newp)
                 if n_new > 0:
-                    cu = 0
-                    p = newp[0, 0]
-                    ct, cll = pstart[p], pinit[p]
+                    # the new paths' instances run together over the buffered samples
+                    # from the earliest change time (independent filters: their steps
+                    # overlap in the processor)
+                    catch = True
+                    ct = t
+                    for i in range(n_new):
+                        p = newp[i, 0]
+                        ccll[i] = pinit[p]
+                        ct = min(ct, pstart[p])
                     continue
                 _prune(t, cfg, st, ev)
         # node probabilities (6.5) and the best path's node after sample t
