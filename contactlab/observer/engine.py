@@ -321,16 +321,11 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, lv,
-           vc):  # pragma: no cover - compiled
-    """One filter step for two parameters on scalars: :func:`run_core`'s general step
-    (``kalman_step``'s kernel for m = 1) written out for q = 2, operation for operation, so
-    the state stays in registers (the general step's scratch arrays live in memory, and
-    every pass through memory lengthens the step's dependent chain).  ``g0, g1``: the
-    regressors; state: parameters, their square-root covariance ``S`` (row-major), the
-    structure factor ``L`` (lower), the square-root noise estimate and its count, the fixed
-    square-root noise.  Returns the new state, the innovation, its normalised form, the
-    quadratic term ``-al^2 / 2`` and the log-likelihood."""
+def _step2_a(y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11,
+             lv):  # pragma: no cover - compiled
+    """The first part of :func:`_step2`: the structure update, the innovation, the
+    pre-array and its first Householder row (``lv``: the noise's square root in use).
+    Returns the structure factor, the innovation and the post-array's entries so far."""
     # structure update (A.41): tri_append_n(L, psi^T, 2, 1) written out
     if mode == 1:
         z0, z1 = g0, g1
@@ -374,12 +369,9 @@ def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10,
     nu -= h0 * th0
     nu -= h1 * th1
     # pre-array (A.32) [[Lv, 0 | psi S], [0, 0 | S]] and tri_append_n(A, Z, 3, 2) (A.33)
-    a00 = ve if est else lv
+    a00 = lv
     a10 = 0.0
     a20 = 0.0
-    a11 = 0.0
-    a21 = 0.0
-    a22 = 0.0
     z00 = 0.0
     z00 += h0 * s00
     z00 += h1 * s10
@@ -418,6 +410,17 @@ def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10,
         z20 -= w * z00
         z21 -= w * z01
         a00 = nrm
+    return l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21
+
+
+@numba.njit(cache=True, inline="always")
+def _step2_b(nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve,
+             vc):  # pragma: no cover - compiled
+    """The rest of :func:`_step2` from :func:`_step2_a`'s output: the second and third
+    Householder rows, the update, the statistics and the running noise estimate."""
+    a11 = 0.0
+    a21 = 0.0
+    a22 = 0.0
     # rows 1 and 2 begin with a11 = a21 = a22 = 0, which shortens them exactly: with
     # s = (0 + x^2) + y^2 (never -0) and a = +0, a * a + s is s; s == 0 leaves them (a < 0
     # fails); nrm = sqrt(s) > 0 (or NaN), so v0 = a - nrm is -nrm and v0 * v0 is nrm * nrm;
@@ -474,7 +477,25 @@ def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10,
             v2 = math.sqrt(a * a + s)
         ve = v2
     # the post-array's upper entry A[1, 2] stays zero: S01 = 0
-    return th0, th1, a11, 0.0, a21, a22, l00, l10, l11, ve, vc, al, lc, ll
+    return th0, th1, a11, 0.0, a21, a22, ve, vc, al, lc, ll
+
+
+@numba.njit(cache=True, inline="always")
+def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, lv,
+           vc):  # pragma: no cover - compiled
+    """One filter step for two parameters on scalars: :func:`run_core`'s general step
+    (``kalman_step``'s kernel for m = 1) written out for q = 2, operation for operation, so
+    the state stays in registers (the general step's scratch arrays live in memory, and
+    every pass through memory lengthens the step's dependent chain).  ``g0, g1``: the
+    regressors; state: parameters, their square-root covariance ``S`` (row-major), the
+    structure factor ``L`` (lower), the square-root noise estimate and its count, the fixed
+    square-root noise.  Returns the new state, the innovation, its normalised form, the
+    quadratic term ``-al^2 / 2`` and the log-likelihood."""
+    l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21 = _step2_a(
+        y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve if est else lv)
+    th0, th1, s00, s01, s10, s11, ve, vc, al, lc, ll = _step2_b(
+        nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve, vc)
+    return th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
 
 
 @numba.njit(cache=True)
@@ -500,6 +521,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
     inc = np.empty(upath.shape[0])            # per-unit log-likelihood increments
+    act = np.empty(upath.shape[0], np.int64)  # a sample's instances (two-pass step)
+    mid = np.empty((upath.shape[0], 8))       # and their state between the passes
     newp = np.empty((pid.shape[0], 3), np.int64)   # an event's new paths: path, units
     wp = np.empty(pid.shape[0])               # path weights of a sample
     S = udf.shape[1]
@@ -536,6 +559,72 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
+        if qc == 2 and ust.shape[1] == 1:
+            # two parameters, one channel: the step in two passes over the sample's
+            # instances, each pass short enough that the processor runs the instances'
+            # dependent chains (square roots and divisions) side by side
+            na = 0
+            for u in range(ua, ub):
+                if catch and ustart[u] > tt:
+                    continue                    # a new instance not yet begun
+                k = umodel[u]
+                mode, est, col = mi[k, 6], mi[k, 7] != 0, mi[k, 4]
+                if mi[k, 0] == REG_AR:
+                    if mi[k, 2]:
+                        g0 = 1.0
+                        g1 = xa[row - 1, col]
+                    else:
+                        g0 = xa[row - 1, col]
+                        g1 = xa[row - 2, col]
+                else:
+                    g0 = 1.0
+                    g1 = float(tt - ustart[u])
+                (l00, l10, l11, nu, a00, a10, a20, z10, z11, z20,
+                 z21) = _step2_a(xa[row, col], g0, g1, mode, ust[u, 0, 0], ust[u, 0, 1],
+                                 ust[u, 0, 2], ust[u, 0, 3], ust[u, 0, 4], ust[u, 0, 5],
+                                 ust[u, 0, 6], ust[u, 0, 8], ust[u, 0, 9],
+                                 ust[u, 0, 10] if est else ust[u, 0, 11])
+                if mode == 1:
+                    ust[u, 0, 6] = l00
+                    ust[u, 0, 8] = l10
+                    ust[u, 0, 9] = l11
+                act[na] = u
+                mid[na, 0] = nu
+                mid[na, 1] = a00
+                mid[na, 2] = a10
+                mid[na, 3] = a20
+                mid[na, 4] = z10
+                mid[na, 5] = z11
+                mid[na, 6] = z20
+                mid[na, 7] = z21
+                na += 1
+            for i in range(na):
+                u = act[i]
+                k = umodel[u]
+                est = mi[k, 7] != 0
+                (th0, th1, s00, s01, s10, s11, ve, vc, al, lc,
+                 ll) = _step2_b(mid[i, 0], mid[i, 1], mid[i, 2], mid[i, 3], mid[i, 4],
+                                mid[i, 5], mid[i, 6], mid[i, 7], ust[u, 0, 0], ust[u, 0, 1],
+                                est, mf[k], ust[u, 0, 10], ust[u, 0, 12])
+                ust[u, 0, 0] = th0
+                ust[u, 0, 1] = th1
+                ust[u, 0, 2] = s00
+                ust[u, 0, 3] = s01
+                ust[u, 0, 4] = s10
+                ust[u, 0, 5] = s11
+                if est:
+                    ust[u, 0, 10] = ve
+                    ust[u, 0, 12] = vc
+                chi = lc * -2.0
+                for si in range(S):
+                    x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else al)
+                    dv = cusum_step(udf[u, si], x)
+                    udf[u, si] = dv
+                    lz = ulz[u, si]
+                    ulz[u, si] = tt if dv == 0.0 else lz
+                    top = dv if dv > top else top
+                inc[u - ua] = ll
+            ub = ua                             # done: the general loop below is empty
         for u in range(ua, ub):
             if catch and ustart[u] > tt:
                 continue                        # a new instance not yet begun
