@@ -22,7 +22,15 @@ detectors call :func:`~contactlab.detection.cusum.cusum_step`): passed to a
 compiled helper, every array argument costs reference counting on each call,
 which tripled the cost of a step.  When all models share one parameter count
 the loop is compiled for it (the step's loops then have constant bounds: half
-the cost).
+the cost).  When that count is two (AR(1) with a mean, the impact model's level
+and slope: every hf model of 7.3) the step is written out on scalars
+(:func:`_step2_a`, :func:`_step2_b`; the same operations, so the results are
+the general step's to the bit), which keeps its state in registers.  Its cost is
+one dependent chain per instance and sample (three square roots and three
+divisions of the Householder rows, ~60-80 ns); the instances of a sample are
+independent, so the step runs in two passes over them (the first row, then the
+rest) and the processor overlaps their chains, and after an event the new paths
+are caught up together, sample by sample, for the same reason.
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
 log-likelihood history, segment), instances ("units": path, model, start,
@@ -509,11 +517,13 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     compile-time bounds), or empty when their counts differ.
 
     One loop advances either every unit by the current sample or, after an event, the
-    units of one new path by one of its catch-up samples (its detectors run, no
+    units of the new paths begun by the catch-up sample (their detectors run, no
     thresholding), so the filter step and the detector row are written once, here, with
     no array crossing a call in the hot loop.  The filter step is
     :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
-    (m = 1), operation for operation, on the unit's state row (``state_width``).
+    (m = 1), operation for operation, on the unit's state row (``state_width``); for two
+    parameters and one channel, :func:`_step2_a` over the sample's units, then
+    :func:`_step2_b` and the detectors over them.
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
