@@ -88,7 +88,7 @@ def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pr
 
 
 @numba.njit(cache=True)
-def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
+def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     """6.4, "if a change in any model is detected" at ``ta``: the alarms, the candidates
     with their best predecessors (step 1), the maximisation over (node, start) (step 2)
     and the new paths with fresh instances (step 3), each at its initial log-likelihood
@@ -103,10 +103,7 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
     K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
     # alarms: every test that crossed, each distinct change time (its last zero + 1)
-    al_p = np.empty(nU * S, np.int64)
-    al_k = np.empty(nU * S, np.int64)
-    al_r = np.empty(nU * S, np.int64)
-    rs = np.empty(S, np.int64)
+    al_p, al_k, al_r, rs, c_j, c_r, c_init, c_prev, is_new = scr[:9]
     nA = 0
     for u in range(nU):
         nr = 0
@@ -135,10 +132,6 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             al_r[nA] = rs[i]
             nA += 1
     # candidates (step 1) in alarm order, each from its best tracked predecessor
-    c_j = np.empty(nA * K, np.int64)
-    c_r = np.empty(nA * K, np.int64)
-    c_init = np.empty(nA * K)
-    c_prev = np.empty(nA * K, np.int64)
     nC = 0
     for i in range(nA):
         r = al_r[i]
@@ -169,7 +162,8 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             nC += 1
     # maximisation over (node, start) (step 2)
     sp0, mg0 = cnt[C_SP], cnt[C_MG]
-    is_new = np.zeros(nC, np.bool_)
+    for c in range(nC):
+        is_new[c] = False
     for c in range(nC):
         j, r, init = c_j[c], c_r[c], c_init[c]
         found = -1
@@ -249,7 +243,7 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
+def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
     complete the event record; move the kept paths and their units to the front."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
@@ -259,7 +253,7 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     evt, alt, candt, keept, spt, mgt = ev
     # pruning: rank, keep mass P_prune, drop those gap below the best
     nP = cnt[C_P]
-    order = np.empty(nP, np.int64)
+    order, w, keep, remap = scr[9:]
     for i in range(nP):                         # stable sort, largest first
         x = pll[i]
         j = i
@@ -268,7 +262,6 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
             j -= 1
         order[j] = i
     top = pll[order[0]]
-    w = np.empty(nP)
     tot = 0.0
     for i in range(nP):
         w[i] = math.exp(pll[i] - top)
@@ -280,13 +273,12 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
         if cum >= p_keep:
             n_keep = i + 1
             break
-    keep = np.empty(n_keep, np.int64)
     nk = 0
     for i in range(n_keep):
         if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
             keep[nk] = order[i]
             nk += 1
-    keep = np.sort(keep[:nk])
+    keep[:nk].sort()
     # the event record
     e = cnt[C_EV]
     evt[e, E_CAND0] = cnt[C_CAND]
@@ -295,13 +287,14 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     cnt[C_CAND] += nP
     evt[e, E_KEEP0] = cnt[C_KEEP]
     evt[e, E_NKEEP] = nk
-    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep
+    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep[:nk]
     cnt[C_KEEP] += nk
     cnt[C_EV] = e + 1
     if nk == nP:
         return
     # compaction: kept paths and their units move to the front, dropped slots are freed
-    remap = np.full(nP, -1, np.int64)
+    for i in range(nP):
+        remap[i] = -1
     for n in range(nk):
         remap[keep[n]] = n
     for i in range(nP):
@@ -559,6 +552,13 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     n_new = 0
     ct = 0                   # the catch-up's sample
     ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
+    # the events' scratch (alarms, candidates; ranking, kept paths, their new places)
+    nuc, npc = upath.shape[0] * S, pid.shape[0]
+    scr = (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
+           np.empty(S, np.int64), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.int64),
+           np.empty(nuc * K), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.bool_),
+           np.empty(npc, np.int64), np.empty(npc), np.empty(npc, np.int64),
+           np.empty(npc, np.int64))
     while True:
         if not catch:
             if t >= t_to:
@@ -794,7 +794,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             for i in range(n_new):
                 pll[newp[i, 0]] = ccll[i]
             catch = False
-            _prune(t, cfg, st, ev)
+            _prune(t, cfg, st, ev, scr)
         else:
             # path sums (6.10), history, and the events: a crossing or a path gap below
             if pending:
@@ -829,7 +829,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                         and cnt[C_KEEP] + nP + nC <= keept.shape[0]
                         and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
                     return FULL, t
-                n_new = _spawn(t, cfg, st, ev, newp)
+                n_new = _spawn(t, cfg, st, ev, newp, scr)
                 if n_new > 0:
                     # the new paths' instances run together over the buffered samples
                     # from the earliest change time (independent filters: their steps
@@ -841,7 +841,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                         ccll[i] = pinit[p]
                         ct = min(ct, pstart[p])
                     continue
-                _prune(t, cfg, st, ev)
+                _prune(t, cfg, st, ev, scr)
         # node probabilities (6.5) and the best path's node after sample t
         nP = cnt[C_P]
         best_p = 0
