@@ -24,12 +24,13 @@ which tripled the cost of a step.  When all models share one parameter count
 the loop is compiled for it (the step's loops then have constant bounds: half
 the cost).  When that count is two (AR(1) with a mean, the impact model's level
 and slope: every hf model of 7.3) the step is written out on scalars
-(:func:`_step2_a`, :func:`_step2_b`; the same operations, so the results are
-the general step's to the bit), which keeps its state in registers.  Its cost is
-one dependent chain per instance and sample (three square roots and three
-divisions of the Householder rows, ~60-80 ns); the instances of a sample are
-independent, so the step runs in two passes over them (the first row, then the
-rest) and the processor overlaps their chains, and after an event the new paths
+(:func:`_step2_a`, :func:`_step2_b`, :func:`_step2_c`; the same operations, so
+the results are the general step's to the bit), which keeps its state in
+registers.  Its cost is one dependent chain per instance and sample (three square
+roots and three divisions of the Householder rows, ~60-80 ns); the instances of a
+sample are independent, so the step runs in passes over them (the first row; the
+update, statistics and detectors; after the sample's bookkeeping, the covariance
+rows) and the processor overlaps their chains, and after an event the new paths
 are caught up together, sample by sample, for the same reason.
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
@@ -415,10 +416,9 @@ def _step2_a(y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11,
 
 
 @numba.njit(cache=True, inline="always")
-def _step2_b(nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve,
-             vc):  # pragma: no cover - compiled
-    """The rest of :func:`_step2` from :func:`_step2_a`'s output: the second and third
-    Householder rows, the update, the statistics and the running noise estimate."""
+def _step2_b(z10, z11, z20, z21):  # pragma: no cover - compiled
+    """:func:`_step2`'s second and third Householder rows from :func:`_step2_a`'s
+    output: the new square-root covariance ``S`` (its upper entry stays zero)."""
     a11 = 0.0
     a21 = 0.0
     a22 = 0.0
@@ -446,6 +446,14 @@ def _step2_b(nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve,
     s += z21 * z21
     if s != 0.0:
         a22 = math.sqrt(s)
+    return a11, a21, a22
+
+
+@numba.njit(cache=True, inline="always")
+def _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc):  # pragma: no cover - compiled
+    """:func:`_step2`'s update and statistics from :func:`_step2_a`'s output (they do not
+    need the second and third rows): the parameters, the running noise estimate, the
+    normalised innovation, ``-al^2 / 2`` and the log-likelihood."""
     # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
     d = a00
     al = nu / d if d != 0.0 else np.nan
@@ -478,7 +486,7 @@ def _step2_b(nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve,
             v2 = math.sqrt(a * a + s)
         ve = v2
     # the post-array's upper entry A[1, 2] stays zero: S01 = 0
-    return th0, th1, a11, 0.0, a21, a22, ve, vc, al, lc, ll
+    return th0, th1, ve, vc, al, lc, ll
 
 
 @numba.njit(cache=True, inline="always")
@@ -494,9 +502,9 @@ def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10,
     quadratic term ``-al^2 / 2`` and the log-likelihood."""
     l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21 = _step2_a(
         y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve if est else lv)
-    th0, th1, s00, s01, s10, s11, ve, vc, al, lc, ll = _step2_b(
-        nu, a00, a10, a20, z10, z11, z20, z21, th0, th1, est, pcount, ve, vc)
-    return th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
+    s00, s10, s11 = _step2_b(z10, z11, z20, z21)
+    th0, th1, ve, vc, al, lc, ll = _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc)
+    return th0, th1, s00, 0.0, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
 
 
 @numba.njit(cache=True)
@@ -516,7 +524,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
     (m = 1), operation for operation, on the unit's state row (``state_width``); for two
     parameters and one channel, :func:`_step2_a` over the sample's units, then
-    :func:`_step2_b` and the detectors over them.
+    :func:`_step2_c` and the detectors over them, then after the sample's bookkeeping
+    :func:`_step2_b` (their covariances).
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
@@ -549,6 +558,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
         maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
     t = t_from
     catch = False            # catching up the new paths of an event
+    nb = 0                   # instances whose covariance update is pending (pass 3)
     n_new = 0
     ct = 0                   # the catch-up's sample
     ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
@@ -612,16 +622,12 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                 u = act[i]
                 k = umodel[u]
                 est = mi[k, 7] != 0
-                (th0, th1, s00, s01, s10, s11, ve, vc, al, lc,
-                 ll) = _step2_b(mid[i, 0], mid[i, 1], mid[i, 2], mid[i, 3], mid[i, 4],
-                                mid[i, 5], mid[i, 6], mid[i, 7], ust[u, 0, 0], ust[u, 0, 1],
-                                est, mf[k], ust[u, 0, 10], ust[u, 0, 12])
+                th0, th1, ve, vc, al, lc, ll = _step2_c(mid[i, 0], mid[i, 1], mid[i, 2],
+                                                        mid[i, 3], ust[u, 0, 0], ust[u, 0, 1],
+                                                        est, mf[k], ust[u, 0, 10],
+                                                        ust[u, 0, 12])
                 ust[u, 0, 0] = th0
                 ust[u, 0, 1] = th1
-                ust[u, 0, 2] = s00
-                ust[u, 0, 3] = s01
-                ust[u, 0, 4] = s10
-                ust[u, 0, 5] = s11
                 if est:
                     ust[u, 0, 10] = ve
                     ust[u, 0, 12] = vc
@@ -634,6 +640,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     ulz[u, si] = tt if dv == 0.0 else lz
                     top = dv if dv > top else top
                 inc[u - ua] = ll
+            nb = na                             # their covariances: pass 3 (_step2_b)
             ub = ua                             # done: the general loop below is empty
         for u in range(ua, ub):
             if catch and ustart[u] > tt:
@@ -788,6 +795,17 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     cll += inc[u - ua]
                 ccll[i] = cll
                 ha[ct + 1 - hbase, pslot[p]] = cll
+            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
+            # instances' covariances (the dependent chain's second half) right before the
+            # next sample's first rows, with the bookkeeping done in its shadow
+            for i in range(nb):
+                u = act[i]
+                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
+                ust[u, 0, 2] = s00
+                ust[u, 0, 3] = 0.0
+                ust[u, 0, 4] = s10
+                ust[u, 0, 5] = s11
+            nb = 0
             ct += 1
             if ct <= t:
                 continue
@@ -813,6 +831,17 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     ha[hr, pslot[p]] = pll[p]
                     if pll[p] < best - gap:
                         event = True
+            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
+            # instances' covariances (the dependent chain's second half) right before the
+            # next sample's first rows, with the bookkeeping done in its shadow
+            for i in range(nb):
+                u = act[i]
+                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
+                ust[u, 0, 2] = s00
+                ust[u, 0, 3] = 0.0
+                ust[u, 0, 4] = s10
+                ust[u, 0, 5] = s11
+            nb = 0
             if event:
                 # room for the event: its crossed tests bound the candidates
                 nA = 0
