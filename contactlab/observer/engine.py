@@ -94,7 +94,8 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     with their best predecessors (step 1), the maximisation over (node, start) (step 2)
     and the new paths with fresh instances (step 3), each at its initial log-likelihood
     with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
-    of each new path for the caller's catch-up.  Returns the number of new paths."""
+    of each new path for the caller's catch-up (``scr``: :func:`run_core`'s scratch
+    arrays for the events).  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
@@ -246,7 +247,8 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
-    complete the event record; move the kept paths and their units to the front."""
+    complete the event record; move the kept paths and their units to the front (``scr``:
+    :func:`run_core`'s scratch arrays for the events)."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
