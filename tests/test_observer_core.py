@@ -221,17 +221,22 @@ def test_models_sharing_a_bank_give_the_results_of_one_bank_each():
     assert sum(len(e.spawned) for e in shared.events) >= 6
 
 
-@pytest.mark.parametrize("structure,estimate,order_c", [("plain", False, 1), ("track", True, 1),
-                                                         ("fixed", False, 1), ("plain", True, 2)])
-def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, order_c):
+@pytest.mark.parametrize("structure,estimate,order_c,channels",
+                         [("plain", False, 1, 1), ("track", True, 1, 1), ("fixed", False, 1, 1),
+                          ("plain", True, 2, 1), ("fixed", False, 1, 2), ("track", True, 1, 2)])
+def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, order_c,
+                                                           channels):
     """The compiled core (every filter step, detector, spawn, catch-up and pruning in one
     compiled loop) against the general form (model banks through ``run``) on the same
     stream: the same events, paths and path log-likelihoods to the bit, node probabilities
     to rounding; AR models of each regressor structure, the running noise estimate, impact
-    models (time regressors) on a four-node graph, and models of different parameter
-    counts (an AR(2) among AR(1)s)."""
+    models (time regressors) on a four-node graph, models of different parameter counts
+    (an AR(2) among AR(1)s: the core's general step) and of two parameters on one channel
+    (its two-pass step) and on two (its two-parameter step per channel)."""
     truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900), ("B", 1300)]
     y = simulate(truth, 1600, 7)
+    if channels == 2:
+        y = np.c_[y, 0.5 * y + np.random.default_rng(3).normal(scale=0.5, size=len(y))]
     L = np.array([[1.0, 0.0], [0.2, 1.5]])
 
     def models(cls):

@@ -22,7 +22,16 @@ detectors call :func:`~contactlab.detection.cusum.cusum_step`): passed to a
 compiled helper, every array argument costs reference counting on each call,
 which tripled the cost of a step.  When all models share one parameter count
 the loop is compiled for it (the step's loops then have constant bounds: half
-the cost).
+the cost).  When that count is two (AR(1) with a mean, the impact model's level
+and slope: every hf model of 7.3) the step is written out on scalars
+(:func:`_step2_a`, :func:`_step2_b`, :func:`_step2_c`; the same operations, so
+the results are the general step's to the bit), which keeps its state in
+registers.  Its cost is one dependent chain per instance and sample (three square
+roots and three divisions of the Householder rows, ~60-80 ns); the instances of a
+sample are independent, so the step runs in passes over them (the first row; the
+update, statistics and detectors; after the sample's bookkeeping, the covariance
+rows) and the processor overlaps their chains, and after an event the new paths
+are caught up together, sample by sample, for the same reason.
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
 log-likelihood history, segment), instances ("units": path, model, start,
@@ -80,12 +89,13 @@ def _init_unit(u, p, k, r, lz, pst, upath, umodel, ustart, udf, ulz, ust):  # pr
 
 
 @numba.njit(cache=True)
-def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
+def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     """6.4, "if a change in any model is detected" at ``ta``: the alarms, the candidates
     with their best predecessors (step 1), the maximisation over (node, start) (step 2)
     and the new paths with fresh instances (step 3), each at its initial log-likelihood
     with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
-    of each new path for the caller's catch-up.  Returns the number of new paths."""
+    of each new path for the caller's catch-up (``scr``: :func:`run_core`'s scratch
+    arrays for the events).  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
@@ -95,10 +105,7 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
     K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
     # alarms: every test that crossed, each distinct change time (its last zero + 1)
-    al_p = np.empty(nU * S, np.int64)
-    al_k = np.empty(nU * S, np.int64)
-    al_r = np.empty(nU * S, np.int64)
-    rs = np.empty(S, np.int64)
+    al_p, al_k, al_r, rs, c_j, c_r, c_init, c_prev, is_new = scr[:9]
     nA = 0
     for u in range(nU):
         nr = 0
@@ -127,10 +134,6 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             al_r[nA] = rs[i]
             nA += 1
     # candidates (step 1) in alarm order, each from its best tracked predecessor
-    c_j = np.empty(nA * K, np.int64)
-    c_r = np.empty(nA * K, np.int64)
-    c_init = np.empty(nA * K)
-    c_prev = np.empty(nA * K, np.int64)
     nC = 0
     for i in range(nA):
         r = al_r[i]
@@ -161,7 +164,8 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
             nC += 1
     # maximisation over (node, start) (step 2)
     sp0, mg0 = cnt[C_SP], cnt[C_MG]
-    is_new = np.zeros(nC, np.bool_)
+    for c in range(nC):
+        is_new[c] = False
     for c in range(nC):
         j, r, init = c_j[c], c_r[c], c_init[c]
         found = -1
@@ -241,9 +245,10 @@ def _spawn(ta, cfg, st, ev, newp):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
+def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
-    complete the event record; move the kept paths and their units to the front."""
+    complete the event record; move the kept paths and their units to the front (``scr``:
+    :func:`run_core`'s scratch arrays for the events)."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
@@ -251,7 +256,7 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     evt, alt, candt, keept, spt, mgt = ev
     # pruning: rank, keep mass P_prune, drop those gap below the best
     nP = cnt[C_P]
-    order = np.empty(nP, np.int64)
+    order, w, keep, remap = scr[9:]
     for i in range(nP):                         # stable sort, largest first
         x = pll[i]
         j = i
@@ -260,7 +265,6 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
             j -= 1
         order[j] = i
     top = pll[order[0]]
-    w = np.empty(nP)
     tot = 0.0
     for i in range(nP):
         w[i] = math.exp(pll[i] - top)
@@ -272,13 +276,12 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
         if cum >= p_keep:
             n_keep = i + 1
             break
-    keep = np.empty(n_keep, np.int64)
     nk = 0
     for i in range(n_keep):
         if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
             keep[nk] = order[i]
             nk += 1
-    keep = np.sort(keep[:nk])
+    keep[:nk].sort()
     # the event record
     e = cnt[C_EV]
     evt[e, E_CAND0] = cnt[C_CAND]
@@ -287,13 +290,14 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     cnt[C_CAND] += nP
     evt[e, E_KEEP0] = cnt[C_KEEP]
     evt[e, E_NKEEP] = nk
-    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep
+    keept[cnt[C_KEEP]:cnt[C_KEEP] + nk] = keep[:nk]
     cnt[C_KEEP] += nk
     cnt[C_EV] = e + 1
     if nk == nP:
         return
     # compaction: kept paths and their units move to the front, dropped slots are freed
-    remap = np.full(nP, -1, np.int64)
+    for i in range(nP):
+        remap[i] = -1
     for n in range(nk):
         remap[keep[n]] = n
     for i in range(nP):
@@ -320,6 +324,191 @@ def _prune(ta, cfg, st, ev):  # pragma: no cover - compiled
     cnt[C_U] = n
 
 
+@numba.njit(cache=True, inline="always")
+def _step2_a(y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11,
+             lv):  # pragma: no cover - compiled
+    """The first part of :func:`_step2`: the structure update, the innovation, the
+    pre-array and its first Householder row (``lv``: the noise's square root in use).
+    Returns the structure factor, the innovation and the post-array's entries so far."""
+    # structure update (A.41): tri_append_n(L, psi^T, 2, 1) written out
+    if mode == 1:
+        z0, z1 = g0, g1
+        s = 0.0
+        s += z0 * z0
+        a = l00
+        if s == 0.0:
+            if a < 0.0:
+                l00 = -l00
+                l10 = -l10
+        else:
+            nrm = math.sqrt(a * a + s)
+            if a <= 0.0:
+                v0 = a - nrm
+            else:
+                v0 = -s / (a + nrm)
+            beta = 2.0 / (v0 * v0 + s)
+            w = l10 * v0
+            w += z1 * z0
+            w *= beta
+            l10 -= w * v0
+            z1 -= w * z0
+            l00 = nrm
+        s = 0.0
+        s += z1 * z1
+        a = l11
+        if s == 0.0:
+            if a < 0.0:
+                l11 = -l11
+        else:
+            l11 = math.sqrt(a * a + s)
+    # orthogonal regressors psi~ (A.40, A.42)
+    h0 = g0
+    h1 = g1
+    if mode != 0:
+        d = l00
+        if d != 0.0:
+            h1 -= (l10 / d) * h0
+    # innovation (A.34)
+    nu = y
+    nu -= h0 * th0
+    nu -= h1 * th1
+    # pre-array (A.32) [[Lv, 0 | psi S], [0, 0 | S]] and tri_append_n(A, Z, 3, 2) (A.33)
+    a00 = lv
+    a10 = 0.0
+    a20 = 0.0
+    z00 = 0.0
+    z00 += h0 * s00
+    z00 += h1 * s10
+    z01 = 0.0
+    z01 += h1 * s11
+    z10, z11, z20, z21 = s00, s01, s10, s11
+    # row 0
+    s = 0.0
+    s += z00 * z00
+    s += z01 * z01
+    a = a00
+    if s == 0.0:
+        if a < 0.0:
+            a00 = -a00
+            a10 = -a10
+            a20 = -a20
+    else:
+        nrm = math.sqrt(a * a + s)
+        if a <= 0.0:
+            v0 = a - nrm
+        else:
+            v0 = -s / (a + nrm)
+        beta = 2.0 / (v0 * v0 + s)
+        w = a10 * v0
+        w += z10 * z00
+        w += z11 * z01
+        w *= beta
+        a10 -= w * v0
+        z10 -= w * z00
+        z11 -= w * z01
+        w = a20 * v0
+        w += z20 * z00
+        w += z21 * z01
+        w *= beta
+        a20 -= w * v0
+        z20 -= w * z00
+        z21 -= w * z01
+        a00 = nrm
+    return l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21
+
+
+@numba.njit(cache=True, inline="always")
+def _step2_b(z10, z11, z20, z21):  # pragma: no cover - compiled
+    """:func:`_step2`'s second and third Householder rows from :func:`_step2_a`'s
+    output: the new square-root covariance ``S`` (its upper entry stays zero)."""
+    a11 = 0.0
+    a21 = 0.0
+    a22 = 0.0
+    # rows 1 and 2 begin with a11 = a21 = a22 = 0, which shortens them exactly: with
+    # s = (0 + x^2) + y^2 (never -0) and a = +0, a * a + s is s; s == 0 leaves them (a < 0
+    # fails); nrm = sqrt(s) > 0 (or NaN), so v0 = a - nrm is -nrm and v0 * v0 is nrm * nrm;
+    # w = a21 * v0 = -0 and -0 + x is x for every x.  The dependent chain from one sample to
+    # the next runs through these rows, so each addition saved is saved per step.
+    # row 1
+    s = z10 * z10
+    s += z11 * z11
+    if s != 0.0:
+        nrm = math.sqrt(s)
+        v0 = -nrm
+        beta = 2.0 / (nrm * nrm + s)
+        w = z20 * z10
+        w += z21 * z11
+        w *= beta
+        a21 -= w * v0
+        z20 -= w * z10
+        z21 -= w * z11
+        a11 = nrm
+    # row 2
+    s = z20 * z20
+    s += z21 * z21
+    if s != 0.0:
+        a22 = math.sqrt(s)
+    return a11, a21, a22
+
+
+@numba.njit(cache=True, inline="always")
+def _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc):  # pragma: no cover - compiled
+    """:func:`_step2`'s update and statistics from :func:`_step2_a`'s output (they do not
+    need the second and third rows): the parameters, the running noise estimate, the
+    normalised innovation, ``-al^2 / 2`` and the log-likelihood."""
+    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+    d = a00
+    al = nu / d if d != 0.0 else np.nan
+    lc = 0.0
+    logdet = 0.0
+    lc -= 0.5 * al * al
+    logdet += math.log(a00)
+    s = 0.0
+    s += a10 * al
+    th0 += s
+    s = 0.0
+    s += a20 * al
+    th1 += s
+    ll = lc - logdet - _HALF_LOG_2PI
+    # running square-root innovation variance (A.38): tri_append_n(V, Zv, 1, 1)
+    if est:
+        vc = vc + 1.0
+        nn = pcount + vc
+        c_old = math.sqrt(1.0 - 1.0 / nn)
+        c_new = math.sqrt(1.0 / nn)
+        zv = c_new * nu
+        v2 = ve * c_old
+        s = 0.0
+        s += zv * zv
+        a = v2
+        if s == 0.0:
+            if a < 0.0:
+                v2 = -v2
+        else:
+            v2 = math.sqrt(a * a + s)
+        ve = v2
+    # the post-array's upper entry A[1, 2] stays zero: S01 = 0
+    return th0, th1, ve, vc, al, lc, ll
+
+
+@numba.njit(cache=True, inline="always")
+def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, lv,
+           vc):  # pragma: no cover - compiled
+    """One filter step for two parameters on scalars: :func:`run_core`'s general step
+    (``kalman_step``'s kernel for m = 1) written out for q = 2, operation for operation, so
+    the state stays in registers (the general step's scratch arrays live in memory, and
+    every pass through memory lengthens the step's dependent chain).  ``g0, g1``: the
+    regressors; state: parameters, their square-root covariance ``S`` (row-major), the
+    structure factor ``L`` (lower), the square-root noise estimate and its count, the fixed
+    square-root noise.  Returns the new state, the innovation, its normalised form, the
+    quadratic term ``-al^2 / 2`` and the log-likelihood."""
+    l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21 = _step2_a(
+        y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve if est else lv)
+    s00, s10, s11 = _step2_b(z10, z11, z20, z21)
+    th0, th1, ve, vc, al, lc, ll = _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc)
+    return th0, th1, s00, 0.0, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
+
+
 @numba.njit(cache=True)
 def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
@@ -331,11 +520,14 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     compile-time bounds), or empty when their counts differ.
 
     One loop advances either every unit by the current sample or, after an event, the
-    units of one new path by one of its catch-up samples (its detectors run, no
+    units of the new paths begun by the catch-up sample (their detectors run, no
     thresholding), so the filter step and the detector row are written once, here, with
     no array crossing a call in the hot loop.  The filter step is
     :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
-    (m = 1), operation for operation, on the unit's state row (``state_width``).
+    (m = 1), operation for operation, on the unit's state row (``state_width``); for two
+    parameters and one channel, :func:`_step2_a` over the sample's units, then
+    :func:`_step2_c` and the detectors over them, then after the sample's bookkeeping
+    :func:`_step2_b` (their covariances).
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
      nk_list, q_max) = cfg
@@ -343,6 +535,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
     inc = np.empty(upath.shape[0])            # per-unit log-likelihood increments
+    act = np.empty(upath.shape[0], np.int64)  # a sample's instances (two-pass step)
+    mid = np.empty((upath.shape[0], 8))       # and their state between the passes
     newp = np.empty((pid.shape[0], 3), np.int64)   # an event's new paths: path, units
     wp = np.empty(pid.shape[0])               # path weights of a sample
     S = udf.shape[1]
@@ -365,21 +559,94 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     for j in range(K):
         maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
     t = t_from
-    cu = -1                  # catch-up: index of the new path being caught up, -1: none
+    catch = False            # catching up the new paths of an event
+    nb = 0                   # instances whose covariance update is pending (pass 3)
     n_new = 0
-    ct = 0                   # its sample
-    cll = 0.0                # its log-likelihood
+    ct = 0                   # the catch-up's sample
+    ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
+    # the events' scratch (alarms, candidates; ranking, kept paths, their new places)
+    nuc, npc = upath.shape[0] * S, pid.shape[0]
+    scr = (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
+           np.empty(S, np.int64), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.int64),
+           np.empty(nuc * K), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.bool_),
+           np.empty(npc, np.int64), np.empty(npc), np.empty(npc, np.int64),
+           np.empty(npc, np.int64))
     while True:
-        if cu < 0:
+        if not catch:
             if t >= t_to:
                 break
             nP, nU = cnt[C_P], cnt[C_U]
             ua, ub, tt = 0, (0 if pending else nU), t
         else:
-            ua, ub, tt = newp[cu, 1], newp[cu, 2], ct
+            ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
+        if qc == 2 and ust.shape[1] == 1:
+            # two parameters, one channel: the step in two passes over the sample's
+            # instances, each pass short enough that the processor runs the instances'
+            # dependent chains (square roots and divisions) side by side
+            na = 0
+            for u in range(ua, ub):
+                if catch and ustart[u] > tt:
+                    continue                    # a new instance not yet begun
+                k = umodel[u]
+                mode, est, col = mi[k, 6], mi[k, 7] != 0, mi[k, 4]
+                if mi[k, 0] == REG_AR:
+                    if mi[k, 2]:
+                        g0 = 1.0
+                        g1 = xa[row - 1, col]
+                    else:
+                        g0 = xa[row - 1, col]
+                        g1 = xa[row - 2, col]
+                else:
+                    g0 = 1.0
+                    g1 = float(tt - ustart[u])
+                (l00, l10, l11, nu, a00, a10, a20, z10, z11, z20,
+                 z21) = _step2_a(xa[row, col], g0, g1, mode, ust[u, 0, 0], ust[u, 0, 1],
+                                 ust[u, 0, 2], ust[u, 0, 3], ust[u, 0, 4], ust[u, 0, 5],
+                                 ust[u, 0, 6], ust[u, 0, 8], ust[u, 0, 9],
+                                 ust[u, 0, 10] if est else ust[u, 0, 11])
+                if mode == 1:
+                    ust[u, 0, 6] = l00
+                    ust[u, 0, 8] = l10
+                    ust[u, 0, 9] = l11
+                act[na] = u
+                mid[na, 0] = nu
+                mid[na, 1] = a00
+                mid[na, 2] = a10
+                mid[na, 3] = a20
+                mid[na, 4] = z10
+                mid[na, 5] = z11
+                mid[na, 6] = z20
+                mid[na, 7] = z21
+                na += 1
+            for i in range(na):
+                u = act[i]
+                k = umodel[u]
+                est = mi[k, 7] != 0
+                th0, th1, ve, vc, al, lc, ll = _step2_c(mid[i, 0], mid[i, 1], mid[i, 2],
+                                                        mid[i, 3], ust[u, 0, 0], ust[u, 0, 1],
+                                                        est, mf[k], ust[u, 0, 10],
+                                                        ust[u, 0, 12])
+                ust[u, 0, 0] = th0
+                ust[u, 0, 1] = th1
+                if est:
+                    ust[u, 0, 10] = ve
+                    ust[u, 0, 12] = vc
+                chi = lc * -2.0
+                for si in range(S):
+                    x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else al)
+                    dv = cusum_step(udf[u, si], x)
+                    udf[u, si] = dv
+                    lz = ulz[u, si]
+                    ulz[u, si] = tt if dv == 0.0 else lz
+                    top = dv if dv > top else top
+                inc[u - ua] = ll
+            nb = na                             # their covariances: pass 3 (_step2_b)
+            ub = ua                             # done: the general loop below is empty
         for u in range(ua, ub):
+            if catch and ustart[u] > tt:
+                continue                        # a new instance not yet begun
             k = umodel[u]
             q = qc if qc > 0 else mi[k, 3]
             C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
@@ -388,83 +655,114 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             zs = 0.0
             for c in range(C):
                 col = mi[k, 4] + c
-                # regressors: AR (with the constant first) or [1, t - start]
-                if mi[k, 0] == REG_AR:
-                    j = 0
-                    if mi[k, 2]:
+                if qc == 2:
+                    # two parameters: the same step on scalars (_step2)
+                    if mi[k, 0] == REG_AR:
+                        if mi[k, 2]:
+                            g0 = 1.0
+                            g1 = xa[row - 1, col]
+                        else:
+                            g0 = xa[row - 1, col]
+                            g1 = xa[row - 2, col]
+                    else:
+                        g0 = 1.0
+                        g1 = float(tt - ustart[u])
+                    (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
+                     ll) = _step2(xa[row, col], g0, g1, mode, est, pcount, ust[u, c, 0],
+                                  ust[u, c, 1], ust[u, c, 2], ust[u, c, 3], ust[u, c, 4],
+                                  ust[u, c, 5], ust[u, c, 6], ust[u, c, 8], ust[u, c, 9],
+                                  ust[u, c, 10], ust[u, c, 11], ust[u, c, 12])
+                    ust[u, c, 0] = th0
+                    ust[u, c, 1] = th1
+                    ust[u, c, 2] = s00
+                    ust[u, c, 3] = s01
+                    ust[u, c, 4] = s10
+                    ust[u, c, 5] = s11
+                    if mode == 1:
+                        ust[u, c, 6] = l00
+                        ust[u, c, 8] = l10
+                        ust[u, c, 9] = l11
+                    if est:
+                        ust[u, c, 10] = ve
+                        ust[u, c, 12] = vc
+                else:
+                    # regressors: AR (with the constant first) or [1, t - start]
+                    if mi[k, 0] == REG_AR:
+                        j = 0
+                        if mi[k, 2]:
+                            H[0, 0] = 1.0
+                            j = 1
+                        for i in range(1, mi[k, 1] + 1):
+                            H[0, j + i - 1] = xa[row - i, col]
+                    else:
                         H[0, 0] = 1.0
-                        j = 1
-                    for i in range(1, mi[k, 1] + 1):
-                        H[0, j + i - 1] = xa[row - i, col]
-                else:
-                    H[0, 0] = 1.0
-                    H[0, 1] = float(tt - ustart[u])
-                # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-                if mode == 1:
+                        H[0, 1] = float(tt - ustart[u])
+                    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+                    if mode == 1:
+                        for i in range(q):
+                            Zs[i, 0] = H[0, i]
+                            for j in range(q):
+                                L2[i, j] = ust[u, c, oL + i * qmax + j]
+                        tri_append_n(L2, Zs, q, 1)
+                        for i in range(q):
+                            for j in range(q):
+                                ust[u, c, oL + i * qmax + j] = L2[i, j]
+                    if mode != 0:
+                        for i in range(q):
+                            s = H[0, i]
+                            for kk in range(i):
+                                d = ust[u, c, oL + kk * qmax + kk]
+                                if d != 0.0:
+                                    s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
+                            H[1, i] = s
+                    else:
+                        for i in range(q):
+                            H[1, i] = H[0, i]
+                    # innovation (A.34)
+                    s = xa[row, col]
                     for i in range(q):
-                        Zs[i, 0] = H[0, i]
-                        for j in range(q):
-                            L2[i, j] = ust[u, c, oL + i * qmax + j]
-                    tri_append_n(L2, Zs, q, 1)
-                    for i in range(q):
-                        for j in range(q):
-                            ust[u, c, oL + i * qmax + j] = L2[i, j]
-                if mode != 0:
-                    for i in range(q):
-                        s = H[0, i]
-                        for kk in range(i):
-                            d = ust[u, c, oL + kk * qmax + kk]
-                            if d != 0.0:
-                                s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
-                        H[1, i] = s
-                else:
-                    for i in range(q):
-                        H[1, i] = H[0, i]
-                # innovation (A.34)
-                s = xa[row, col]
-                for i in range(q):
-                    s -= H[1, i] * ust[u, c, i]
-                nu = s
-                # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-                for i in range(q + 1):
-                    for j in range(q + 1):
-                        A[i, j] = 0.0
-                A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
-                for j in range(q):
-                    s = 0.0
-                    for kk in range(j, q):
-                        s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
-                    Z[0, j] = s
-                for i in range(q):
+                        s -= H[1, i] * ust[u, c, i]
+                    nu = s
+                    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+                    for i in range(q + 1):
+                        for j in range(q + 1):
+                            A[i, j] = 0.0
+                    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
                     for j in range(q):
-                        Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
-                # Householder reduction to the post-array (A.33)
-                tri_append_n(A, Z, q + 1, q)
-                # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-                d = A[0, 0]
-                al = nu / d if d != 0.0 else np.nan
-                lc = 0.0
-                logdet = 0.0
-                lc -= 0.5 * al * al
-                logdet += math.log(A[0, 0])
-                for i in range(q):
-                    s = 0.0
-                    s += A[1 + i, 0] * al
-                    ust[u, c, i] += s
-                    for j in range(q):
-                        ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
-                ll = lc - logdet - _HALF_LOG_2PI
-                # running square-root innovation variance (A.38)
-                if est:
-                    cn = ust[u, c, oV + 2] + 1.0
-                    ust[u, c, oV + 2] = cn
-                    nn = pcount + cn
-                    c_old = math.sqrt(1.0 - 1.0 / nn)
-                    c_new = math.sqrt(1.0 / nn)
-                    Zv[0, 0] = c_new * nu
-                    V2[0, 0] = ust[u, c, oV] * c_old
-                    tri_append_n(V2, Zv, 1, 1)
-                    ust[u, c, oV] = V2[0, 0]
+                        s = 0.0
+                        for kk in range(j, q):
+                            s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
+                        Z[0, j] = s
+                    for i in range(q):
+                        for j in range(q):
+                            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+                    # Householder reduction to the post-array (A.33)
+                    tri_append_n(A, Z, q + 1, q)
+                    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+                    d = A[0, 0]
+                    al = nu / d if d != 0.0 else np.nan
+                    lc = 0.0
+                    logdet = 0.0
+                    lc -= 0.5 * al * al
+                    logdet += math.log(A[0, 0])
+                    for i in range(q):
+                        s = 0.0
+                        s += A[1 + i, 0] * al
+                        ust[u, c, i] += s
+                        for j in range(q):
+                            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+                    ll = lc - logdet - _HALF_LOG_2PI
+                    # running square-root innovation variance (A.38)
+                    if est:
+                        cn = ust[u, c, oV + 2] + 1.0
+                        ust[u, c, oV + 2] = cn
+                        nn = pcount + cn
+                        c_old = math.sqrt(1.0 - 1.0 / nn)
+                        c_new = math.sqrt(1.0 / nn)
+                        Zv[0, 0] = c_new * nu
+                        V2[0, 0] = ust[u, c, oV] * c_old
+                        tri_append_n(V2, Zv, 1, 1)
+                        ust[u, c, oV] = V2[0, 0]
                 # channels add (run_kalman): log-likelihood, chi-square, normalised innovation
                 if C == 1:
                     ll_sum = ll
@@ -481,28 +779,42 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                 x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else zs)
                 dv = cusum_step(udf[u, si], x)
                 udf[u, si] = dv
-                if dv == 0.0:
-                    ulz[u, si] = tt
-                if dv > top:
-                    top = dv
+                # selects, not branches: a branch on the step's result that the
+                # processor mispredicts holds the next instance's step until this one
+                # has finished, which serialises the instances' dependent chains
+                lz = ulz[u, si]
+                ulz[u, si] = tt if dv == 0.0 else lz
+                top = dv if dv > top else top
             inc[u - ua] = ll_sum
-        if cu >= 0:
-            # catch-up: the new path's log-likelihood after sample ct
-            for u in range(ua, ub):
-                cll += inc[u - ua]
-            p = newp[cu, 0]
-            ha[ct + 1 - hbase, pslot[p]] = cll
+        if catch:
+            # catch-up: each new path begun by ct, its log-likelihood after sample ct
+            for i in range(n_new):
+                p = newp[i, 0]
+                if pstart[p] > ct:
+                    continue
+                cll = ccll[i]
+                for u in range(newp[i, 1], newp[i, 2]):
+                    cll += inc[u - ua]
+                ccll[i] = cll
+                ha[ct + 1 - hbase, pslot[p]] = cll
+            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
+            # instances' covariances (the dependent chain's second half) right before the
+            # next sample's first rows, with the bookkeeping done in its shadow
+            for i in range(nb):
+                u = act[i]
+                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
+                ust[u, 0, 2] = s00
+                ust[u, 0, 3] = 0.0
+                ust[u, 0, 4] = s10
+                ust[u, 0, 5] = s11
+            nb = 0
             ct += 1
             if ct <= t:
                 continue
-            pll[p] = cll
-            cu += 1
-            if cu < n_new:
-                p = newp[cu, 0]
-                ct, cll = pstart[p], pinit[p]
-                continue
-            cu = -1
-            _prune(t, cfg, st, ev)
+            for i in range(n_new):
+                pll[newp[i, 0]] = ccll[i]
+            catch = False
+            _prune(t, cfg, st, ev, scr)
         else:
             # path sums (6.10), history, and the events: a crossing or a path gap below
             if pending:
@@ -521,6 +833,17 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     ha[hr, pslot[p]] = pll[p]
                     if pll[p] < best - gap:
                         event = True
+            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
+            # instances' covariances (the dependent chain's second half) right before the
+            # next sample's first rows, with the bookkeeping done in its shadow
+            for i in range(nb):
+                u = act[i]
+                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
+                ust[u, 0, 2] = s00
+                ust[u, 0, 3] = 0.0
+                ust[u, 0, 4] = s10
+                ust[u, 0, 5] = s11
+            nb = 0
             if event:
                 # room for the event: its crossed tests bound the candidates
                 nA = 0
@@ -537,13 +860,19 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                         and cnt[C_KEEP] + nP + nC <= keept.shape[0]
                         and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
                     return FULL, t
-                n_new = _spawn(t, cfg, st, ev, newp)
+                n_new = _spawn(t, cfg, st, ev, newp, scr)
                 if n_new > 0:
-                    cu = 0
-                    p = newp[0, 0]
-                    ct, cll = pstart[p], pinit[p]
+                    # the new paths' instances run together over the buffered samples
+                    # from the earliest change time (independent filters: their steps
+                    # overlap in the processor)
+                    catch = True
+                    ct = t
+                    for i in range(n_new):
+                        p = newp[i, 0]
+                        ccll[i] = pinit[p]
+                        ct = min(ct, pstart[p])
                     continue
-                _prune(t, cfg, st, ev)
+                _prune(t, cfg, st, ev, scr)
         # node probabilities (6.5) and the best path's node after sample t
         nP = cnt[C_P]
         best_p = 0

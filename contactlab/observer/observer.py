@@ -608,7 +608,9 @@ class Observer:
         n_events = len(self.events_)
         node_prob, map_node, w0 = self._chunk_outputs(t0, end, self._core_probabilities)
         if w0 < end:
-            self._hist.extend_to(end + 1)
+            # the core writes each path's row before reading it: no zero fill (a chunk's
+            # rows times every slot ever used, several megabytes per 4096 samples)
+            self._hist.extend_to(end + 1, zero=False)
             self._core.run(w0, end, t0, self._buf["*"], self._hist, self._act, node_prob,
                            map_node, self.events_.add_tables)
         self.n_seen_ = end

@@ -242,13 +242,15 @@ class RowBuffer:
         self.a[s:s + k, :rows.shape[1]] = rows
         self.t_end += k
 
-    def extend_to(self, t_end: int) -> None:
-        """Grow to ``t_end`` with zero rows."""
+    def extend_to(self, t_end: int, *, zero: bool = True) -> None:
+        """Grow to ``t_end`` with zero rows (``zero=False``: rows left as the storage holds
+        them, for a writer that sets every entry before it is read)."""
         if t_end > self.t_end:
             k = t_end - self.t_end
             self._reserve(k)
-            s = self.off + self.t_end - self.t0
-            self.a[s:s + k] = 0
+            if zero:
+                s = self.off + self.t_end - self.t0
+                self.a[s:s + k] = 0
             self.t_end = t_end
 
     def rows(self, a: int, b: int) -> np.ndarray:
