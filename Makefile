@@ -46,8 +46,8 @@ demo: $(STAMP)
 	@echo "The observer (6.4) recognised the contact state of the 12 simulated test runs"
 	@echo "with the context-free four-node graph of 7.3.2, trained on the 15 training runs:"
 	@grep -h -e "^recognised:" -e "test runs marked correctly" $(DEMO)/summary.txt | sed 's/^ */  /'
-	@echo "Low scores are a measured finding, not a failure: the simulated y_h levels of rest,"
-	@echo "free motion and pressing overlap (reproduce hf-models)."
+	@echo "Errors are a measured finding, not a failure: the simulated y_h levels of rest and"
+	@echo "pressing lie close together, as the thesis found (reproduce hf-models)."
 	@echo "demo report: reports/demo/index.html (experiments: $(DEMO)/reports/index.html)"
 
 ## Run the test suite.

@@ -306,7 +306,7 @@ def _differences(feats, pc, impacts) -> list[str]:
            + " (the thesis: pressed between stationary and moving, 7.3.3)."]
     counts = np.bincount(feats["labels"], minlength=3)
     out.append(f"Sample sizes: H1 has only {counts[1]} units of {BLOCK}, because our moves "
-               "last 0.5 s (diagonal) and the x move hits its wall after about 0.6 s, while a "
+               "last 0.5 s (diagonal) and the 2-s x move meets its wall at 77-78 % of its time, while a "
                "unit is 0.4 s at 250 Hz; the thesis's training data had about 3000 H1 points "
                "(7.3.2). Its normal fit is therefore poorly determined; the check with units of "
                f"{CHECK_BLOCK} shows how much the prediction moves with more, shorter units.")
