@@ -9,7 +9,7 @@ import click
 
 from contactlab import defaults as D
 
-from contactlab.cli.common import archive_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import archive_argument, count, echo_json, json_option, quiet_option
 from contactlab.cli.inputs import checks_archive
 
 
@@ -197,7 +197,7 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
     for k, c in summary["constraints"].items():
         normals = "; ".join(" ".join(f"{v:+.3f}" for v in n) for n in c["normals"]) or "none"
         click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}), "
-                   f"{c['segments']} runs")
+                   f"{count(c['segments'], 'run')}")
     for k, p in summary["velocity"].items():
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     click.echo(f"models written to {out}")

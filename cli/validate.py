@@ -47,8 +47,8 @@ def _check(archive: Path, *, quiet: bool) -> dict:
         click.echo(f"{archive}: ok, {count(summary['n_trials'], 'trial')}, "
                    f"{count(summary['n_samples'], 'sample')} ({summary['duration_s']:.3g} s), format "
                    f"{summary['format_version']}")
-    elif not archive.exists():          # nothing to walk: one line, like every verb's
-        click.echo(f"{PROG}: error: {archive}: no such file", err=True)
+    elif not archive.exists():          # nothing to walk: its one problem line, no summary
+        click.echo(f"{archive}: no such file")
     else:
         for problem in problems:
             click.echo(str(problem))

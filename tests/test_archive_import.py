@@ -104,11 +104,11 @@ HEADER = "t,fx,fy,fz,tx,ty,tz\n"
     (HEADER + "0,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=fx,fy,fz,tx,ty", {}, "wrench",
      "needs 6 columns"),
     (HEADER + "0,1,2,3,4,5,6\n0.1,1,oops,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
-     "1 empty or non-numeric cells (first: data row 2, 'oops')"),
+     "1 empty or non-numeric cell (first: data row 2, line 3 of the file, 'oops')"),
     (HEADER + "0,1,2,3,4,5,6\n0.1,1,,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
-     "1 empty or non-numeric cells (first: data row 2, empty)"),
+     "1 empty or non-numeric cell (first: data row 2, line 3 of the file, empty)"),
     (HEADER + "0,1,2,3,4,5,6\n0.1,inf,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "fx",
-     "(first: data row 2, inf)"),
+     "(first: data row 2, line 3 of the file, inf)"),
     (HEADER + "0,1,2,3,4,5,6\n0.1,1\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
      "data row 2 ends after 2 of 7 fields"),
     (HEADER + "0.1,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "t",
@@ -257,3 +257,19 @@ def test_a_delimiter_that_is_not_the_files_is_a_one_line_error(tmp_path):
     with pytest.raises(UsageError, match="unknown delimiter"):
         import_csv([tmp_path / "run.csv"], out=tmp_path / "o.h5", columns=parse_column_map(MAP),
                    delimiter="#", quiet=True)
+
+
+def test_a_wrong_delimiter_names_the_one_the_file_has(tmp_path):
+    write_csv(tmp_path / "run.csv")
+    with pytest.raises(DataError, match="looks comma-separated") as err:
+        import_csv([tmp_path / "run.csv"], out=tmp_path / "o.h5", columns=parse_column_map(MAP),
+                   delimiter="semicolon", quiet=True)
+    assert err.value.field == "--delimiter"
+
+
+def test_mixed_label_kinds_name_both_files(tmp_path):
+    write_csv(tmp_path / "named.csv")
+    write_csv(tmp_path / "coded.csv", states=(1, 2))
+    with pytest.raises(DataError, match="named.csv has names, coded.csv integer codes"):
+        import_csv([tmp_path / "named.csv", tmp_path / "coded.csv"], out=tmp_path / "o.h5",
+                   columns=parse_column_map(MAP), quiet=True)

@@ -189,6 +189,15 @@ def _is_pattern(name: str) -> bool:
 def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None,
                 delimiter: str | None = None) -> dict:
     sep, decimal = sniff_delimiter(path)
+    if delimiter is not None and delimiter != sep:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            header = f.readline()
+        fields = len(header.split()) if delimiter == " " else header.count(delimiter) + 1
+        if fields == 1:
+            name = {v: k for k, v in DELIMITERS.items()}
+            raise DataError(f"--delimiter {name[delimiter]} leaves the header one field; the file "
+                            f"looks {name[sep]}-separated (give --delimiter {name[sep]} or leave "
+                            "it out)", file=str(path), field="--delimiter")
     if delimiter is not None:
         sep, decimal = delimiter, (decimal if delimiter == sep else ".")
     try:
@@ -277,8 +286,9 @@ def _numeric(path: Path, frame: pd.DataFrame, col: str) -> np.ndarray:
         cell = frame[col].iloc[i]
         shown = (repr(cell) if isinstance(cell, str) else "empty" if pd.isna(cell)
                  else str(float(cell)))
-        raise DataError(f"{int(bad.sum())} empty or non-numeric cells (first: data row {i + 1}, "
-                        f"{shown})", file=str(path), field=col)
+        n = int(bad.sum())
+        raise DataError(f"{n} empty or non-numeric cell{'s' if n != 1 else ''} (first: data row "
+                        f"{i + 1}, line {i + 2} of the file, {shown})", file=str(path), field=col)
     return values
 
 
@@ -290,16 +300,20 @@ def _label_names(tables: list[dict], paths: list[Path], mapping: dict,
         return [str(n) for n in given]
     found: dict[str, None] = {}
     top = -1
+    named, coded = None, None                    # a file of each kind, for the error
     for table, path in zip(tables, paths):
         column = table["labels"]
         if pd.api.types.is_numeric_dtype(column):
             codes = _label_codes(column, None, path, mapping)
             top = max(top, int(codes.max(initial=-1)))
+            coded = coded or path
         else:
             found.update(dict.fromkeys(str(v).strip() for v in column.dropna()))
+            named = named or path
     if found and top >= 0:
-        raise DataError("label columns mix names and integer codes across files",
-                        file=str(paths[0]), field=mapping["labels"][0])
+        raise DataError(f"label columns mix names and integer codes across files ({named.name} "
+                        f"has names, {coded.name} integer codes)",
+                        file=str(coded), field=mapping["labels"][0])
     return list(found) if found else [str(i) for i in range(top + 1)]
 
 

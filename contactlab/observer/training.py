@@ -238,6 +238,17 @@ def load_graph_models(path) -> GraphModels:
 # -- training ----------------------------------------------------------------------------
 
 
+def _no_label(lab, seen, path, label_map, field, unmatched=()) -> DataError:
+    """The one-line error for a graph label the (mapped) ground truth lacks: the labels it
+    has, the --label-map entries that matched nothing, or, without a map, how to give one."""
+    hint = (f"; --label-map entries matching no label: {', '.join(unmatched)}" if unmatched
+            else "" if label_map else
+            "; map the recording's labels onto the graph's with --label-map, e.g. "
+            f"--label-map \"{sorted(seen)[0] if seen else '1'}={lab}\"")
+    return DataError(f"no label {lab!r} in the ground truth (labels: "
+                     f"{', '.join(sorted(seen))}{hint})", file=str(path), field=field)
+
+
 def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
                 block: int = D.BLOCK,
                 reduce: str = D.GRAPH_REDUCE, trials=None, quiet: bool = True,
@@ -339,9 +350,8 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     for lab, parts in feats.items():
         spec = temporal_specs[lab]
         if lab not in seen_labels:
-            raise DataError(f"no label {lab!r} in the ground truth (labels: "
-                            f"{', '.join(sorted(seen_labels))})", file=str(path),
-                            field=f"ground_truth/labels (graph models.{spec.name}.trained)")
+            raise _no_label(lab, seen_labels, path, label_map,
+                            f"ground_truth/labels (graph models.{spec.name}.trained)")
         width = parts[0].orthogonal.shape[1] if parts else 1
         f = BlockFeatures.concat(parts, order=order, mean=mean, block=block, channels=width)
         try:
@@ -352,9 +362,8 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     for lab, ss in segs.items():
         spec = impact_specs[lab]
         if lab not in seen_labels:
-            raise DataError(f"no label {lab!r} in the ground truth (labels: "
-                            f"{', '.join(sorted(seen_labels))})", file=str(path),
-                            field=f"ground_truth/labels (graph models.{spec.name}.trained)")
+            raise _no_label(lab, seen_labels, path, label_map,
+                            f"ground_truth/labels (graph models.{spec.name}.trained)")
         try:
             m = ImpactFeature.from_segments(ss, name=lab, signal=spec.signal)
         except ValueError as exc:
@@ -364,12 +373,9 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     missing = sorted(lab for lab in kin_labels if lab not in seen_labels)
     if missing:
         unmatched = [src for src in (label_map or {}) if str(src) not in raw_labels]
-        raise DataError(f"no label {missing[0]!r} in the ground truth (labels: "
-                        f"{', '.join(sorted(seen_labels))}"
-                        + (f"; --label-map entries matching no label: {', '.join(unmatched)}"
-                           if unmatched else "") + ")", file=str(path),
-                        field="ground_truth/labels" + (" (after --label-map)" if label_map
-                                                       else ""))
+        raise _no_label(missing[0], seen_labels, path, label_map,
+                        "ground_truth/labels" + (" (after --label-map)" if label_map else ""),
+                        unmatched)
     kinematic = fit_kinematic_models(graph, kin_runs, source=str(path))
     provenance = {
         "label_map": label_map,
