@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import echo_json, json_option
+from contactlab.cli.common import count, echo_json, json_option
 from contactlab.observer.draw import draw_graph
 from contactlab.observer.graph import load_graph
 
@@ -52,11 +52,17 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
         models = ", ".join(f"{r}={m}" if r != m else m for r, m in n.models)
         flags = [f for f, on in (("transient", n.transient), ("self", n.self_transition)) if on]
         succ = [g.nodes[j].name for j in g.successors(g.index(n.name)) if j != g.index(n.name)]
+        always = ", ".join(succ) or ("- (edges by action below)" if g.action_edges else "-")
         click.echo(f"  {n.name:>6}  p0={n.initial:.3g}  [{models}]  {n.label}"
-                   f"  -> {', '.join(succ) or '-'}" + (f"  ({', '.join(flags)})" if flags else ""))
+                   f"  -> {always}" + (f"  ({', '.join(flags)})" if flags else ""))
     names = g.node_names
     for a, edges in sorted(g.action_edges.items()):
         act = g.actions[a] if a < len(g.actions) else str(a)
-        click.echo(f"  while {act}: " + ", ".join(f"{names[i]}->{names[j]}" for i, j in sorted(edges)))
+        click.echo(f"  while {act} ({count(len(edges), 'edge')}):")
+        by_src: dict = {}
+        for i, j in sorted(edges):
+            by_src.setdefault(i, []).append(names[j])
+        for i, js in by_src.items():            # one line per source node, not one long line
+            click.echo(f"    {names[i]} -> {', '.join(js)}")
     if out is not None:
         click.echo(f"wrote {out}")
