@@ -20,7 +20,8 @@ def validate(archives, as_json):
 
     Exit status 0 and a one-line summary per archive when all conform;
     otherwise one line per problem on stdout, "HDF5-PATH: what is wrong", and
-    exit status 1.  --json prints {"file", "ok", "problems": [{"path",
+    exit status 1 (a file that does not exist is an error line on stderr, as with
+    every verb).  --json prints {"file", "ok", "problems": [{"path",
     "message"}], "trials"} for one archive ("trials" is null when the file
     cannot be read as an archive), {"ok", "archives": [...]} for several.
 
@@ -47,8 +48,8 @@ def _check(archive: Path, *, quiet: bool) -> dict:
         click.echo(f"{archive}: ok, {count(summary['n_trials'], 'trial')}, "
                    f"{count(summary['n_samples'], 'sample')} ({summary['duration_s']:.3g} s), format "
                    f"{summary['format_version']}")
-    elif not archive.exists():          # nothing to walk: its one problem line, no summary
-        click.echo(f"{archive}: no such file")
+    elif not archive.exists():          # no input: one error line, as every verb says it
+        click.echo(f"{PROG}: error: {archive}: no such file", err=True)
     else:
         for problem in problems:
             click.echo(str(problem))

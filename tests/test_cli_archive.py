@@ -86,11 +86,8 @@ def test_missing_file(tmp_path, verb):
     missing = tmp_path / "nope.h5"
     result = run(verb, missing)
     assert result.exit_code == 1
-    if verb == "info":
-        assert result.stderr.strip().splitlines() == [f"contactlab: error: {missing}: no such file"]
-    else:                               # validate: the problem line on stdout, nothing else
-        assert result.stdout.strip().splitlines() == [f"{missing}: no such file"]
-        assert result.stderr == ""
+    assert result.stderr.strip().splitlines() == [f"contactlab: error: {missing}: no such file"]
+    assert result.stdout == ""
 
 
 def test_info_on_a_non_archive_is_one_line_without_traceback(tmp_path):
