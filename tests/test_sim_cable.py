@@ -7,7 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactlab.sim import Apparatus, Move, PositionController, free_space, simulate
+from test_sim_link import _moving_sensor_spectrum
+
+from contactlab.sim import Apparatus, PositionController, free_space, simulate
 from contactlab.sim import constants as C
 
 CABLED = Apparatus(cable_stiffness=C.CABLE_STIFFNESS)
@@ -45,27 +47,16 @@ def test_at_rest_the_cables_stretch_under_the_arm_and_shell():
     assert sag.mean() == pytest.approx(expect, rel=0.05)
 
 
-def _moving_sensor_difference(app):
-    ctrl = PositionController(moves=(Move((0.04, 0.0, 0.0), 1.6, 0.2, "constant_velocity"),))
-    r = simulate(environment=free_space(), controller=ctrl, duration_s=2.0, seed=3, start=(0.0, 0.0, 0.0),
-                 apparatus=app)
-    fs = r.rate_hz
-    return np.diff(r.wrench_true[int(0.5 * fs):int(1.6 * fs), 0]), fs
-
-
 def test_a_moving_drive_shakes_the_sensor_at_the_cable_mode():
     # 7.3.3: the brush ripple and the DAC's steps act on the light rotors, which ring on the
     # cables and shake the arm; with rigid cables they reach the sensor only through the
     # shell's inertia on the whole robot
-    d, fs = _moving_sensor_difference(CABLED)
-    p = np.abs(np.fft.rfft(d * np.hanning(len(d)))) ** 2
-    f = np.fft.rfftfreq(len(d), 1.0 / fs)
+    f, p = _moving_sensor_spectrum(CABLED)
     mode = _chain_modes_hz(CABLED)[1]
     low = (f > 100.0) & (f < 550.0)
     assert abs(f[low][np.argmax(p[low])] - mode) < 0.1 * mode
     # around the mode the cables amplify what the rotors feel (the rigid robot passes the
     # brush ripple on too, through the shell's inertia, at every frequency)
-    d_rigid, _ = _moving_sensor_difference(RIGID)
-    p_rigid = np.abs(np.fft.rfft(d_rigid * np.hanning(len(d_rigid)))) ** 2
+    _, p_rigid = _moving_sensor_spectrum(RIGID)
     near = np.abs(f - mode) < 0.15 * mode
     assert p[near].sum() > 3.0 * p_rigid[near].sum()

@@ -101,6 +101,15 @@ def normalize_column_map(columns: dict) -> dict[str, list[str]]:
     return out
 
 
+def _first_lines(path: Path, n: int = 20) -> str:
+    """The first ``n`` lines of a text file (BOM dropped); DataError (file) if unreadable."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            return "".join(line for _, line in zip(range(n), f))
+    except (OSError, UnicodeDecodeError) as err:
+        raise DataError(f"cannot be read as CSV ({err})", file=str(path)) from None
+
+
 def sniff_delimiter(path: Path, sample: str | None = None) -> tuple[str, str]:
     """``(delimiter, decimal)`` of a CSV file from its first lines: the character of
     :data:`DELIMITERS` that splits the header and the next lines into the same number of
@@ -108,11 +117,7 @@ def sniff_delimiter(path: Path, sample: str | None = None) -> tuple[str, str]:
     decimal mark when the delimiter is a semicolon and the numbers carry decimal commas.
     DataError (file) when the file cannot be read."""
     if sample is None:
-        try:
-            with open(path, newline="", encoding="utf-8-sig") as f:
-                sample = "".join(line for _, line in zip(range(20), f))
-        except (OSError, UnicodeDecodeError) as err:
-            raise DataError(f"cannot be read as CSV ({err})", file=str(path)) from None
+        sample = _first_lines(path)
     lines = [ln for ln in sample.splitlines() if ln.strip()][:20]
     delim = ","
     for d in (",", ";", "\t", "|", " "):
@@ -188,10 +193,10 @@ def _is_pattern(name: str) -> bool:
 
 def _read_table(path: Path, mapping: dict[str, list[str]], rate_hz: float | None,
                 delimiter: str | None = None) -> dict:
-    sep, decimal = sniff_delimiter(path)
+    sample = _first_lines(path)
+    sep, decimal = sniff_delimiter(path, sample)
     if delimiter is not None and delimiter != sep:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            header = f.readline()
+        header = sample.split("\n", 1)[0]
         fields = len(header.split()) if delimiter == " " else header.count(delimiter) + 1
         if fields == 1:
             name = {v: k for k, v in DELIMITERS.items()}

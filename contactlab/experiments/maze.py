@@ -122,9 +122,9 @@ def tracking_setup(doc, fp, tmp: Path, seed: int, *, n_trials: int | None = None
                    impact_constraint: str = "floor"):
     """Simulate the maze spec's trials (seed ``seed``) into ``tmp/test.h5`` and training
     runs (``seed + 1``), and train the observer graph
-    (:func:`contactlab.maze.tracking.observer_graph`): ``(graph, models, trained, test)``,
-    the models built for the observer, the trained :class:`GraphModels` and the test
-    archive's path."""
+    (:func:`contactlab.maze.tracking.observer_graph`): ``(graph, models, trained, test,
+    fp)``, the models built for the observer, the trained :class:`GraphModels`, the test
+    archive's path and the projection with the training runs' edges added."""
     train = record_spec(SPEC, tmp / "train.h5", seed=seed + 1, n_trials=TRAIN_TRIALS)
     # 9.2 added connections from measurements of the routes it tracked, the return
     # too: the spec's action-5 run, simulated with the training seed

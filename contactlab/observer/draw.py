@@ -92,16 +92,14 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
         face = plt.get_cmap("Reds")(0.15 + 0.7 * p[k]) if probabilities is not None else "white"
         ax.scatter(*xy[k], s=diam ** 2, marker="D" if n.transient else "o", facecolor=face,
                    edgecolor="black", zorder=3)
-        if crowded and K > 2 * CROWDED:
-            continue
-        if crowded:
-            # the name radially outside its node, turned to read along the radius
-            u = xy[k] / max(np.hypot(*xy[k]), 1e-12)
-            rot = float(np.degrees(np.arctan2(u[1], u[0])))
-            rot = rot - 180 if rot > 90 else rot + 180 if rot < -90 else rot
-            ax.annotate(n.name, xy=xy[k], xytext=tuple((6 + 1.6 * len(n.name)) * u),
-                        textcoords="offset points", ha="center", va="center", fontsize=5,
-                        zorder=4, rotation=rot, rotation_mode="anchor")
+        if crowded:                    # up to twice CROWDED nodes: the name alone, radially
+            if K <= 2 * CROWDED:       # outside its node, turned to read along the radius
+                u = xy[k] / max(np.hypot(*xy[k]), 1e-12)
+                rot = float(np.degrees(np.arctan2(u[1], u[0])))
+                rot = rot - 180 if rot > 90 else rot + 180 if rot < -90 else rot
+                ax.annotate(n.name, xy=xy[k], xytext=tuple((6 + 1.6 * len(n.name)) * u),
+                            textcoords="offset points", ha="center", va="center", fontsize=5,
+                            zorder=4, rotation=rot, rotation_mode="anchor")
             continue
         ax.text(*xy[k], n.name, ha="center", va="center", zorder=4, fontsize=9)
         # the description goes outside the circle, away from the edges between nodes,
