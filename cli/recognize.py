@@ -80,6 +80,12 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     (benchmarks/bench_observer.py), where they match a supervised HMM on
     fixed-parameter data and beat it when parameters change per segment.
 
+    A trial whose measurements fit none of the graph's models (mean
+    chi-square per degree of freedom of the recognised path's innovations
+    above 8; about 1 when they fit: a recording noisier than the training
+    data, an unzeroed force sensor) gets a one-line warning on stderr and
+    "misfit": true under trials.ID.fit in --json.
+
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context
     graph's action-dependent edges read the archive's action channel, or
@@ -116,6 +122,9 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
                            write=not no_write, label_map=lmap, transitions=transitions)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
+    for summary in summaries.values():
+        for line in summary["warnings"]:
+            click.echo(f"warning: {line}", err=True)
     if as_json:
         json_summaries(summaries)
         return

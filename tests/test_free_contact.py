@@ -13,10 +13,12 @@ COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state"
 MAP = "1=free,2=contact,3=free"
 
 
-def _archive(tmp_path, name, seed, fs):
-    rec = free_contact_recording(seed=seed, fs=fs, cycles=4)
+def _archive(tmp_path, name, seed, fs, *, offset_n=0.0, **kw):
+    rec = free_contact_recording(seed=seed, fs=fs, cycles=4, **kw)
     csv = tmp_path / f"{name}.csv"
-    pd.DataFrame(rec.csv_columns()).to_csv(csv, index=False)
+    cols = pd.DataFrame(rec.csv_columns())
+    cols["fx"] += offset_n                     # a force sensor not zeroed
+    cols.to_csv(csv, index=False)
     out = tmp_path / f"{name}.h5"
     r = run_cli("import", csv, "--out", out, "--columns", COLUMNS, "-q")
     assert r.exit_code == 0, r.output
@@ -46,6 +48,30 @@ def test_imported_recording_trains_and_is_recognised(tmp_path, fs):
     # chance: always the most frequent node, about half the points
     assert trial["accuracy"] > 0.9
     assert out["accuracy"] == pytest.approx(trial["accuracy"])
+    # the models fit the recording: no warning, chi-square per degree of freedom near 1
+    assert not trial["fit"]["misfit"] and out["warnings"] == []
+    assert 0.2 < trial["fit"]["chi2_per_dof"] < 4
+    assert "warning" not in r.stderr
+
+
+def test_recording_the_models_do_not_fit_is_warned(tmp_path):
+    """Models trained on a quiet, zeroed recording, run on one with 5x the force noise and
+    a 0.2 N offset (10 trained sd): one warning line on stderr, "misfit" in the JSON."""
+    train = _archive(tmp_path, "quiet", 11, 100.0)
+    noisy = _archive(tmp_path, "noisy", 12, 100.0, force_sd=0.1, offset_n=0.2)
+    models = tmp_path / "m.h5"
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", MAP,
+                "--out", models, "-q")
+    assert r.exit_code == 0, r.output
+    r = run_cli("recognize", noisy, "--graph", "free-contact", "--models", models, "--json",
+                "-q", "--no-write")
+    assert r.exit_code == 0, r.output
+    out = one_json_object(r.stdout)
+    (tid, trial), = out["trials"].items()
+    assert trial["fit"]["misfit"] and trial["fit"]["chi2_per_dof"] > 20
+    warn = [ln for ln in r.stderr.splitlines() if ln.startswith("warning:")]
+    assert len(warn) == 1 and "noisy.h5" in warn[0] and "fit none" in warn[0]
+    assert out["warnings"] == [warn[0].removeprefix("warning: ")]
 
 
 def test_force_threshold_peer_on_the_same_points():

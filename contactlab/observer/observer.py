@@ -667,8 +667,10 @@ class Observer:
             elif side == "decrease":
                 a[:, k], b[:, k] = 0.5 * (dim * np.log(q)), 0.5 * (1.0 - q)
             else:
-                d = np.sqrt(q - 1.0) * (1.0 if side == "up" else -1.0)
-                a[:, k], b[:, k] = -(0.5 * d * d), d
+                # a change size of 1 or less has no mean alternative: that test never
+                # accumulates (increments of -inf, as for a side the model does not test)
+                d = np.sqrt(np.maximum(q - 1.0, 0.0)) * (1.0 if side == "up" else -1.0)
+                a[:, k], b[:, k] = np.where(q > 1.0, -(0.5 * d * d), -np.inf), d
         # a side a model does not test (``FeatureModel.tests``) never accumulates:
         # increments of -inf keep its statistic at 0 (6.18)
         for k, name in enumerate(self._model_names):

@@ -36,6 +36,7 @@ import numpy as np
 from contactlab import defaults as D
 from contactlab.archive.results import TrialResults
 from contactlab.errors import DataError
+from contactlab.observer.fit import PathFit, path_fit
 from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.kinematics import check_map_sources
 from contactlab.observer.models.composite import build_models
@@ -61,6 +62,8 @@ class TrialRecognition:
     times: np.ndarray
     truth: np.ndarray | None
     fs: float
+    #: how well the final MAP path's models fit the measurements (:mod:`contactlab.observer.fit`)
+    fit: PathFit | None = None
 
 
 def merge_path(path) -> list[tuple[str, int]]:
@@ -149,7 +152,8 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
                   chunk=chunk)
     truth = truth_codes(relabel(trial, label_map), index, graph.node_names)
     times = np.asarray(trial.time, np.float64)[index]
-    return TrialRecognition(trial.id, res, times, truth, fs)
+    fit = path_fit(graph, models, data, res.map_path, n=len(index))
+    return TrialRecognition(trial.id, res, times, truth, fs, fit)
 
 
 def bind_models(graph, models):
@@ -238,7 +242,7 @@ class RecognizeStage(Stage):
                  "merged_path": [[n, float(rec.times[max(s, 0)]) if len(rec.times)
                                   else s / rec.fs] for n, s in merge_path(r.map_path)],
                  "n_changes": sum(e.model is not None for e in r.events),
-                 "accuracy": None, "accuracy_online": None}
+                 "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict()}
         extra = {"confusion": np.zeros((K, K), np.int64),
                  "confusion_online": np.zeros((K, K), np.int64), "delays": None,
                  "rec": rec if self.keep else None}
@@ -288,10 +292,22 @@ class RecognizeStage(Stage):
             "delays": delays if has_truth else None,
             "trials": {tid: o.entry for tid, o in outcomes.items()},
             "parameters": self.parameters, "written": bool(self.write),
+            "warnings": [misfit_warning(path, tid, o.entry["fit"])
+                         for tid, o in outcomes.items() if o.entry["fit"]["misfit"]],
         }
         if self.keep:
             summary["_runs"] = [o.extra["rec"] for o in outcomes.values()]
         return summary
+
+
+def misfit_warning(archive, trial_id: str, fit: dict) -> str:
+    """The one-line warning for a trial whose data fit none of the graph's models
+    (``fit``: :meth:`PathFit.to_dict`)."""
+    return (f"{archive}: trial {trial_id}: the measurements fit none of the graph's models "
+            f"(mean chi-square per degree of freedom {fit['chi2_per_dof']:.3g} along the "
+            f"recognised path, model {fit['worst_model']} worst; about 1 when they fit): the "
+            "recording is noisier than, or offset from, the data the models were trained on; "
+            "train on recordings like it, or zero the force sensor")
 
 
 def recognize_archive(archive, *, graph, models, action=None,
@@ -307,7 +323,9 @@ def recognize_archive(archive, *, graph, models, action=None,
     Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),
     ``accuracy_online``, ``confusion`` ``{"labels", "matrix"}``, ``delays``,
     ``trials`` ``{id: {"path": [[node, start_s], ...], "merged_path", "accuracy",
-    "n_changes"}}`` and the parameters.  Accuracy entries are None without
+    "n_changes", "fit"}}`` (``fit``: :meth:`PathFit.to_dict`, how well the path's models
+    fit the data), ``warnings`` (one line per trial whose data fit none of the models)
+    and the parameters.  Accuracy entries are None without
     ground truth.  ``write``: results to each trial's ``results/recognize``, all
     trials in one atomic step (:func:`contactlab.stages.run_stage`; ``workers``
     / ``scheduler`` as there).  ``keep``: also return the

@@ -1,0 +1,103 @@
+"""How well the recognised path's models fit the measurements: the check behind the
+"the data fit none of the models" warning of ``contactlab recognize``.
+
+The observer always returns a most probable path, even when every model of the
+graph is wrong for the data (a recording noisier than the one the models were
+trained on, a force sensor that was not zeroed, another sensor's units): the
+path is then the least bad explanation, and its labels mean little.  Under a
+model that fits, the chi-square statistic of an instance's innovation (6.11)
+has the innovation's dimension as its mean, so its mean per degree of freedom
+is near 1 along the final MAP path.  :func:`path_fit` re-scores the path the
+way the observer scored it -- each segment by fresh instances of its node's
+models from the segment's start (6.4) -- and returns that mean per model and
+over all of them.
+
+:data:`MISFIT` is the level above which ``recognize`` warns.  A model trained on
+the recording's own kind of data scores 0.5-3 (a trained noise level from a
+finite sample, an AR model's estimation transient at each segment start); a
+force noise 2x the trained one alone gives 4, and an unzeroed offset of 10
+trained standard deviations gives ~30 on the channels it touches (measured on
+the free-contact recordings of :mod:`contactlab.synthetic.free_contact` and on
+the reproduced experiments' simulated recordings; tests/test_observer_fit.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PathFit", "path_fit", "MISFIT"]
+
+#: mean chi-square per degree of freedom along the MAP path above which the data are
+#: said to fit none of the models (module notes)
+MISFIT = 8.0
+
+
+@dataclass(frozen=True)
+class PathFit:
+    """Mean chi-square per degree of freedom of the MAP path's innovations.
+
+    overall : over every model instance on the path (weighted by samples x dimension).
+    by_model : model name -> its mean over the segments whose node uses it.
+    worst : the model with the largest mean (None for an empty path).
+    samples : samples scored.
+    """
+
+    overall: float
+    by_model: dict
+    worst: str | None
+    samples: int
+
+    @property
+    def misfit(self) -> bool:
+        return bool(np.isfinite(self.overall) and self.overall > MISFIT)
+
+    def to_dict(self) -> dict:
+        return {"chi2_per_dof": _num(self.overall), "worst_model": self.worst,
+                "by_model": {k: _num(v) for k, v in self.by_model.items()},
+                "misfit": self.misfit}
+
+
+def _num(x: float):
+    return float(x) if np.isfinite(x) else None
+
+
+def path_fit(graph, models: dict, data: dict, map_path, n: int | None = None) -> PathFit:
+    """Score ``map_path`` (``[(node name, start sample), ...]``) on ``data`` (signal ->
+    ``(n, C)`` array, the conditioned streams the observer read) with fresh instances of
+    each segment's node models (``models``: name -> model object).  Linear in the data."""
+    arrays = {s: np.asarray(a, np.float64).reshape(len(a), -1) for s, a in data.items()}
+    if n is None:
+        n = min((len(a) for a in arrays.values()), default=0)
+    nodes = {nd.name: nd for nd in graph.nodes}
+    tot: dict[str, float] = {}
+    dof: dict[str, float] = {}
+    scored = 0
+    bounds = [s for _, s in map_path[1:]] + [n]
+    for (name, a), b in zip(map_path, bounds):
+        a, b = int(a), int(min(b, n))
+        if b <= a:
+            continue
+        scored += b - a
+        for mname in nodes[name].model_names:
+            m = models[mname]
+            x = arrays[m.signal]
+            lag = int(getattr(m, "lag", 0))
+            a0 = max(a, lag)                      # the observer's first prediction needs lag
+            if b <= a0:
+                continue
+            starts = np.array([a0])
+            state = m.init_state(starts, x.shape[1])
+            _, stat = m.run(state, x[a0 - lag:b], t0=a0, starts=starts)
+            chi = np.asarray(stat, np.float64)
+            chi = chi[..., 0] if chi.ndim == 3 else chi
+            chi = chi[:, 0]
+            ok = np.isfinite(chi)
+            tot[mname] = tot.get(mname, 0.0) + float(chi[ok].sum())
+            dof[mname] = dof.get(mname, 0.0) + float(ok.sum()) * m.dim(x.shape[1])
+    by_model = {k: tot[k] / dof[k] for k in tot if dof[k] > 0}
+    total_dof = sum(dof.values())
+    overall = sum(tot.values()) / total_dof if total_dof > 0 else float("nan")
+    worst = max(by_model, key=by_model.get) if by_model else None
+    return PathFit(overall, by_model, worst, scored)
