@@ -26,7 +26,10 @@ Signals (:data:`SIGNALS`): ``strain`` (``y_l``: strains lowpassed and
 decimated), ``wrench`` (the wrench through the same filter and decimation),
 ``hf`` (``y_h``: block-averaged ``log|y_d|`` of the strains), and
 :data:`STREAMS` adds ``position`` and ``velocity`` (through the same filter
-and decimation).  Every conditioned sample carries the index of the newest
+and decimation).  The constraint models read ``contact`` (position then force,
+both lowpassed) or ``contact-compensated``, whose force has the friction along the
+velocity removed as 8.29 does before every constraint estimate of chapter 8
+(:func:`compensate_friction`).  Every conditioned sample carries the index of the newest
 input sample it uses (``index``) and that sample's time (``times``).
 
 A trial recorded with a wrist sensor often has no strain gauges: the default
@@ -48,12 +51,18 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "factor_for", "cutoff_for", "hf_block_for", "window_of", "Signal",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
-           "relabel", "REDUCE", "loudest_channel"]
+           "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
+           "compensate_friction"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
 #: every stream :func:`trial_signals` gives: the conditioned signals and the kinematics
 STREAMS = SIGNALS + ("velocity", "position")
+#: the constraint models' streams: position then force, both through the 7.1 lowpass;
+#: ``contact-compensated`` has the friction along the velocity removed from the force
+#: (8.29, :func:`compensate_friction`)
+COMPENSATED = "contact-compensated"
+CONTACT_SIGNALS = ("contact", COMPENSATED)
 #: decimation factor of 7.1 at the thesis's 1000 Hz (1000 Hz -> 250 Hz)
 FACTOR = 4
 #: the conditioned rate 7.1 decimates to (1000 Hz / 4)
@@ -239,7 +248,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     for s in signals:
         if s in ("velocity", "position"):
             continue
-        if s == "contact":          # position then force, both through the 7.1 lowpass
+        if s in CONTACT_SIGNALS:    # position then force, both through the 7.1 lowpass
             w = condition(trial, "wrench", path=path)
             p = condition(trial, "position", path=path)
             out[s] = np.concatenate([p.y[:, :3], w.y[:, :3]], axis=1)
@@ -263,15 +272,43 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         index = np.arange(factor - 1, n_in, factor)
         n = len(index)
     for s in signals:
-        if s == "velocity" and getattr(trial, "velocity", None) is None \
-                and getattr(trial, "position", None) is not None:
-            v = derived_velocity(trial)
-            out[s] = v[np.minimum(index // factor_for(trial.rate_hz), len(v) - 1)]
-        elif s in ("velocity", "position"):
+        if s == "velocity":
+            out[s] = _velocity_at(trial, index, path)
+        elif s == "position":
             out[s] = _raw(trial, s, path)[index]
+    if COMPENSATED in out:
+        c = out[COMPENSATED][:n].copy()
+        v = out["velocity"] if "velocity" in out else _velocity_at(trial, index, path)
+        c[:, 3:6] = compensate_friction(c[:, 3:6], v[:n, :3])
+        out[COMPENSATED] = c
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
     fs = float(trial.rate_hz) / factor_for(trial.rate_hz)
     return out, index[:n], fs
+
+
+def _velocity_at(trial, index, path) -> np.ndarray:
+    """The ``velocity`` stream at the conditioned samples ``index``: the recorded
+    velocity, or :func:`derived_velocity` for a trial recorded without one."""
+    if getattr(trial, "velocity", None) is None and getattr(trial, "position", None) is not None:
+        v = derived_velocity(trial)
+        return v[np.minimum(index // factor_for(trial.rate_hz), len(v) - 1)]
+    return _raw(trial, "velocity", path)[index]
+
+
+def compensate_friction(force, velocity) -> np.ndarray:
+    """Force (n, 3) with its component along the velocity (n, 3) removed (8.29), where
+    the finger moves: at a speed above three times the velocity's white-noise level,
+    estimated from the same stream (:func:`contactlab.constraints.noise.raw_noise_sd`,
+    median over the axes; the estimators' rule of three accuracies, with the accuracy
+    measured, not assumed).  Slower samples pass unchanged (the direction of a still
+    finger's velocity is its noise; the thesis is silent, our choice)."""
+    from contactlab.constraints.friction import friction_filter
+    from contactlab.constraints.noise import raw_noise_sd
+
+    v = np.asarray(velocity, dtype=np.float64)
+    sd = raw_noise_sd(v) if len(v) >= 5 else np.full(v.shape[1], np.nan)
+    level = float(np.nanmedian(sd)) if np.isfinite(sd).any() else 0.0
+    return friction_filter(force, v, min_speed=3.0 * level)
 
 
 def derived_velocity(trial) -> np.ndarray:

@@ -23,6 +23,7 @@ import numpy as np
 
 from contactlab import defaults as D
 from contactlab.errors import DataError
+from contactlab.signals import CONTACT_SIGNALS
 
 __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MODEL_KINDS",
            "UNAVAILABLE_KINDS", "bundled_graphs", "graph_path"]
@@ -43,8 +44,9 @@ UNAVAILABLE_KINDS: dict[str, str] = {}
 _UNAVAILABLE_PARAMS: dict[str, dict] = {}
 
 #: Signals a graph model may read (7.1 conditioning, plus the kinematic channels;
-#: ``contact`` is position then force, what the constraint models read).
-KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "contact")
+#: the contact streams are position then force, what the constraint models read,
+#: :data:`contactlab.signals.CONTACT_SIGNALS`).
+KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position") + CONTACT_SIGNALS
 
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "contact"}
@@ -390,6 +392,9 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
         if not isinstance(signal, str) or signal not in KNOWN_SIGNALS:
             raise err(f"{where}.signal", f"unknown signal {signal!r} (known: "
                       f"{', '.join(KNOWN_SIGNALS)})")
+        if kind == "constraint" and signal not in CONTACT_SIGNALS:
+            raise err(f"{where}.signal", f"a constraint model reads position then force: "
+                      f"{' or '.join(CONTACT_SIGNALS)}; got {signal!r}")
         params = {k: v for k, v in spec.items() if k not in ("kind", "signal")}
         for k in params:
             if k not in known:

@@ -24,6 +24,7 @@ import numpy as np
 
 from contactlab.errors import DataError, UsageError
 from contactlab.observer.graph import FeatureGraph
+from contactlab.signals import CONTACT_SIGNALS
 from contactlab.observer.models.constraint import K, ConstraintFeature, parse_constraint
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
 
@@ -31,7 +32,7 @@ __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
            "KINEMATIC_SIGNALS"]
 
-KINEMATIC_SIGNALS = ("contact", "velocity")
+KINEMATIC_SIGNALS = CONTACT_SIGNALS + ("velocity",)
 _VELOCITY = {"velocity-fixed": FixedVelocity, "velocity-moving": MovingVelocity}
 
 
@@ -141,7 +142,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD
 
     specs = kinematic_specs(graph)
-    contact_runs = [s for (sig, _), ss in runs.items() if sig == "contact" for s in ss]
+    contact_runs = [s for (sig, _), ss in runs.items() if sig in CONTACT_SIGNALS for s in ss]
     pos_sd = _noise_level(contact_runs, slice(0, K))
     frc_sd = _noise_level(contact_runs, slice(K, 2 * K))
     pos_sd = pos_sd if np.isfinite(pos_sd) and pos_sd > NOISELESS_POSITION else POSITION_SD
@@ -151,7 +152,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     out: dict = {"constraint": {}, "velocity": {}}
     for (kind, label), spec in specs.items():
         where = f"models.{spec.name}.trained"
-        signal = "contact" if kind == "constraint" else "velocity"
+        signal = spec.signal
         segs = [s for lab in spec.trained_labels for s in runs.get((signal, lab), [])]
         if not segs:
             raise DataError(f"no labelled samples of {label!r} to train {kind} model "
@@ -167,7 +168,8 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
                                             degrees=True).as_matrix() @ N
                 model = ConstraintFeature.from_segments(segs, name=label, degree=m, normals=N,
                                               mode=spec.params.get("mode", "fixed"),
-                                              position_sd=pos_sd, force_sd=frc_sd)
+                                              position_sd=pos_sd, force_sd=frc_sd,
+                                              signal=signal)
                 out["constraint"][label] = model
             else:
                 out["velocity"][label] = _VELOCITY[kind].from_segments(segs, name=label)
@@ -185,6 +187,7 @@ def write_kinematic_models(h5: h5py.File, models: dict) -> None:
         sub.attrs["label"] = label
         sub.attrs["degree"] = int(m.degree)
         sub.attrs["mode"] = m.mode
+        sub.attrs["signal"] = m.signal
         sub.attrs["n_segments"] = int(getattr(m, "n_segments_", 0))
         for key in ("position_sd", "force_sd", "offset_sd", "prior_samples"):
             sub.attrs[key] = float(getattr(m, key))
@@ -222,6 +225,7 @@ def _read_constraint(sub):
                          f"{int(sub.attrs['degree'])}")
     m = ConstraintFeature(name=label, normals=N, V=np.asarray(sub["V"][()], np.float64),
                           mode=_text(sub.attrs["mode"]),
+                          signal=_text(sub.attrs.get("signal", "contact")),
                           **{k: float(sub.attrs[k]) for k in (
                               "position_sd", "force_sd", "offset_sd", "prior_samples")})
     m.n_segments_ = int(sub.attrs.get("n_segments", 0))

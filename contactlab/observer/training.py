@@ -302,7 +302,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
                         f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
     labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
-    kin_signals = {"contact" if kind == "constraint" else "velocity" for kind, _ in kin_specs}
+    kin_signals = {spec.signal for spec in kin_specs.values()}
     all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
                          | ({signal} if temporal_specs else set()))
     kin_runs: dict = {}
