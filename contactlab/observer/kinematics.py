@@ -24,9 +24,9 @@ import numpy as np
 
 from contactlab.errors import DataError, UsageError
 from contactlab.observer.graph import FeatureGraph
-from contactlab.signals import CONTACT_SIGNALS
 from contactlab.observer.models.constraint import K, ConstraintFeature, parse_constraint
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
+from contactlab.signals import CONTACT_SIGNALS
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
