@@ -243,6 +243,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     """
     if reduce not in REDUCE:
         raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
+    _check_sources(trial, signals, path)
     out: dict[str, np.ndarray] = {}
     indices: list[np.ndarray] = []
     for s in signals:
@@ -284,6 +285,29 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
     fs = float(trial.rate_hz) / factor_for(trial.rate_hz)
     return out, index[:n], fs
+
+
+def _check_sources(trial, signals, path) -> None:
+    """DataError naming the measurement a stream of :func:`trial_signals` needs and the
+    trial lacks (the streams are what a feature graph's models read, so the hint names a
+    graph, not ``--signal``)."""
+    for s in signals:
+        if s in CONTACT_SIGNALS:
+            needs = ("wrench", "position")
+        elif s == "velocity":
+            needs = ("velocity",) if getattr(trial, "position", None) is None else ()
+        else:
+            needs = (source_of(s),)
+        for src in needs:
+            if getattr(trial, src, None) is not None:
+                continue
+            hint = ""
+            if src == "strain" and getattr(trial, "wrench", None) is not None:
+                hint = ("; it has a wrench: a graph whose models read the wrench and position "
+                        "(the bundled free-contact) recognises it")
+            raise DataError(f"trial has no {src} (a model reads the {s!r} signal, computed "
+                            f"from it){hint}", file=str(path) if path else None,
+                            field=_field(trial, src))
 
 
 def _velocity_at(trial, index, path) -> np.ndarray:

@@ -108,3 +108,18 @@ def test_stick_slip_graph_tracks_simulated_guarded_moves(tmp_path):
         assert e["score"]["correct"], (tid, e["merged_path"])
         assert any(n in STUCK for n, _ in e["merged_path"]), tid
     assert res["accuracy"] > 0.8
+
+
+def test_constraint_models_trained_on_one_label_read_one_signal():
+    doc = _graph("contact-compensated")
+    doc["models"]["C2"] = {"kind": "constraint", "constraint": "Z", "trained": "floor",
+                           "signal": "contact"}
+    doc["nodes"][1]["models"] = {"c": "C2", "v": "F"}
+    with pytest.raises(DataError) as err:
+        parse_graph(doc)
+    assert err.value.field == "models.C2.signal" and "models.C" in str(err.value)
+    doc["models"]["C2"]["trained"] = "wall"             # another label: its own model
+    assert parse_graph(doc).models["C2"].signal == "contact"
+    # a misspelt signal is named with the nearest one a constraint model may read
+    with pytest.raises(DataError, match="did you mean 'contact-compensated'"):
+        parse_graph(_graph("contact-compensate"))

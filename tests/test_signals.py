@@ -178,3 +178,14 @@ def test_derived_velocity_at_any_rate(fs):
     data, index, fs_out = trial_signals(trial, ["wrench", "velocity"])
     assert fs_out == fs / factor_for(fs) and len(data["velocity"]) == len(data["wrench"])
     np.testing.assert_array_equal(data["velocity"], v[index // factor_for(fs)])
+
+
+def test_a_graph_reading_strain_on_a_wrist_recording_names_a_graph_that_fits(tmp_path):
+    """train/recognize --graph read the graph's streams: the hint names a graph, not --signal
+    (which --graph refuses)."""
+    path = _wrench_only(tmp_path / "wrist.h5")
+    r = run_cli("train", path, "--graph", "guarded-move", "--out", tmp_path / "m.h5")
+    assert r.exit_code != 0 and "Traceback" not in r.output
+    line = r.output.strip().splitlines()[-1]
+    assert "no strain" in line and "free-contact" in line and "--signal" not in line
+    assert "wrist.h5" in line and "/measurements/strain" in line

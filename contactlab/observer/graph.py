@@ -13,6 +13,7 @@ format is documented in ``datasets_spec/GRAPHS.md``.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from collections.abc import Mapping
@@ -390,8 +391,11 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                       f"{', '.join(list(MODEL_KINDS) + list(UNAVAILABLE_KINDS))})")
         signal = spec.get("signal", _DEFAULT_SIGNAL[kind])
         if not isinstance(signal, str) or signal not in KNOWN_SIGNALS:
-            raise err(f"{where}.signal", f"unknown signal {signal!r} (known: "
-                      f"{', '.join(KNOWN_SIGNALS)})")
+            known_here = CONTACT_SIGNALS if kind == "constraint" else KNOWN_SIGNALS
+            close = difflib.get_close_matches(str(signal), known_here, n=1)
+            raise err(f"{where}.signal", f"unknown signal {signal!r}"
+                      + (f"; did you mean {close[0]!r}?" if close else "")
+                      + f" (known: {', '.join(known_here)})")
         if kind == "constraint" and signal not in CONTACT_SIGNALS:
             raise err(f"{where}.signal", f"a constraint model reads position then force: "
                       f"{' or '.join(CONTACT_SIGNALS)}; got {signal!r}")
@@ -429,7 +433,23 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
         if kind == "constraint":
             _check_constraint(params, where, err)
         out[name] = ModelSpec(name, kind, signal, params)
+    _check_one_signal_per_label(out, err)
     return out
+
+
+def _check_one_signal_per_label(models: dict, err) -> None:
+    """Constraint models trained on the same labels share one trained model (the models
+    file keys them by label), so they must read the same contact signal."""
+    first: dict = {}
+    for spec in models.values():
+        if spec.kind != "constraint":
+            continue
+        other = first.setdefault(spec.trained, spec)
+        if other.signal != spec.signal:
+            raise err(f"models.{spec.name}.signal",
+                      f"reads {spec.signal!r} but models.{other.name}, trained on the same "
+                      f"labels, reads {other.signal!r}: one trained model per label, so give "
+                      "them the same signal (or train them on different labels)")
 
 
 def _check_moving(params, where, err) -> None:

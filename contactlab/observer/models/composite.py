@@ -139,9 +139,10 @@ def _constraint(spec: ModelSpec, obj, graph: FeatureGraph, source) -> Constraint
         raise DataError(f"trained model {spec.trained!r} is not a constraint model",
                         file=source or graph.source, field=f"{where}.trained")
     if obj.signal != spec.signal:
-        raise DataError(f"trained model {spec.trained!r} was fitted on the {obj.signal!r} "
-                        f"signal; the graph's model reads {spec.signal!r} (train again with "
-                        f"this graph)", file=source or graph.source, field=f"{where}.signal")
+        held = f" in {source}" if source else ""
+        raise DataError(f"reads {spec.signal!r}, but its trained model {spec.trained!r}{held} "
+                        f"was fitted on {obj.signal!r} (train again with this graph)",
+                        file=graph.source or source, field=f"{where}.signal")
     m, N = parse_constraint(p["constraint"])
     if N is None:
         if obj.degree != m:
