@@ -155,9 +155,8 @@ def recognize_runs(archive, graph: FeatureGraph, models, *, trials=None,
     stage = RecognizeStage(graph=graph, models=models, write=False, keep=True,
                            label_map=LABEL_NODES if label_map is None else label_map)
     res = run_stage(stage, [archive], trials=trials, quiet=quiet)[Path(archive)]
-    same = same or {}
     for e in res["trials"].values():
-        e["score"] = score_path([same.get(n, n) for n, _ in e["merged_path"]])
+        e["score"] = score_path(_surface_path(e["merged_path"], same or {}))
     return res
 
 
@@ -439,7 +438,8 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
     for deg in ROTATIONS:
         r = rot[deg]
         nr = len(r["trials"])
-        rows.append([f"feature 4 = Z rotated {deg:g} deg", THESIS["rotated"][deg],
+        rows.append([f"9.1.1's graph, feature 4 = Z rotated {deg:g} deg (one run per "
+                     "material)", THESIS["rotated"][deg],
                      f"{_count(r, 'correct')}/{nr}", f"{_count(r, 'final')}/{nr}",
                      f"{_count(r, 'strict')}/{nr}", f"{_count(r, 'distractor')}",
                      _pct(r["accuracy"]), _decisions(r)])
@@ -586,11 +586,13 @@ def _stick_key(k) -> str:
     return f"rotated {k:g}"
 
 
-def _surface_path(merged_path) -> list[str]:
-    """A merged path's nodes with each stuck node read as its surface, repeats merged."""
+def _surface_path(merged_path, same=None) -> list[str]:
+    """A merged path's nodes each read through ``same`` (default :data:`STUCK`: a stuck
+    node as its surface), repeats merged."""
+    same = STUCK if same is None else same
     out: list[str] = []
     for n, _ in merged_path:
-        n = STUCK.get(n, n)
+        n = same.get(n, n)
         if not out or out[-1] != n:
             out.append(n)
     return out
