@@ -180,6 +180,7 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                "impact_segments": {k: getattr(m, "n_segments_", None)
                                    for k, m in gm.impacts.items()},
                "constraints": {k: {"degree": m.degree, "normals": m.normals.T.tolist(),
+                                   "signal": m.signal,
                                    "segments": getattr(m, "n_segments_", None)}
                                for k, m in gm.kinematic.get("constraint", {}).items()},
                "velocity": {k: m.params() for k, m in gm.kinematic.get("velocity", {}).items()},
@@ -196,8 +197,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
         click.echo(f"{k}: impact decay, {n} impacts")
     for k, c in summary["constraints"].items():
         normals = "; ".join(" ".join(f"{v:+.3f}" for v in n) for n in c["normals"]) or "none"
-        click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}), "
-                   f"{count(c['segments'], 'run')}")
+        click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}) on "
+                   f"{c['signal']}, {count(c['segments'], 'run')}")
     for k, p in summary["velocity"].items():
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     click.echo(f"models written to {out}")

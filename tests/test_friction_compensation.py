@@ -123,3 +123,23 @@ def test_constraint_models_trained_on_one_label_read_one_signal():
     # a misspelt signal is named with the nearest one a constraint model may read
     with pytest.raises(DataError, match="did you mean 'contact-compensated'"):
         parse_graph(_graph("contact-compensate"))
+
+
+def test_label_names_a_graph_models_file_for_what_it_is(tmp_path):
+    """A models file from ``train --graph`` holding constraint and velocity models only is
+    refused by ``label``'s loader with what it holds, not a count of groups."""
+    import h5py
+
+    from contactlab.temporal.model import FORMAT, FORMAT_VERSION, ModelSet
+
+    path = tmp_path / "m.h5"
+    with h5py.File(path, "w") as h5:
+        h5.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, signal="wrench",
+                        fs=250.0, labels=np.array([], dtype="S1"), provenance="{}",
+                        channels="[]")
+        h5.create_group("models")
+        h5.create_group("constraints")
+    with pytest.raises(DataError) as err:
+        ModelSet.load(path)
+    assert err.value.field == "/models" and "--graph" in str(err.value)
+    assert "\n" not in str(err.value)

@@ -285,6 +285,10 @@ class ModelSet:
         except (TypeError, ValueError):
             raise err("provenance/channels are not valid JSON", "/provenance") from None
         group = h5.get("models")
+        if not labels and isinstance(h5.get("constraints"), h5py.Group):
+            raise err("holds no temporal models: it was trained with --graph for a graph's "
+                      "constraint and velocity models only (train without --graph for "
+                      "'label')", "/models")
         if not isinstance(group, h5py.Group) or len(group) != len(labels) or not labels:
             raise err(f"expected {len(labels)} model groups (one per label)", "/models")
         models: dict[str, TemporalModel] = {}
