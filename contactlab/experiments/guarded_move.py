@@ -216,14 +216,15 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 secs[f"rotated {deg:g} deg"] = time.perf_counter() - t0
                 pbar.update(1)
             signals = typical_run(test, res)
+            signals_ss = typical_run(test, stick["compensated"])
             still = still_points(test, res)
             rates = floor_rates(test, build_models(graph, gm.trained))
             rates_fixed = floor_rates(test, build_models(guarded_graph(frames="fixed"),
                                                          gm.trained))
             facts = signal_facts(seed)
         with plt.rc_context({"figure.max_open_warning": 0}):
-            return _report(res, rot, gm, signals, still, rates, secs, graph, facts,
-                           (fixed, rates_fixed), stick, out_dir=out_dir, seed=seed)
+            return _report(res, rot, gm, (signals, signals_ss), still, rates, secs, graph,
+                           facts, (fixed, rates_fixed), stick, out_dir=out_dir, seed=seed)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -366,7 +367,8 @@ def fig_trial(sig, graph: FeatureGraph):
     for a in ax:
         a.legend(loc="upper right", fontsize=7)
         a.grid(alpha=0.3)
-    path = " ".join(n for n, _ in _merged(rec))
+    nodes = [n for n, _ in _merged(rec)]
+    path = " ".join(nodes[:12]) + (f" ... ({len(nodes)} segments)" if len(nodes) > 12 else "")
     ax[0].set_title(f"Guarded move {sig['id']}: force, velocity and node path ({path})")
     fig.tight_layout()
     return fig
@@ -381,6 +383,7 @@ def _merged(rec):
 def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stick, *,
             out_dir: Path, seed: int) -> dict:
     fixed, rates_fixed = fixed_run
+    sig, sig_ss = sig
     from contactlab.experiments.apparatus_facts import get
 
     page = ReportPage(title="Guarded move onto a surface (9.1.1, fig 9.1)", out_dir=out_dir)
@@ -515,6 +518,11 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
                 caption=f"Fig 9.1 (ours): test run {sig['id']}: the measured force and "
                         "velocity, and the final MAP node over time beside the simulator's "
                         "labels mapped to nodes.")
+    page.figure(fig_trial(sig_ss, stick_slip_graph()), name="fig-9-1-stick-slip",
+                caption=f"Test run {sig_ss['id']} on the stick-slip graph (9.1.2's stuck "
+                        "nodes 3s-5s, 8.29's friction compensation): force, velocity and the "
+                        "final MAP node over time beside the simulator's labels mapped to its "
+                        "nodes (floor-fixed -> 3s, floor-moving -> 3).")
     page.heading("Where ours differ and why")
     for text in _differences(res, rot, still, rates, gm, ntr, facts, fixed, rates_fixed,
                              stick):
