@@ -11,6 +11,14 @@ from contactlab.observer.draw import draw_graph
 from contactlab.observer.graph import load_graph
 
 
+def _trained(spec) -> str:
+    """``", trained on LABEL"`` for a model fitted by ``train --graph``; empty for one
+    whose parameters the graph gives inline (a velocity model's sigma, an impact prior)."""
+    inline = ("sigma" in spec.params if spec.kind.startswith("velocity")
+              else "theta_mean" in spec.params if spec.kind == "impact" else False)
+    return "" if inline else f", trained on {spec.trained}"
+
+
 @click.group(name="graph")
 def graph() -> None:
     """Feature graphs: show and check graph files.
@@ -55,6 +63,8 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
         always = ", ".join(succ) or ("- (edges by action below)" if g.action_edges else "-")
         click.echo(f"  {n.name:>6}  p0={n.initial:.3g}  [{models}]  {n.label}"
                    f"  -> {always}" + (f"  ({', '.join(flags)})" if flags else ""))
+    for name, spec in g.models.items():
+        click.echo(f"  model {name}: {spec.kind} on {spec.signal}{_trained(spec)}")
     names = g.node_names
     for a, edges in sorted(g.action_edges.items()):
         act = g.actions[a] if a < len(g.actions) else str(a)

@@ -143,3 +143,16 @@ def test_label_names_a_graph_models_file_for_what_it_is(tmp_path):
         ModelSet.load(path)
     assert err.value.field == "/models" and "--graph" in str(err.value)
     assert "\n" not in str(err.value)
+
+
+def test_graph_show_names_each_models_stream_and_training_label():
+    from click.testing import CliRunner
+
+    from contactlab.cli import main
+
+    res = CliRunner().invoke(main, ["graph", "show", "guarded-move-stick-slip"])
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    assert "  model CZ: constraint on contact-compensated, trained on floor-moving" in lines
+    assert "  model C3: constraint on contact-compensated, trained on floor-fixed" in lines
+    assert "  model S: temporal on hf, trained on free-moving" in lines
