@@ -509,6 +509,21 @@ def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10,
     return th0, th1, s00, 0.0, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
 
 
+@numba.njit(cache=True, inline="always")
+def _step2_covariances(nb, act, mid, ust):  # pragma: no cover - compiled
+    """Pass 3 of the two-parameter step: the covariances (:func:`_step2_b`, the dependent
+    chain's second half) of the sample's ``nb`` instances ``act``, from their pass-1 rows
+    in ``mid``; run after the sample's bookkeeping, right before the next sample's first
+    rows, so the bookkeeping is done in the chains' shadow."""
+    for i in range(nb):
+        u = act[i]
+        s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
+        ust[u, 0, 2] = s00
+        ust[u, 0, 3] = 0.0
+        ust[u, 0, 4] = s10
+        ust[u, 0, 5] = s11
+
+
 @numba.njit(cache=True)
 def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
@@ -797,16 +812,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     cll += inc[u - ua]
                 ccll[i] = cll
                 ha[ct + 1 - hbase, pslot[p]] = cll
-            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
-            # instances' covariances (the dependent chain's second half) right before the
-            # next sample's first rows, with the bookkeeping done in its shadow
-            for i in range(nb):
-                u = act[i]
-                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
-                ust[u, 0, 2] = s00
-                ust[u, 0, 3] = 0.0
-                ust[u, 0, 4] = s10
-                ust[u, 0, 5] = s11
+            # pass 3 of the two-parameter step, after the sample's bookkeeping
+            _step2_covariances(nb, act, mid, ust)
             nb = 0
             ct += 1
             if ct <= t:
@@ -833,16 +840,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     ha[hr, pslot[p]] = pll[p]
                     if pll[p] < best - gap:
                         event = True
-            # pass 3 of the two-parameter step, after the sample's bookkeeping: the
-            # instances' covariances (the dependent chain's second half) right before the
-            # next sample's first rows, with the bookkeeping done in its shadow
-            for i in range(nb):
-                u = act[i]
-                s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
-                ust[u, 0, 2] = s00
-                ust[u, 0, 3] = 0.0
-                ust[u, 0, 4] = s10
-                ust[u, 0, 5] = s11
+            # pass 3 of the two-parameter step, after the sample's bookkeeping
+            _step2_covariances(nb, act, mid, ust)
             nb = 0
             if event:
                 # room for the event: its crossed tests bound the candidates
