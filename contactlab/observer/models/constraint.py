@@ -79,7 +79,6 @@ import numba
 import numpy as np
 
 from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD, CartesianConstraint
-from contactlab.constraints.frames import trace_closed_form
 from contactlab.constraints.scaling import reciprocal_scaling
 from contactlab.observer.models.base import LOG_2PI, FeatureModel
 
@@ -324,43 +323,15 @@ class ConstraintFeature(FeatureModel):
         return ll, chi2
 
     def _run_estimated(self, state, xs, ws, c):
-        m, n_, U = self.degree, len(xs), c.shape[1]
-        # exclusive running sums per instance (before sample t)
-        px = np.concatenate([np.zeros((1, K)), np.cumsum(xs, axis=0)[:-1]], axis=0)
-        pxx = np.concatenate([np.zeros((1, K, K)),
-                              np.cumsum(xs[:, :, None] * xs[:, None, :], axis=0)[:-1]], axis=0)
-        pww = np.concatenate([np.zeros((1, K, K)),
-                              np.cumsum(ws[:, :, None] * ws[:, None, :], axis=0)[:-1]], axis=0)
-        sx = state["sx"][None] + px[:, None]                        # (N, U, 3)
-        sxx = state["sxx"][None] + pxx[:, None]
-        sww = state["sww"][None] + pww[:, None]
-        cc = np.maximum(c, 1.0)[:, :, None]
-        mean = sx / cc
-        # c * (Ixx - Iww) with motion centred (8.19), plus the prior pseudo-samples
-        D = sxx - np.einsum("nui,nuj->nuij", sx, mean) - sww
+        m = self.degree
         N0, T0 = self.frame[:, :m], self.frame[:, m:]
-        D = D + self.prior_samples * (T0 @ T0.T - N0 @ N0.T)
-        I = np.zeros((n_ * U, 2 * K, 2 * K))
-        I[:, :K, :K] = D.reshape(-1, K, K)
-        R = trace_closed_form(I, m).reshape(n_, U, K, K)
-        Nh, Th = R[..., :m], R[..., m:]
-        # bases within the normal / free spans aligned to the nominal ones (V is
-        # expressed in the nominal frame): orthogonal Procrustes
-        Nh = _align(Nh, N0)
-        Th = _align(Th, T0)
-        e = np.einsum("nui,nuij->nuj", xs[:, None, :] - sx / (self.kappa0 + c)[:, :, None], Nh)
-        f = np.einsum("ni,nuij->nuj", ws, Th)
-        ll, chi2 = self._score(e, f, c)
-        if 0 < m < K and self.frame_penalty:
-            alpha = misalignment(Nh, Th, N0, T0)                       # (N, U) 8.69
-            prev = np.concatenate([state["alpha"][None], alpha[:-1]], axis=0)
-            ll = ll - self.prior_samples * (alpha - prev) \
-                + np.where(c == 0, math.log(self.prior_samples), 0.0)   # 8.70
-            state["alpha"] = alpha[-1].copy()
-        state["sx"] += xs.sum(axis=0)[None]
-        state["sxx"] += (xs.T @ xs)[None]
-        state["sww"] += (ws.T @ ws)[None]
-        return ll, chi2
+        prior = self.prior_samples * (T0 @ T0.T - N0 @ N0.T)
+        return _estimated_kernel(np.ascontiguousarray(xs), np.ascontiguousarray(ws),
+                                 state["sx"], state["sxx"], state["sww"], state["alpha"],
+                                 np.ascontiguousarray(c[0]), prior, np.ascontiguousarray(N0),
+                                 np.ascontiguousarray(T0), self.kappa0, self._Vn_inv,
+                                 self._Vf_inv, self._logdet_n, self._logdet_f,
+                                 self.prior_samples, bool(0 < m < K and self.frame_penalty))
 
 
 @numba.njit(cache=True)
@@ -420,23 +391,150 @@ def _fixed_kernel(xs, ws, Nf, Tf, sums, c0, kappa0, Vn_inv, Vf_inv, logdet_n,
     return ll, chi2
 
 
-def misalignment(N, T, N0, T0) -> np.ndarray:
-    """8.69's alpha = 3 - sum of the singular values of P^T P_N, with P the block-diagonal
-    projection [N 0; 0 T] (6 x 3: motion along the normals N, force along the free directions
-    T; ``(..., 3, m)`` and ``(..., 3, 3 - m)``) and P_N the nominal one from ``N0``, ``T0``:
-    the singular values of a block-diagonal product are those of its blocks.  0 when the
-    frames agree, up to 3."""
-    s = 0.0
-    for B, B0 in ((N, N0), (T, T0)):
-        if B.shape[-1]:
-            s = s + np.linalg.svd(np.swapaxes(B, -1, -2) @ B0, compute_uv=False).sum(axis=-1)
-    return K - s
+@numba.njit(cache=True)
+def _polar(M, Q):  # pragma: no cover - compiled
+    """The orthogonal polar factor ``Q = U V^T`` of the square ``M = U S V^T`` (the orthogonal
+    matrix nearest to M: the orthogonal Procrustes solution), written into ``Q``; returns
+    the sum of M's singular values.  Closed forms for 1 x 1 (the sign) and 2 x 2 (the
+    rotation or reflection maximising ``tr(Q^T M)``: a rotation by the angle of
+    ``(a + d, c - b)`` when ``det M >= 0``, else the reflection along ``(a - d, b + c)``,
+    whose lengths are then ``s1 + s2``); an SVD otherwise."""
+    j = M.shape[0]
+    if j == 1:
+        Q[0, 0] = -1.0 if M[0, 0] < 0.0 else 1.0
+        return abs(M[0, 0])
+    if j == 2:
+        a, b, c, d = M[0, 0], M[0, 1], M[1, 0], M[1, 1]
+        if a * d - b * c >= 0.0:
+            p, q = a + d, c - b
+            r = math.sqrt(p * p + q * q)
+            if r == 0.0:
+                p, q, r = 1.0, 0.0, 1.0
+            Q[0, 0], Q[0, 1], Q[1, 0], Q[1, 1] = p / r, -q / r, q / r, p / r
+        else:
+            p, q = a - d, b + c
+            r = math.sqrt(p * p + q * q)
+            Q[0, 0], Q[0, 1], Q[1, 0], Q[1, 1] = p / r, q / r, q / r, -p / r
+        return r
+    u, sv, vt = np.linalg.svd(M)
+    Q[:, :] = u @ vt
+    return sv.sum()
 
 
-def _align(B: np.ndarray, B0: np.ndarray) -> np.ndarray:
-    """``B Q`` with Q orthogonal closest to mapping the basis B (..., k, j) onto B0 (k, j)."""
-    if B.shape[-1] == 0:
-        return B
-    M = np.swapaxes(B, -1, -2) @ B0                   # (..., j, j)
-    u, _, vt = np.linalg.svd(M)
-    return B @ (u @ vt)
+@numba.njit(cache=True)
+def _estimated_kernel(xs, ws, sx, sxx, sww, alpha, c0, prior, N0, T0, kappa0, Vn_inv, Vf_inv,
+                      logdet_n, logdet_f, a, penalty):  # pragma: no cover - compiled
+    """The estimated-frame model over samples ``xs``, ``ws`` (n, 3: scaled motion and force)
+    for U instances in one compiled pass.  Per instance u and sample t, from the sums of
+    the instance's samples before t (``c = c0_u + t`` of them): the centred information
+    ``D = S_xx - S_x S_x^T / max(c, 1) - S_ww + prior`` (8.19 with the nominal frame's
+    pseudo-samples), its eigenvectors by ascending eigenvalue (8.25's closed form: the
+    first m the normals), each span's basis turned onto the nominal one (orthogonal
+    Procrustes, :func:`_polar`), the residuals and :meth:`ConstraintFeature._score`'s
+    terms, and with ``penalty`` 8.70's term from 8.69's alpha (3 minus the singular values
+    of the spans against the nominal ones: those of the Procrustes problems).  The running
+    sums ``sx`` (U, 3), ``sxx``, ``sww`` (U, 3, 3) and ``alpha`` (U) advance in place."""
+    n = xs.shape[0]
+    U = sx.shape[0]
+    m = N0.shape[1]
+    kf = K - m
+    ll = np.empty((n, U))
+    chi2 = np.empty((n, U))
+    D = np.empty((K, K))
+    Mn = np.empty((m, m))
+    Mt = np.empty((kf, kf))
+    Qn = np.empty((m, m))
+    Qt = np.empty((kf, kf))
+    e = np.empty(m)
+    f = np.empty(kf)
+    ax = np.empty(K)
+    axx = np.empty((K, K))
+    aww = np.empty((K, K))
+    log_a = math.log(a) if a > 0.0 else 0.0
+    for u in range(U):
+        for i in range(K):
+            ax[i] = sx[u, i]
+            for j in range(K):
+                axx[i, j] = sxx[u, i, j]
+                aww[i, j] = sww[u, i, j]
+        prev = alpha[u]
+        for t in range(n):
+            c = c0[u] + t
+            cc = c if c > 1.0 else 1.0
+            for i in range(K):
+                for j in range(K):
+                    D[i, j] = axx[i, j] - ax[i] * (ax[j] / cc) - aww[i, j] + prior[i, j]
+            _, R = np.linalg.eigh(D)
+            sv = 0.0
+            if m:
+                for i in range(m):
+                    for j in range(m):
+                        acc = 0.0
+                        for r in range(K):
+                            acc += R[r, i] * N0[r, j]
+                        Mn[i, j] = acc
+                sv += _polar(Mn, Qn)
+            if kf:
+                for i in range(kf):
+                    for j in range(kf):
+                        acc = 0.0
+                        for r in range(K):
+                            acc += R[r, m + i] * T0[r, j]
+                        Mt[i, j] = acc
+                sv += _polar(Mt, Qt)
+            v = 0.0
+            ch = 0.0
+            if m:
+                cg = kappa0 + c
+                for j in range(m):
+                    acc = 0.0
+                    for r in range(K):
+                        nr = 0.0
+                        for i in range(m):
+                            nr += R[r, i] * Qn[i, j]
+                        acc += (xs[t, r] - ax[r] / cg) * nr
+                    e[j] = acc
+                g = 1.0 + 1.0 / cg
+                q = 0.0
+                for i in range(m):
+                    for j in range(m):
+                        q += e[i] * Vn_inv[i, j] * e[j]
+                q /= g
+                v -= 0.5 * (q + logdet_n + m * math.log(g) + m * LOG_2PI)
+                ch += q
+            if kf:
+                for j in range(kf):
+                    acc = 0.0
+                    for r in range(K):
+                        tr = 0.0
+                        for i in range(kf):
+                            tr += R[r, m + i] * Qt[i, j]
+                        acc += ws[t, r] * tr
+                    f[j] = acc
+                qf = 0.0
+                for i in range(kf):
+                    for j in range(kf):
+                        qf += f[i] * Vf_inv[i, j] * f[j]
+                v -= 0.5 * (qf + logdet_f + kf * LOG_2PI)
+                ch += qf
+            if penalty:
+                al = K - sv
+                v = v - a * (al - prev)
+                if c == 0.0:
+                    v += log_a
+                prev = al
+            ll[t, u] = v
+            chi2[t, u] = ch
+            for i in range(K):
+                ax[i] += xs[t, i]
+                for j in range(K):
+                    axx[i, j] += xs[t, i] * xs[t, j]
+                    aww[i, j] += ws[t, i] * ws[t, j]
+        for i in range(K):
+            sx[u, i] = ax[i]
+            for j in range(K):
+                sxx[u, i, j] = axx[i, j]
+                sww[u, i, j] = aww[i, j]
+        if penalty:
+            alpha[u] = prev
+    return ll, chi2
