@@ -24,6 +24,7 @@ from pathlib import Path
 
 
 def _recognise(test, graph, gm):
+    from contactlab.observer.paths import count_changes
     from contactlab.observer.recognize import recognize_archive
 
     t0 = time.perf_counter()
@@ -31,7 +32,7 @@ def _recognise(test, graph, gm):
     dt = time.perf_counter() - t0
     runs = out["_runs"]
     dur = sum(len(r.times) / r.fs for r in runs)
-    events = sum(sum(e.model is not None for e in r.result.events) for r in runs)
+    events = sum(count_changes(r.result.events) for r in runs)
     return dt, dur, events
 
 
@@ -40,6 +41,7 @@ def _maze(d: Path) -> dict:
     from contactlab.experiments.maze import track, tracking_setup
     from contactlab.maze import build_partitions
     from contactlab.maze.projection import maze_graph
+    from contactlab.observer.paths import count_changes
 
     doc, _, fp = maze_graph(parts=build_partitions())
     graph, models, trained, test, fp = tracking_setup(doc, fp, d, seed=1, n_trials=6)
@@ -50,7 +52,7 @@ def _maze(d: Path) -> dict:
         recs = [track(t, graph, models, trained, fp) for t in trials]
         dt = time.perf_counter() - t0
     dur = sum(len(r["times"]) / r["fs"] for r in recs)
-    events = sum(sum(e.model is not None for e in r["result"].events) for r in recs)
+    events = sum(count_changes(r["result"].events) for r in recs)
     return {"name": f"maze triples, {dur:.0f} s of {len(recs)} trials",
             "ours_s": dt, "peer": "real time", "peer_s": dur, "ratio": dur / dt,
             "notes": f"observer {dur / dt:.0f}x real time over {graph.n_nodes} nodes (goal >= "

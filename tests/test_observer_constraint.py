@@ -355,3 +355,104 @@ def test_estimated_frame_score_matches_a_numpy_oracle_in_any_chunks(name):
     st = mdl.init_state(np.zeros(1, int), 6)
     late = mdl.run(st, x[40:], t0=40, starts=np.full(1, 40))[0][:, 0]
     np.testing.assert_allclose(late, _estimated_oracle(mdl, x[40:], 0), rtol=1e-9, atol=1e-7)
+
+
+def test_log_ndtr_matches_scipy_in_both_tails():
+    # scipy below 0; above, log1p of the upper tail (scipy's log of a number near one
+    # keeps only its absolute precision there)
+    from scipy.special import log_ndtr as scipy_log_ndtr, ndtr
+
+    from contactlab.observer.models.velocity import log_ndtr
+
+    x = np.r_[np.linspace(-60, 40, 2001), -20.0, -19.999, 6.0, 6.001, 0.0]
+    got = np.array([log_ndtr(v) for v in x])
+    want = np.where(x > 0, np.log1p(-ndtr(-np.abs(x))), scipy_log_ndtr(np.minimum(x, 0)))
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-300)
+
+
+@pytest.mark.parametrize("mode", ["fixed", "estimated"])
+def test_the_compiled_core_gives_the_general_forms_results_on_triples(mode):
+    """Triples of (high frequency, constraint, velocity) models through the observer's
+    compiled core (constraint and velocity models scored by their compiled steps inside its
+    loop) and through the general form (model banks through ``run``): the same events,
+    paths and path log-likelihoods to the bit, node probabilities to rounding, over a trace
+    free and moving -> sliding on a plane turned 4 deg -> stuck -> sliding."""
+    from contactlab.observer.models import TemporalFeature
+
+    rng = np.random.default_rng(21)
+    R = Rotation.from_euler("x", 4.0, degrees=True).as_matrix()
+    n1, n2, n3, n4 = 250, 300, 200, 250
+    free = np.c_[np.cumsum(rng.normal(size=(n1, 3)) * 2e-5, axis=0),
+                 rng.normal(size=(n1, 3)) * 0.01]
+    slide = _plane(rng, n2 + n4, 0.0) @ np.kron(np.eye(2), R.T)
+    stuck = np.c_[np.full((n3, 3), 1e-3) + rng.normal(size=(n3, 3)) * 1e-5,
+                  rng.normal(size=(n3, 3)) * 0.05 + [0.1, 0.0, 1.0]]
+    x = np.r_[free, slide[:n2], stuck, slide[n2:]]
+    v = np.r_[rng.normal(0, 0.003, (n1 + n2, 3)), rng.normal(0, 2e-4, (n3, 3)),
+              rng.normal(0, 0.003, (n4, 3))]
+    y = np.r_[rng.normal(0, 1, n1), rng.normal(0.5, 1.5, n2), rng.normal(0, 0.5, n3),
+              rng.normal(0.5, 1.5, n4)]
+    kw = dict(position_sd=1e-5, force_sd=0.01)
+
+    def models(general):
+        class CF(ConstraintFeature):
+            def core_spec(self, channels):
+                return None
+
+        class FV(FixedVelocity):
+            def core_spec(self, channels):
+                return None
+
+        class MV(MovingVelocity):
+            def core_spec(self, channels):
+                return None
+
+        class TF(TemporalFeature):
+            def kalman_spec(self, channels):
+                return None
+
+        c, f, mv, t = (CF, FV, MV, TF) if general else (ConstraintFeature, FixedVelocity,
+                                                       MovingVelocity, TemporalFeature)
+        hf = dict(order=1, mean=True, theta_sqrt=[0.3, 0.05], structure="plain")
+        return {"C0": c.named("C0", "0", **kw),
+                "CZ": c.named("CZ", "Z", mode=mode, prior_samples=19.57, **kw),
+                "CXZ": c.named("CXZ", "XZ", mode=mode, prior_samples=19.57, **kw),
+                "C3": c.named("C3", "3", **kw),
+                "F": f(name="F", sigma=2e-4),
+                "M": mv(name="M", low=-0.01, high=0.01, sigma=0.003).with_rest(2e-4),
+                "S": t(name="S", theta_mean=[0.0, 0.0], noise_var=1.0, **hf),
+                "MC": t(name="MC", theta_mean=[0.5, 0.0], noise_var=2.2, **hf)}
+
+    def node(name, hf, c, vel, **more):
+        return {"name": name, "models": {"hf": hf, "constraint": c, "velocity": vel}, **more}
+
+    doc = {"models": {"C0": {"kind": "constraint", "constraint": "0"},
+                      "CZ": {"kind": "constraint", "constraint": "Z"},
+                      "CXZ": {"kind": "constraint", "constraint": "XZ"},
+                      "C3": {"kind": "constraint", "constraint": "3"},
+                      "F": {"kind": "velocity-fixed", "sigma": 2e-4},
+                      "M": {"kind": "velocity-moving", "low": -0.01, "high": 0.01,
+                            "sigma": 0.003},
+                      "S": {"kind": "temporal"}, "MC": {"kind": "temporal"}},
+           "nodes": [node("free", "S", "C0", "M", initial=1.0), node("Z", "MC", "CZ", "M"),
+                     node("XZ", "MC", "CXZ", "M"), node("stuck", "S", "C3", "F")],
+           "edges": ["free -> Z, XZ", "Z -> stuck", "XZ -> stuck", "stuck -> Z, XZ"]}
+    g = parse_graph(doc)
+    data = {"hf": y[:, None], "contact": x, "velocity": v}
+    core_obs, general_obs = Observer(g, models(False)), Observer(g, models(True))
+    fast, slow = observe(core_obs, data, chunk=333), observe(general_obs, data, chunk=333)
+    assert core_obs._core is not None and general_obs._core is None
+    assert len([e for e in slow.events if e.model]) >= 4
+    assert [n for n, _ in slow.map_path][:2] == ["free", "Z"] and "stuck" in dict(slow.map_path)
+    assert len(fast.events) == len(slow.events)
+    for a, b in zip(fast.events, slow.events):
+        assert (a.time, a.path, a.node, a.model, a.change_time) == \
+            (b.time, b.path, b.node, b.model, b.change_time)
+        assert (a.spawned, a.merged) == (b.spawned, b.merged)
+        np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
+        np.testing.assert_array_equal(a.kept, b.kept)
+    assert fast.map_path == slow.map_path
+    np.testing.assert_array_equal(fast.map_node, slow.map_node)
+    np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
+    assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \
+        [(p.id, p.node, p.start, p.loglik, p.history) for p in slow.paths]

@@ -1,9 +1,14 @@
-"""The observer's compiled core (6.4) for graphs whose models are all Kalman filters.
+"""The observer's compiled core (6.4).
 
-When every model of a graph is a square-root Kalman filter whose regressors the
-core can form itself (:meth:`FeatureModel.kalman_spec`: the AR regressors of
+When every model of a graph runs here (:meth:`FeatureModel.core_spec`): square-root
+Kalman filters whose regressors the core can form itself (the AR regressors of
 :class:`~contactlab.observer.models.temporal.TemporalFeature`, the time since the
-start of :class:`~contactlab.observer.models.impact.ImpactFeature`), the whole of
+start of :class:`~contactlab.observer.models.impact.ImpactFeature`) and models scored
+directly by a compiled step per sample (the velocity models F and M,
+:func:`~contactlab.observer.models.velocity.velocity_step`, and the constraint models
+of fixed or estimated frame, :func:`~contactlab.observer.models.constraint.constraint_step`:
+9.1's triples; a stateless model's score of a sample is computed once for all its
+instances), the whole of
 6.4 -- per sample the instances' filter steps, the Page-Hinkley tests and the path
 sums; at a detected change the alarms, the successors and their best
 predecessors, the maximisation over (node, start), the catch-up of the new paths
@@ -52,13 +57,21 @@ import numpy as np
 
 from contactlab.detection.cusum import cusum_step
 from contactlab.estimators.householder import tri_append_n
+from contactlab.observer.models.constraint import SCRATCH as CONSTRAINT_SCRATCH
+from contactlab.observer.models.constraint import constraint_step
+from contactlab.observer.models.velocity import velocity_step
 
 _HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
 
-__all__ = ["REG_AR", "REG_TIME", "OK", "FULL", "Core", "run_core", "state_width"]
+__all__ = ["REG_AR", "REG_TIME", "REG_VELOCITY", "REG_CONSTRAINT", "OK", "FULL", "Core",
+           "run_core", "state_width"]
 
 #: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
 REG_AR, REG_TIME = 0, 1
+#: models scored directly by their compiled step (no Kalman filter): velocity (F, M) and
+#: constraint models (:func:`~contactlab.observer.models.velocity.velocity_step`,
+#: :func:`~contactlab.observer.models.constraint.constraint_step`)
+REG_VELOCITY, REG_CONSTRAINT = 2, 3
 #: :func:`run_core` status: done, or stopped before a sample for room
 OK, FULL = 0, 1
 # counters: paths, units, segments, free slots, slots, next path id, events, alarms,
@@ -97,7 +110,7 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     of each new path for the caller's catch-up (``scr``: :func:`run_core`'s scratch
     arrays for the events).  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max) = cfg
+     nk_list, q_max, mp) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -250,7 +263,7 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     complete the event record; move the kept paths and their units to the front (``scr``:
     :func:`run_core`'s scratch arrays for the events)."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max) = cfg
+     nk_list, q_max, mp) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -524,6 +537,15 @@ def _step2_covariances(nb, act, mid, ust):  # pragma: no cover - compiled
         ust[u, 0, 5] = s11
 
 
+@numba.njit(cache=True, inline="always")
+def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
+    """A directly scored model's log-likelihood and chi-square of one sample ``x`` (its
+    signal's columns), its state row ``s`` advanced (``w``: scratch)."""
+    if reg == REG_CONSTRAINT:
+        return constraint_step(p, s, x, w)
+    return velocity_step(p, x)
+
+
 @numba.njit(cache=True)
 def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
@@ -545,7 +567,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     :func:`_step2_b` (their covariances).
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max) = cfg
+     nk_list, q_max, mp) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -573,6 +595,14 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     maxk = 0
     for j in range(K):
         maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
+    wk = np.empty(CONSTRAINT_SCRATCH)        # the direct steps' scratch
+    # a stateless model's score of sample vt[k] (computed once for all its instances)
+    vt = np.full(mi.shape[0], -1 << 62, np.int64)
+    vll = np.empty(mi.shape[0])
+    vchi = np.empty(mi.shape[0])
+    direct = False                           # any model scored directly
+    for k in range(mi.shape[0]):
+        direct = direct or mi[k, 0] >= REG_VELOCITY
     t = t_from
     catch = False            # catching up the new paths of an event
     nb = 0                   # instances whose covariance update is pending (pass 3)
@@ -581,9 +611,11 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
     # the events' scratch (alarms, candidates; ranking, kept paths, their new places)
     nuc, npc = upath.shape[0] * S, pid.shape[0]
+    # an alarm's candidates are its node's successors: at most the graph's out-degree
+    deg = max(1, n_succ.max())
     scr = (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
-           np.empty(S, np.int64), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.int64),
-           np.empty(nuc * K), np.empty(nuc * K, np.int64), np.empty(nuc * K, np.bool_),
+           np.empty(S, np.int64), np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.int64),
+           np.empty(nuc * deg), np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.bool_),
            np.empty(npc, np.int64), np.empty(npc), np.empty(npc, np.int64),
            np.empty(npc, np.int64))
     while True:
@@ -596,6 +628,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
+        fast = False
         if qc == 2 and ust.shape[1] == 1:
             # two parameters, one channel: the step in two passes over the sample's
             # instances, each pass short enough that the processor runs the instances'
@@ -605,6 +638,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                 if catch and ustart[u] > tt:
                     continue                    # a new instance not yet begun
                 k = umodel[u]
+                if mi[k, 0] >= REG_VELOCITY:
+                    continue                    # scored directly: the general loop below
                 mode, est, col = mi[k, 6], mi[k, 7] != 0, mi[k, 4]
                 if mi[k, 0] == REG_AR:
                     if mi[k, 2]:
@@ -658,16 +693,31 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     top = dv if dv > top else top
                 inc[u - ua] = ll
             nb = na                             # their covariances: pass 3 (_step2_b)
-            ub = ua                             # done: the general loop below is empty
+            fast = True
+            if not direct:
+                ub = ua                         # done: the general loop below is empty
         for u in range(ua, ub):
             if catch and ustart[u] > tt:
                 continue                        # a new instance not yet begun
             k = umodel[u]
+            reg = mi[k, 0]
+            if fast and reg < REG_VELOCITY:
+                continue                        # stepped in the two passes above
             q = qc if qc > 0 else mi[k, 3]
             C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
             ll_sum = 0.0
             chi = 0.0
             zs = 0.0
+            if reg == REG_VELOCITY and vt[k] == tt:
+                ll_sum, chi = vll[k], vchi[k]   # stateless: every instance scores the same
+                C = 0
+            elif reg >= REG_VELOCITY:
+                # scored directly (z = 0: its mean tests never fire); no channel filters
+                col = mi[k, 4]
+                ll_sum, chi = _direct_step(reg, mp[k], ust[u, 0], xa[row, col:col + C], wk)
+                if reg == REG_VELOCITY:
+                    vt[k], vll[k], vchi[k] = tt, ll_sum, chi
+                C = 0
             for c in range(C):
                 col = mi[k, 4] + c
                 if qc == 2:
@@ -850,7 +900,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     for si in range(S):
                         if udf[u, si] > thr:
                             nA += 1
-                nC = nA * K
+                nC = nA * deg
                 if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
                         and cnt[C_SLOTS] + nC <= ha.shape[1]
                         and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
@@ -903,7 +953,7 @@ def _cap(need: int, have: int) -> int:
 class Core:
     """The arrays of :func:`run_core` for one observer, their growth, and its events.
 
-    ``specs``: each model's :meth:`~contactlab.observer.models.base.FeatureModel.kalman_spec`
+    ``specs``: each model's :meth:`~contactlab.observer.models.base.FeatureModel.core_spec`
     (in the observer's model order) with its first column in the measurement buffer.
     """
 
@@ -911,16 +961,26 @@ class Core:
                  side_src, threshold: float, gap: float, p_keep: float, max_paths: int | None,
                  succ, n_succ, log_t):
         M = len(specs)
-        qmax = max(s["q"] for s in specs)
-        cmax = max(s["channels"] for s in specs)
-        self.qmax, self.cmax, self.width = qmax, cmax, state_width(qmax)
-        self.qt = (0,) * qmax if all(s["q"] == qmax for s in specs) else ()
+        kal = [s for s in specs if s["reg"] < REG_VELOCITY]
+        direct = [s for s in specs if s["reg"] >= REG_VELOCITY]
+        qmax = max((s["q"] for s in kal), default=1)
+        cmax = max((s["channels"] for s in kal), default=1)
+        self.qmax, self.cmax = qmax, cmax
+        # a directly scored model keeps one state row (channel 0) of its own layout
+        self.width = max([state_width(qmax)] + [len(s["prior"]) for s in direct])
+        self.qt = (0,) * qmax if kal and all(s["q"] == qmax for s in kal) else ()
         K = len(node_kinds)
         self.K = K
-        # each model's prior state row per channel (layout of state_width)
+        # each model's prior state row per channel (layout of state_width); its parameter
+        # row (directly scored models)
         pst = np.zeros((M, cmax, self.width))
+        mp = np.zeros((M, max([1] + [len(s["params"]) for s in direct])))
         oS, oL, oV = qmax, qmax + qmax * qmax, qmax + 2 * qmax * qmax
         for k, s in enumerate(specs):
+            if s["reg"] >= REG_VELOCITY:
+                pst[k, 0, :len(s["prior"])] = s["prior"]
+                mp[k, :len(s["params"])] = s["params"]
+                continue
             q, prior = s["q"], s["prior"]
             for c in range(s["channels"]):
                 pst[k, c, :q] = prior["theta"][0, c]
@@ -935,16 +995,18 @@ class Core:
             nk_ptr[j + 1] = nk_ptr[j] + len(ks)
         nk_list = np.array([k for ks in node_kinds for k in ks], np.int64)
         self.maxk = max(len(ks) for ks in node_kinds)
-        mi = np.array([[s["reg"], s["order"], int(s["mean"]), s["q"], s["col"], s["channels"],
-                        s["mode"], int(s["estimate_noise"])] for s in specs], np.int64)
-        mf = np.array([s["noise_prior_count"] for s in specs], np.float64)
+        self.deg = max(1, int(np.max(n_succ)))      # the graph's out-degree
+        mi = np.array([[s["reg"], s.get("order", 0), int(s.get("mean", False)), s.get("q", 0),
+                        s["col"], s["channels"], s.get("mode", 0),
+                        int(s.get("estimate_noise", False))] for s in specs], np.int64)
+        mf = np.array([s.get("noise_prior_count", 0.0) for s in specs], np.float64)
         self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
                     np.ascontiguousarray(side_b, np.float64),
                     np.ascontiguousarray(side_src, np.int64),
                     pst, float(threshold), float(gap), float(p_keep),
                     -1 if max_paths is None else int(max_paths),
                     np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
-                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax)
+                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax, mp)
         self.S = len(side_src)
         self.cnt = np.zeros(N_COUNTERS, np.int64)
         self._acts = None
@@ -996,7 +1058,7 @@ class Core:
         c = self.cnt
         nP, nU = int(c[C_P]), int(c[C_U])
         nA = int((self.units_["df"][:nU] > self.cfg[6]).sum())
-        nC = nA * self.K
+        nC = nA * self.deg
         if nP + nC > len(self.paths_["id"]):
             self._alloc_paths(_cap(nP + nC, 0))
         if nU + nC * self.maxk > len(self.units_["path"]):

@@ -124,6 +124,9 @@ class FeatureGraph:
     p_prune: float | None = None
     #: successor table per action code (filled on first use; not part of the graph)
     _succ: dict = field(default_factory=dict, compare=False, repr=False)
+    #: the observer's compiled-core transition tables per transitions setting (filled on
+    #: first use; not part of the graph)
+    _tables: dict = field(default_factory=dict, compare=False, repr=False)
 
     # -- lookups -------------------------------------------------------------------
     @property
@@ -201,9 +204,11 @@ class FeatureGraph:
             raise ValueError(f"initial probabilities must be >= 0 and sum to 1; got {p.tolist()}")
         nodes = tuple(Node(n.name, n.label, n.models, float(q), n.transient, n.self_transition)
                       for n, q in zip(self.nodes, p))
+        # the edges are this graph's: so are the successor and transition tables
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
-                            self.sides, self.edge_probabilities, self.p_prune)
+                            self.sides, self.edge_probabilities, self.p_prune,
+                            _succ=self._succ, _tables=self._tables)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""

@@ -26,14 +26,16 @@ Processing is incremental: :meth:`Observer.process` takes a chunk of any
 length (one sample from a live source, or a whole trace), and any split of a
 stream into chunks gives identical results.
 
-Two forms run it.  When every model is a Kalman filter whose regressors the
-compiled core forms itself (:meth:`FeatureModel.kalman_spec`: the temporal and
-impact models), all of the above -- per sample the filter steps, detectors
-and path sums, per event the alarms, candidates, maximisation, catch-up and
-pruning -- runs in :mod:`contactlab.observer.engine`'s compiled loop over flat
-arrays, and an event costs microseconds.  Otherwise (constraint and velocity
-models) the general form below runs the models through their ``run``; the two
-give the same events, paths and path log-likelihoods (tests compare them).
+Two forms run it.  When every model runs in the compiled core
+(:meth:`FeatureModel.core_spec`: the temporal and impact models as Kalman filters
+whose regressors the core forms itself, the constraint and velocity models of
+9.1's triples by their compiled steps), all of the above -- per sample the
+models' steps, detectors and path sums, per event the alarms, candidates,
+maximisation, catch-up and pruning -- runs in :mod:`contactlab.observer.engine`'s
+compiled loop over flat arrays, and an event costs microseconds.  Otherwise (a
+model with only a ``run``) the general form below runs the models through their
+``run``; the two give the same events, paths and path log-likelihoods (tests
+compare them).
 
 In the general form, models whose instances advance by
 the same arithmetic from their own state (equal
@@ -84,7 +86,7 @@ measured on the switching suite of ``benchmarks/bench_observer.py``):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numba
@@ -244,12 +246,14 @@ class ObserverResult:
     map_path : ``[(node name, start sample), ...]`` of the most probable path at
         the end (the MAP path with its event times).
     labels : (n,) node index per sample along ``map_path`` (retrospective).
+    events : the run's :class:`~contactlab.observer.paths.ChangeEvent` records, a
+        sequence whose records are made when read.
     """
 
     node_names: tuple[str, ...]
     node_prob: np.ndarray
     map_node: np.ndarray
-    events: list
+    events: Sequence
     map_path: list
     labels: np.ndarray
     paths: list
@@ -452,7 +456,7 @@ class Observer:
                 m.check_channels(self._channels[m.signal])
             except ValueError as exc:
                 raise ValueError(f"model {name!r}: {exc}") from None
-            spec = m.kalman_spec(self._channels[m.signal])
+            spec = m.core_spec(self._channels[m.signal])
             if spec is None:
                 return False
             specs.append(dict(spec, col=first[m.signal]))
@@ -460,18 +464,10 @@ class Observer:
         self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
         self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
         self._side_tables()
-        K = self.graph.n_nodes
-        codes = [None] + list(range(len(self.graph.actions or ())))
-        succ = np.zeros((len(codes), K, K), dtype=np.int64)
-        n_succ = np.zeros((len(codes), K), dtype=np.int64)
-        log_t = np.full((len(codes), K, K), -np.inf)
-        for a1, a in enumerate(codes):
-            T = self._transition_table(a)
-            for i in range(K):
-                js = self._successors(i, a)
-                n_succ[a1, i] = len(js)
-                succ[a1, i, :len(js)] = js
-                log_t[a1, i] = T[i]
+        tables = self.graph._tables.get(self.transitions)
+        if tables is None:                      # one build per graph, not per observer
+            tables = self.graph._tables[self.transitions] = self._core_tables()
+        succ, n_succ, log_t = tables
         self._core = Core(specs=specs, node_kinds=self._node_kinds, side_a=self._side_a,
                           side_b=self._side_b, side_src=self._side_src,
                           threshold=self.threshold, gap=self.gap,
@@ -485,6 +481,23 @@ class Observer:
                                 self.lag - 1)
         self._paths = []
         return True
+
+    def _core_tables(self) -> tuple:
+        """Per action code (none first): each node's successors, their count, and
+        ``log p(i -> j)`` (:meth:`_transition_table`'s, ``-inf`` off the edges)."""
+        K = self.graph.n_nodes
+        codes = [None] + list(range(len(self.graph.actions or ())))
+        succ = np.zeros((len(codes), K, K), dtype=np.int64)
+        n_succ = np.zeros((len(codes), K), dtype=np.int64)
+        log_t = np.full((len(codes), K, K), -np.inf)
+        for a1, a in enumerate(codes):           # log_t: _transition_table's, edge by edge
+            for i in range(K):
+                js = self._successors(i, a)
+                n_succ[a1, i] = len(js)
+                if js:
+                    succ[a1, i, :len(js)] = js
+                    log_t[a1, i, list(js)] = [self._log_transition(i, j, a) for j in js]
+        return succ, n_succ, log_t
 
     def _append_units(self, paths, models, df, lz) -> None:
         models = np.asarray(models, dtype=np.int64)
@@ -1044,7 +1057,8 @@ def observe(observer: Observer, data, *, action=None, chunk: int = 4096) -> Obse
         n = len(data)
     if chunk < 1:
         raise ValueError(f"chunk must be >= 1; got {chunk!r}")
-    probs, maps, events = [], [], []
+    probs, maps = [], []
+    n_events = len(observer.events_)
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         part = ({k: np.asarray(v)[a:b] for k, v in data.items()} if isinstance(data, Mapping)
@@ -1054,7 +1068,8 @@ def observe(observer: Observer, data, *, action=None, chunk: int = 4096) -> Obse
         step = observer.process(part, action=act)
         probs.append(step.node_prob)
         maps.append(step.map_node)
-        events.extend(step.events)
+    # the run's events as a view of the observer's log: records are made when read
+    events = observer.events_[n_events:]
     K = observer.graph.n_nodes
     path = observer.map_path()
     return ObserverResult(observer.graph.node_names,

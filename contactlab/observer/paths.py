@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Segment", "PathInfo", "ChangeEvent", "EventLog", "RowBuffer", "history"]
+__all__ = ["Segment", "PathInfo", "ChangeEvent", "EventLog", "RowBuffer", "history",
+           "count_changes"]
 
 
 @dataclass(frozen=True)
@@ -165,6 +166,29 @@ class EventLog(Sequence):
     def __iter__(self):
         for i in range(len(self)):
             yield self._record(i)
+
+    def change_flags(self) -> np.ndarray:
+        """Per record: True for a detected change (``model`` set), False for a pruning
+        step, without making the records."""
+        out = []
+        for block in self._blocks:
+            if isinstance(block[0], tuple):
+                na = block[0][0][:, 2]
+                out.append(np.repeat(na > 0, np.maximum(na, 1)))
+            else:
+                out.append(np.array([e.model is not None for e in block], dtype=bool))
+        return np.concatenate(out) if out else np.zeros(0, dtype=bool)
+
+
+def count_changes(events) -> int:
+    """The detected changes among ``events`` (records whose ``model`` is set): an
+    observer's :class:`EventLog`, a slice of one, or any sequence of records."""
+    if isinstance(events, EventLog):
+        return int(events.change_flags().sum())
+    if isinstance(events, _EventView):
+        return int(events._log.change_flags()[events._idx.start:events._idx.stop:
+                                                events._idx.step].sum())
+    return sum(e.model is not None for e in events)
 
 
 class _EventView(Sequence):

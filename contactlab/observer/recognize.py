@@ -41,6 +41,7 @@ from contactlab.observer.graph import FeatureGraph, load_graph
 from contactlab.observer.kinematics import check_map_sources
 from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
+from contactlab.observer.paths import count_changes
 from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
 from contactlab.signals import relabel, trial_signals, truth_codes
@@ -241,7 +242,7 @@ class RecognizeStage(Stage):
                           for n, s in r.map_path],
                  "merged_path": [[n, float(rec.times[max(s, 0)]) if len(rec.times)
                                   else s / rec.fs] for n, s in merge_path(r.map_path)],
-                 "n_changes": sum(e.model is not None for e in r.events),
+                 "n_changes": count_changes(r.events),
                  "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict()}
         extra = {"confusion": np.zeros((K, K), np.int64),
                  "confusion_online": np.zeros((K, K), np.int64), "delays": None,

@@ -92,6 +92,13 @@ class FeatureModel:
         instance), exactly as :meth:`run` would."""
         return None
 
+    def core_spec(self, channels: int) -> dict | None:
+        """None, or how the compiled core runs this model: :meth:`kalman_spec`, or for a
+        model scored directly by a compiled step (``reg``: ``REG_VELOCITY``,
+        ``REG_CONSTRAINT``) the columns it reads (``channels``), its ``params`` row and
+        the ``prior`` state row of one instance; the step is the one :meth:`run` loops."""
+        return self.kalman_spec(channels)
+
 
 class ModelBank:
     """All active instances of one :class:`FeatureModel`, as one batch.

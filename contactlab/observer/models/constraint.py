@@ -64,11 +64,15 @@ predictive covariance: chi-square with ``k`` degrees of freedom; only its increa
 (6.14, :attr:`FeatureModel.tests`): a residual below the trained noise is no other
 contact.
 
-All instances advance together over a chunk: a fixed frame in one compiled pass
-over samples x instances (:func:`_fixed_kernel`; numpy's calls cost more than the
-arithmetic on the observer's short catch-up runs), an estimated frame with numpy
-(batched 3x3 eigen-decompositions over samples x instances): no per-sample Python
-loop.
+One compiled step scores a sample for one instance and advances its state
+(:func:`constraint_step`, fixed or estimated frame); :meth:`ConstraintFeature.run`
+loops it over samples x instances in one compiled pass (numpy's calls cost more
+than the arithmetic on the observer's short catch-up runs), and the observer's
+compiled core (:mod:`contactlab.observer.engine`) calls the same step, so both
+give the same numbers to the bit.  An instance's state is one row: the count of
+its samples, then the running sums along the normals (fixed frame) or the sums of
+the scaled motion, its outer products and the force's outer products and the
+latest 8.69 alpha (estimated frame).
 """
 
 from __future__ import annotations
@@ -82,7 +86,7 @@ from contactlab.constraints.cartesian import FORCE_SD, POSITION_SD, CartesianCon
 from contactlab.constraints.scaling import reciprocal_scaling
 from contactlab.observer.models.base import LOG_2PI, FeatureModel
 
-__all__ = ["ConstraintFeature", "constraint_normals", "parse_constraint", "misalignment",
+__all__ = ["ConstraintFeature", "constraint_normals", "parse_constraint", "constraint_step",
            "CONSTRAINT_MODES", "K"]
 
 #: the Cartesian space of the fingertip (R^3)
@@ -197,6 +201,7 @@ class ConstraintFeature(FeatureModel):
         # conjugate prior of the surface point: N(0, V_nn / kappa0)
         self.kappa0 = (float(np.mean(np.diag(Vn))) / (self.offset_sd * self._beta) ** 2
                        if m else 0.0)
+        self._p = _pack(self)
 
     # -- construction --------------------------------------------------------------------
     @classmethod
@@ -273,268 +278,297 @@ class ConstraintFeature(FeatureModel):
         return K
 
     def init_state(self, starts, channels):
-        U = len(starts)
-        state = {"count": np.zeros(U)}
-        if self.mode == "fixed":
-            state["sum"] = np.zeros((U, self.degree))
-        else:
-            state["sx"] = np.zeros((U, K))
-            state["sxx"] = np.zeros((U, K, K))
-            state["sww"] = np.zeros((U, K, K))
-            state["alpha"] = np.zeros(U)
-        return state
+        return {"s": np.zeros((len(starts), _state_width(self.degree, self.mode)))}
 
     def run(self, state, x, *, t0, starts):
-        N, U = x.shape[0], len(starts)
-        xs = x[:, :K] * self._beta                       # (N, 3) scaled motion
-        ws = x[:, K:] * self._alpha                      # (N, 3) scaled force
-        c = state["count"][None, :] + np.arange(N, dtype=np.float64)[:, None]   # before t
-        if self.mode == "fixed":
-            ll, chi2 = self._run_fixed(state, xs, ws, c)
-        else:
-            ll, chi2 = self._run_estimated(state, xs, ws, c)
-        state["count"] += N
-        return ll, chi2
+        return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), state["s"], self._p)
 
-    def _score(self, e, f, c):
-        """(N, U) log-likelihood and chi-square of normal residuals ``e`` (N, U, m)
-        about the running offset after ``c`` samples and free residuals ``f`` (N, U, k-m)."""
-        m = self.degree
-        ll = np.zeros(c.shape)
-        chi2 = np.zeros(c.shape)
-        if m:
-            g = 1.0 + 1.0 / (self.kappa0 + c)
-            q = np.einsum("nui,ij,nuj->nu", e, self._Vn_inv, e) / g
-            ll -= 0.5 * (q + self._logdet_n + m * np.log(g) + m * LOG_2PI)
-            chi2 += q
-        if m < K:
-            qf = np.einsum("nui,ij,nuj->nu", f, self._Vf_inv, f)
-            ll -= 0.5 * (qf + self._logdet_f + (K - m) * LOG_2PI)
-            chi2 += qf
-        return ll, chi2
+    def core_spec(self, channels):
+        if type(self).run is not ConstraintFeature.run:
+            return None
+        from contactlab.observer.engine import REG_CONSTRAINT
 
-    def _run_fixed(self, state, xs, ws, c):
-        m = self.degree
-        ll, chi2 = _fixed_kernel(np.ascontiguousarray(xs), np.ascontiguousarray(ws),
-                                 np.ascontiguousarray(self.frame[:, :m]),
-                                 np.ascontiguousarray(self.frame[:, m:]), state["sum"],
-                                 np.ascontiguousarray(c[0]), self.kappa0, self._Vn_inv,
-                                 self._Vf_inv, self._logdet_n, self._logdet_f)
-        return ll, chi2
+        return {"reg": REG_CONSTRAINT, "channels": 2 * K,
+                "prior": np.zeros(_state_width(self.degree, self.mode)), "params": self._p}
 
-    def _run_estimated(self, state, xs, ws, c):
-        m = self.degree
-        N0, T0 = self.frame[:, :m], self.frame[:, m:]
-        prior = self.prior_samples * (T0 @ T0.T - N0 @ N0.T)
-        return _estimated_kernel(np.ascontiguousarray(xs), np.ascontiguousarray(ws),
-                                 state["sx"], state["sxx"], state["sww"], state["alpha"],
-                                 np.ascontiguousarray(c[0]), prior, np.ascontiguousarray(N0),
-                                 np.ascontiguousarray(T0), self.kappa0, self._Vn_inv,
-                                 self._Vf_inv, self._logdet_n, self._logdet_f,
-                                 self.prior_samples, bool(0 < m < K and self.frame_penalty))
+
+# the packed parameter row of :func:`constraint_step`
+P_M, P_BETA, P_ALPHA, P_KAPPA0, P_LOGDET_N, P_LOGDET_F, P_A, P_EST, P_PENALTY = range(9)
+P_FRAME, P_VN, P_VF, P_PRIOR = 9, 18, 27, 36
+N_PARAMS = 45
+# count, sums of x, x x^T, w w^T, alpha, the latest frame estimate (row-major)
+_W_EST = 1 + K + 2 * K * K + 1 + K * K
+_S_ALPHA = 1 + K + 2 * K * K
+_S_FRAME = _S_ALPHA + 1
+
+
+def _state_width(m: int, mode: str) -> int:
+    return _W_EST if mode == "estimated" else 1 + m
+
+
+def _pack(model: "ConstraintFeature") -> np.ndarray:
+    """The model as :func:`constraint_step`'s parameter row: degree, unit scalings,
+    kappa0, the blocks' log-determinants, 8.70's ``a``, flags (frame estimated, its
+    prior term on), the frame ``[N, T]``, the blocks' inverses (padded to 3 x 3) and the
+    nominal frame's pseudo-samples ``a (T T^T - N N^T)`` (row-major)."""
+    m = model.degree
+    p = np.zeros(N_PARAMS)
+    est = model.mode == "estimated"
+    p[[P_M, P_BETA, P_ALPHA, P_KAPPA0, P_LOGDET_N, P_LOGDET_F, P_A, P_EST, P_PENALTY]] = [
+        m, model._beta, model._alpha, model.kappa0, model._logdet_n, model._logdet_f,
+        model.prior_samples, float(est), float(est and 0 < m < K and model.frame_penalty)]
+    N0, T0 = model.frame[:, :m], model.frame[:, m:]
+    vn, vf = np.zeros((K, K)), np.zeros((K, K))
+    vn[:m, :m], vf[:K - m, :K - m] = model._Vn_inv, model._Vf_inv
+    p[P_FRAME:P_FRAME + 9] = model.frame.ravel()
+    p[P_VN:P_VN + 9] = vn.ravel()
+    p[P_VF:P_VF + 9] = vf.ravel()
+    p[P_PRIOR:P_PRIOR + 9] = (model.prior_samples * (T0 @ T0.T - N0 @ N0.T)).ravel()
+    return p
+
+
+#: length of :func:`constraint_step`'s scratch array
+SCRATCH = 40
 
 
 @numba.njit(cache=True)
-def _fixed_kernel(xs, ws, Nf, Tf, sums, c0, kappa0, Vn_inv, Vf_inv, logdet_n,
-                  logdet_f):  # pragma: no cover - compiled
-    """:meth:`ConstraintFeature._score` of a fixed frame over samples x instances in one
-    compiled pass: per sample t the motion along the normals ``z_t = N^T xs_t`` and the
-    force along the free directions ``f_t = T^T ws_t``; per instance u the residual
-    ``e = z_t - (sums_u + z_0 + .. + z_{t-1}) / (kappa0 + c)`` with ``c = c0_u + t``
-    samples before t.  ``sums`` (U, m) is advanced in place by the chunk's total."""
-    n, k = xs.shape
-    U, m = sums.shape[0], Nf.shape[1]
+def _run_kernel(x, S, p):  # pragma: no cover - compiled
+    """:func:`constraint_step` over samples ``x`` (n, 6) for every instance (rows of ``S``):
+    the (n, U) log-likelihoods and chi-squares; ``S`` advances in place."""
+    n, U = x.shape[0], S.shape[0]
     ll = np.empty((n, U))
     chi2 = np.empty((n, U))
-    z = np.zeros(m)
-    f = np.zeros(k - m)
-    e = np.zeros(m)
-    cz = np.zeros(m)                                     # z_0 + .. + z_{t-1}
-    for t in range(n):
-        for i in range(m):
-            acc = 0.0
-            for j in range(k):
-                acc += xs[t, j] * Nf[j, i]
-            z[i] = acc
-        qf = 0.0
-        if m < k:
-            for i in range(k - m):
-                acc = 0.0
-                for j in range(k):
-                    acc += ws[t, j] * Tf[j, i]
-                f[i] = acc
-            for i in range(k - m):
-                for j in range(k - m):
-                    qf += f[i] * Vf_inv[i, j] * f[j]
-        for u in range(U):
-            v = 0.0
-            q = 0.0
-            if m:
-                cc = kappa0 + c0[u] + t
-                g = 1.0 + 1.0 / cc
-                for i in range(m):
-                    e[i] = z[i] - (sums[u, i] + cz[i]) / cc
-                for i in range(m):
-                    for j in range(m):
-                        q += e[i] * Vn_inv[i, j] * e[j]
-                q /= g
-                v -= 0.5 * (q + logdet_n + m * math.log(g) + m * LOG_2PI)
-            if m < k:
-                v -= 0.5 * (qf + logdet_f + (k - m) * LOG_2PI)
-            ll[t, u] = v
-            chi2[t, u] = q + qf
-        for i in range(m):
-            cz[i] += z[i]
+    w = np.empty(SCRATCH)
     for u in range(U):
-        for i in range(m):
-            sums[u, i] += cz[i]
-    return ll, chi2
-
-
-@numba.njit(cache=True)
-def _polar(M, Q):  # pragma: no cover - compiled
-    """The orthogonal polar factor ``Q = U V^T`` of the square ``M = U S V^T`` (the orthogonal
-    matrix nearest to M: the orthogonal Procrustes solution), written into ``Q``; returns
-    the sum of M's singular values.  Closed forms for 1 x 1 (the sign) and 2 x 2 (the
-    rotation or reflection maximising ``tr(Q^T M)``: a rotation by the angle of
-    ``(a + d, c - b)`` when ``det M >= 0``, else the reflection along ``(a - d, b + c)``,
-    whose lengths are then ``s1 + s2``); an SVD otherwise."""
-    j = M.shape[0]
-    if j == 1:
-        Q[0, 0] = -1.0 if M[0, 0] < 0.0 else 1.0
-        return abs(M[0, 0])
-    if j == 2:
-        a, b, c, d = M[0, 0], M[0, 1], M[1, 0], M[1, 1]
-        if a * d - b * c >= 0.0:
-            p, q = a + d, c - b
-            r = math.sqrt(p * p + q * q)
-            if r == 0.0:
-                p, q, r = 1.0, 0.0, 1.0
-            Q[0, 0], Q[0, 1], Q[1, 0], Q[1, 1] = p / r, -q / r, q / r, p / r
-        else:
-            p, q = a - d, b + c
-            r = math.sqrt(p * p + q * q)
-            Q[0, 0], Q[0, 1], Q[1, 0], Q[1, 1] = p / r, q / r, q / r, -p / r
-        return r
-    u, sv, vt = np.linalg.svd(M)
-    Q[:, :] = u @ vt
-    return sv.sum()
-
-
-@numba.njit(cache=True)
-def _estimated_kernel(xs, ws, sx, sxx, sww, alpha, c0, prior, N0, T0, kappa0, Vn_inv, Vf_inv,
-                      logdet_n, logdet_f, a, penalty):  # pragma: no cover - compiled
-    """The estimated-frame model over samples ``xs``, ``ws`` (n, 3: scaled motion and force)
-    for U instances in one compiled pass.  Per instance u and sample t, from the sums of
-    the instance's samples before t (``c = c0_u + t`` of them): the centred information
-    ``D = S_xx - S_x S_x^T / max(c, 1) - S_ww + prior`` (8.19 with the nominal frame's
-    pseudo-samples), its eigenvectors by ascending eigenvalue (8.25's closed form: the
-    first m the normals), each span's basis turned onto the nominal one (orthogonal
-    Procrustes, :func:`_polar`), the residuals and :meth:`ConstraintFeature._score`'s
-    terms, and with ``penalty`` 8.70's term from 8.69's alpha (3 minus the singular values
-    of the spans against the nominal ones: those of the Procrustes problems).  The running
-    sums ``sx`` (U, 3), ``sxx``, ``sww`` (U, 3, 3) and ``alpha`` (U) advance in place."""
-    n = xs.shape[0]
-    U = sx.shape[0]
-    m = N0.shape[1]
-    kf = K - m
-    ll = np.empty((n, U))
-    chi2 = np.empty((n, U))
-    D = np.empty((K, K))
-    Mn = np.empty((m, m))
-    Mt = np.empty((kf, kf))
-    Qn = np.empty((m, m))
-    Qt = np.empty((kf, kf))
-    e = np.empty(m)
-    f = np.empty(kf)
-    ax = np.empty(K)
-    axx = np.empty((K, K))
-    aww = np.empty((K, K))
-    log_a = math.log(a) if a > 0.0 else 0.0
-    for u in range(U):
-        for i in range(K):
-            ax[i] = sx[u, i]
-            for j in range(K):
-                axx[i, j] = sxx[u, i, j]
-                aww[i, j] = sww[u, i, j]
-        prev = alpha[u]
+        s = S[u]
         for t in range(n):
-            c = c0[u] + t
-            cc = c if c > 1.0 else 1.0
-            for i in range(K):
-                for j in range(K):
-                    D[i, j] = axx[i, j] - ax[i] * (ax[j] / cc) - aww[i, j] + prior[i, j]
-            _, R = np.linalg.eigh(D)
-            sv = 0.0
-            if m:
-                for i in range(m):
-                    for j in range(m):
-                        acc = 0.0
-                        for r in range(K):
-                            acc += R[r, i] * N0[r, j]
-                        Mn[i, j] = acc
-                sv += _polar(Mn, Qn)
-            if kf:
-                for i in range(kf):
-                    for j in range(kf):
-                        acc = 0.0
-                        for r in range(K):
-                            acc += R[r, m + i] * T0[r, j]
-                        Mt[i, j] = acc
-                sv += _polar(Mt, Qt)
-            v = 0.0
-            ch = 0.0
-            if m:
-                cg = kappa0 + c
-                for j in range(m):
-                    acc = 0.0
-                    for r in range(K):
-                        nr = 0.0
-                        for i in range(m):
-                            nr += R[r, i] * Qn[i, j]
-                        acc += (xs[t, r] - ax[r] / cg) * nr
-                    e[j] = acc
-                g = 1.0 + 1.0 / cg
-                q = 0.0
-                for i in range(m):
-                    for j in range(m):
-                        q += e[i] * Vn_inv[i, j] * e[j]
-                q /= g
-                v -= 0.5 * (q + logdet_n + m * math.log(g) + m * LOG_2PI)
-                ch += q
-            if kf:
-                for j in range(kf):
-                    acc = 0.0
-                    for r in range(K):
-                        tr = 0.0
-                        for i in range(kf):
-                            tr += R[r, m + i] * Qt[i, j]
-                        acc += ws[t, r] * tr
-                    f[j] = acc
-                qf = 0.0
-                for i in range(kf):
-                    for j in range(kf):
-                        qf += f[i] * Vf_inv[i, j] * f[j]
-                v -= 0.5 * (qf + logdet_f + kf * LOG_2PI)
-                ch += qf
-            if penalty:
-                al = K - sv
-                v = v - a * (al - prev)
-                if c == 0.0:
-                    v += log_a
-                prev = al
-            ll[t, u] = v
-            chi2[t, u] = ch
-            for i in range(K):
-                ax[i] += xs[t, i]
-                for j in range(K):
-                    axx[i, j] += xs[t, i] * xs[t, j]
-                    aww[i, j] += ws[t, i] * ws[t, j]
-        for i in range(K):
-            sx[u, i] = ax[i]
-            for j in range(K):
-                sxx[u, i, j] = axx[i, j]
-                sww[u, i, j] = aww[i, j]
-        if penalty:
-            alpha[u] = prev
+            ll[t, u], chi2[t, u] = constraint_step(p, s, x[t], w)
     return ll, chi2
+
+
+@numba.njit(cache=True)
+def constraint_step(p, s, x, w):  # pragma: no cover - compiled
+    """Score one sample ``x`` (position then force, 6) for one instance (state row ``s``)
+    and advance it: ``(log-likelihood, chi-square)`` (module notes; ``w``: scratch of
+    :data:`SCRATCH` numbers).
+
+    The residuals are taken in the frame ``B`` (3 x 3: normals, then free directions):
+    the model's frame, or with the frame estimated, the eigenvectors of the centred
+    information of the instance's samples before this one (8.19 with the nominal frame's
+    pseudo-samples, ``D = S_xx - S_x S_x^T / max(c, 1) - S_ww + a (T T^T - N N^T)``) by
+    ascending eigenvalue (8.25's closed form: the first m are the normals;
+    :func:`_eig3`), each span's basis turned onto the nominal one (orthogonal
+    Procrustes, :func:`_turn`; the score is then that of the span, whatever basis the
+    eigen-solver returned).  The normal block is the motion about the posterior surface
+    point, ``beta x - S / (kappa0 + c)`` (S the sum of earlier samples' scaled motion,
+    along the normals for a fixed frame), with predictive covariance
+    ``V_nn (1 + 1 / (kappa0 + c))``; the free block the scaled force under ``V_ff``.
+    With the prior term, 8.70's ``log a - a alpha``: ``log a`` at the instance's first
+    sample and ``-a`` times alpha's change (8.69's alpha, 3 minus the singular values of
+    the spans against the nominal ones: those of the Procrustes problems)."""
+    m = int(p[P_M])
+    kf = K - m
+    beta, alpha_s, kappa0 = p[P_BETA], p[P_ALPHA], p[P_KAPPA0]
+    c = s[0]
+    cg = kappa0 + c
+    B = w[0:9].reshape((K, K))
+    e = w[9:12]
+    ll = 0.0
+    if p[P_EST] == 0.0:
+        for i in range(K):
+            for j in range(K):
+                B[i, j] = p[P_FRAME + K * i + j]
+        for j in range(m):
+            z = 0.0
+            for r in range(K):
+                z += (x[r] * beta) * B[r, j]
+            e[j] = z - s[1 + j] / cg
+            s[1 + j] += z
+    else:
+        cc = c if c > 1.0 else 1.0
+        D = w[12:21].reshape((K, K))
+        R = w[21:30].reshape((K, K))
+        for i in range(K):
+            for j in range(K):
+                D[i, j] = (s[1 + K + K * i + j] - s[1 + i] * (s[1 + j] / cc)
+                           - s[1 + K + K * K + K * i + j] + p[P_PRIOR + K * i + j])
+        if c == 0.0:
+            for i in range(K):
+                for j in range(K):
+                    R[i, j] = 1.0 if i == j else 0.0
+        else:
+            for i in range(K * K):
+                R[i // K, i % K] = s[_S_FRAME + i]
+        _eig3(D, R, w[30:39].reshape((K, K)))
+        for i in range(K * K):
+            s[_S_FRAME + i] = R[i // K, i % K]
+        sv = _turn(R, 0, m, p, B) + _turn(R, m, K, p, B)
+        for j in range(m):
+            acc = 0.0
+            for r in range(K):
+                acc += (x[r] * beta - s[1 + r] / cg) * B[r, j]
+            e[j] = acc
+        if p[P_PENALTY] != 0.0:
+            al = K - sv
+            ll = ll - p[P_A] * (al - s[_S_ALPHA])
+            if c == 0.0:
+                ll += math.log(p[P_A])
+            s[_S_ALPHA] = al
+        for i in range(K):
+            xi = x[i] * beta
+            wi = x[K + i] * alpha_s
+            s[1 + i] += xi
+            for j in range(K):
+                s[1 + K + K * i + j] += xi * (x[j] * beta)
+                s[1 + K + K * K + K * i + j] += wi * (x[K + j] * alpha_s)
+    chi = 0.0
+    v = 0.0
+    if m:
+        g = 1.0 + 1.0 / cg
+        q = 0.0
+        for i in range(m):
+            for j in range(m):
+                q += e[i] * p[P_VN + K * i + j] * e[j]
+        q /= g
+        v -= 0.5 * (q + p[P_LOGDET_N] + m * math.log(g) + m * LOG_2PI)
+        chi += q
+    if kf:
+        for j in range(kf):
+            acc = 0.0
+            for r in range(K):
+                acc += (x[K + r] * alpha_s) * B[r, m + j]
+            e[j] = acc
+        qf = 0.0
+        for i in range(kf):
+            for j in range(kf):
+                qf += e[i] * p[P_VF + K * i + j] * e[j]
+        v -= 0.5 * (qf + p[P_LOGDET_F] + kf * LOG_2PI)
+        chi += qf
+    s[0] = c + 1.0
+    return v + ll, chi
+
+
+@numba.njit(cache=True)
+def _eig3(D, R, T):  # pragma: no cover - compiled
+    """Eigenvectors of the symmetric 3 x 3 ``D`` (overwritten) into the columns of ``R``,
+    by ascending eigenvalue, starting from the orthogonal ``R`` given (the instance's
+    previous estimate: one sample changes D little, so ``R^T D R`` is nearly diagonal):
+    ``D <- R^T D R``, then cyclic Jacobi rotations (each zeroes one off-diagonal pair,
+    ``D <- J^T D J``, ``R <- R J``; Golub and Van Loan 8.5) until the off-diagonal part
+    is below rounding, then a sort (``T``: scratch)."""
+    for i in range(K):
+        for j in range(K):
+            acc = 0.0
+            for k in range(K):
+                acc += D[i, k] * R[k, j]
+            T[i, j] = acc
+    for i in range(K):
+        for j in range(i, K):
+            acc = 0.0
+            for k in range(K):
+                acc += R[k, i] * T[k, j]
+            D[i, j] = acc
+            D[j, i] = acc
+    for _ in range(60):
+        off = D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2] + D[1, 2] * D[1, 2]
+        diag = D[0, 0] * D[0, 0] + D[1, 1] * D[1, 1] + D[2, 2] * D[2, 2]
+        if not off > 1e-34 * diag:
+            break
+        for pq in range(3):
+            a = 0 if pq < 2 else 1
+            b = 1 if pq == 0 else 2
+            apq = D[a, b]
+            if apq == 0.0:
+                continue
+            theta = (D[b, b] - D[a, a]) / (2.0 * apq)
+            t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            if theta < 0.0:
+                t = -t
+            cs = 1.0 / math.sqrt(t * t + 1.0)
+            sn = t * cs
+            for k in range(K):
+                dka, dkb = D[k, a], D[k, b]
+                D[k, a] = cs * dka - sn * dkb
+                D[k, b] = sn * dka + cs * dkb
+            for k in range(K):
+                dak, dbk = D[a, k], D[b, k]
+                D[a, k] = cs * dak - sn * dbk
+                D[b, k] = sn * dak + cs * dbk
+            D[a, b] = 0.0
+            D[b, a] = 0.0
+            for k in range(K):
+                rka, rkb = R[k, a], R[k, b]
+                R[k, a] = cs * rka - sn * rkb
+                R[k, b] = sn * rka + cs * rkb
+    for i in range(K - 1):                       # selection sort of three
+        j = i
+        for k in range(i + 1, K):
+            if D[k, k] < D[j, j]:
+                j = k
+        if j != i:
+            d = D[i, i]
+            D[i, i] = D[j, j]
+            D[j, j] = d
+            for k in range(K):
+                r = R[k, i]
+                R[k, i] = R[k, j]
+                R[k, j] = r
+
+
+@numba.njit(cache=True)
+def _turn(R, lo, hi, p, B):  # pragma: no cover - compiled
+    """Columns ``lo:hi`` of ``B``: those of ``R`` turned onto the nominal frame's (``p``'s
+    frame) by the orthogonal polar factor ``Q`` of ``M = R_span^T F_span`` (the orthogonal
+    Procrustes solution, the orthogonal matrix nearest to M); returns the sum of M's
+    singular values (0 for an empty span).  Closed forms for one column (Q the sign) and
+    two (the rotation or reflection maximising ``tr(Q^T M)``: a rotation by the angle of
+    ``(a + d, c - b)`` when ``det M >= 0``, else the reflection along ``(a - d, b + c)``,
+    whose lengths are then ``s1 + s2``); an SVD for three."""
+    j = hi - lo
+    if j == 0:
+        return 0.0
+    if j == 3:
+        M = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                acc = 0.0
+                for r in range(K):
+                    acc += R[r, a] * p[P_FRAME + K * r + b]
+                M[a, b] = acc
+        u, sv, vt = np.linalg.svd(M)
+        Q = u @ vt
+        for r in range(K):
+            for b in range(3):
+                acc = 0.0
+                for a in range(3):
+                    acc += R[r, a] * Q[a, b]
+                B[r, b] = acc
+        return sv.sum()
+    m00 = 0.0
+    for r in range(K):
+        m00 += R[r, lo] * p[P_FRAME + K * r + lo]
+    if j == 1:
+        q = -1.0 if m00 < 0.0 else 1.0
+        for r in range(K):
+            B[r, lo] = R[r, lo] * q
+        return abs(m00)
+    m01 = m10 = m11 = 0.0
+    for r in range(K):
+        m01 += R[r, lo] * p[P_FRAME + K * r + lo + 1]
+        m10 += R[r, lo + 1] * p[P_FRAME + K * r + lo]
+        m11 += R[r, lo + 1] * p[P_FRAME + K * r + lo + 1]
+    if m00 * m11 - m01 * m10 >= 0.0:
+        u, v = m00 + m11, m10 - m01
+        n = math.sqrt(u * u + v * v)
+        if n == 0.0:
+            u, v, n = 1.0, 0.0, 1.0
+        q00, q01, q10, q11 = u / n, -v / n, v / n, u / n
+    else:
+        u, v = m00 - m11, m01 + m10
+        n = math.sqrt(u * u + v * v)
+        q00, q01, q10, q11 = u / n, v / n, v / n, -u / n
+    for r in range(K):
+        ra, rb = R[r, lo], R[r, lo + 1]
+        B[r, lo] = ra * q00 + rb * q10
+        B[r, lo + 1] = ra * q01 + rb * q11
+    return n

@@ -30,16 +30,23 @@ noise (a still finger whose encoders hold one count) is still F's best
 explanation, and the decrease test fired on every such stretch.  M keeps every
 test the observer runs: its covariance-decrease test is how a stop is found
 (the maze's moving -> fixed corner transitions).
+
+One compiled step scores a sample (:func:`velocity_step`); the models' ``run``
+loops it over a chunk and the observer's compiled core
+(:mod:`contactlab.observer.engine`) calls it per sample, so both give the same
+numbers to the bit.
 """
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
-from scipy.special import log_ndtr
 
 from contactlab.observer.models.base import LOG_2PI, FeatureModel
 
-__all__ = ["FixedVelocity", "MovingVelocity"]
+__all__ = ["FixedVelocity", "MovingVelocity", "velocity_step", "log_ndtr"]
 
 
 class FixedVelocity(FeatureModel):
@@ -66,12 +73,15 @@ class FixedVelocity(FeatureModel):
     def params(self) -> dict:
         return {"sigma": self.sigma}
 
+    @property
+    def _p(self) -> np.ndarray:
+        return np.array([0.0, self.sigma, 0.0, 0.0, self.sigma ** 2, 0.0])
+
     def run(self, state, x, *, t0, starts):
-        z2 = (x / self.sigma) ** 2
-        C = x.shape[1]
-        ll = -0.5 * z2.sum(axis=1) - C * (np.log(self.sigma) + 0.5 * LOG_2PI)
-        U = len(starts)
-        return (np.repeat(ll[:, None], U, axis=1), np.repeat(z2.sum(axis=1)[:, None], U, axis=1))
+        return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p, len(starts))
+
+    def core_spec(self, channels):
+        return _core_spec(self, FixedVelocity, channels)
 
 
 class MovingVelocity(FeatureModel):
@@ -127,22 +137,115 @@ class MovingVelocity(FeatureModel):
     def params(self) -> dict:
         return {"low": self.low, "high": self.high, "sigma": self.sigma}
 
+    @property
+    def _p(self) -> np.ndarray:
+        return np.array([1.0, self.sigma, self.low, self.high, self.variance,
+                         0.5 * (self.low + self.high)])
+
     def logpdf(self, x) -> np.ndarray:
         """Per-component log density of the measured velocity."""
         x = np.asarray(x, dtype=np.float64)
-        a = (self.low - x) / self.sigma
-        b = (self.high - x) / self.sigma
-        # log(Phi(b) - Phi(a)), b > a; use the upper tail where both are near 1
-        flip = a > 0
-        lo = np.where(flip, -b, a)
-        hi = np.where(flip, -a, b)
-        lhi = log_ndtr(hi)
-        diff = lhi + np.log1p(-np.exp(np.minimum(log_ndtr(lo) - lhi, 0.0)))
-        return diff - np.log(self.high - self.low)
+        return _logpdf_array(np.ascontiguousarray(x.reshape(-1)), self.low, self.high,
+                             self.sigma).reshape(x.shape)
 
     def run(self, state, x, *, t0, starts):
-        ll = self.logpdf(x).sum(axis=1)
-        centre = 0.5 * (self.low + self.high)
-        chi2 = ((x - centre) ** 2).sum(axis=1) / self.variance
-        U = len(starts)
-        return np.repeat(ll[:, None], U, axis=1), np.repeat(chi2[:, None], U, axis=1)
+        return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p, len(starts))
+
+    def core_spec(self, channels):
+        return _core_spec(self, MovingVelocity, channels)
+
+
+def _core_spec(model, cls, channels):
+    """The compiled core's spec of a velocity model: stateless, parameters :func:`velocity_step`'s."""
+    if type(model).run is not cls.run:
+        return None
+    from contactlab.observer.engine import REG_VELOCITY
+
+    return {"reg": REG_VELOCITY, "channels": channels, "prior": np.zeros(1), "params": model._p}
+
+
+@numba.njit(cache=True)
+def log_ndtr(x):  # pragma: no cover - compiled
+    """``log Phi(x)``, the standard normal's log distribution function, to full precision in
+    both tails: ``log1p(-Phi(-x))`` above 0, ``log(erfc(-x / sqrt 2) / 2)`` down to -20, and
+    below it the asymptotic series ``-x^2/2 - log(-x) - log(2 pi)/2 + log(1 - 1/x^2 + 3/x^4
+    - ...)`` (summed while its terms shrink), as scipy's ``log_ndtr`` does below -20."""
+    if x > 0.0:
+        return math.log1p(-0.5 * math.erfc(x / math.sqrt(2.0)))
+    if x > -20.0:
+        return math.log(0.5 * math.erfc(-x / math.sqrt(2.0)))
+    x2 = x * x
+    term = 1.0
+    total = 1.0
+    k = 1
+    while True:
+        nxt = -term * (2 * k - 1) / x2
+        if abs(nxt) >= abs(term) or abs(nxt) < 1e-17:
+            break
+        term = nxt
+        total += term
+        k += 1
+    return -0.5 * x2 - math.log(-x) - 0.5 * LOG_2PI + math.log(total)
+
+
+@numba.njit(cache=True)
+def _logpdf(v, low, high, sigma):  # pragma: no cover - compiled
+    """M's log density of one measured component: ``log(Phi(b) - Phi(a)) - log(high - low)``
+    with ``a, b = (low - v) / sigma, (high - v) / sigma``, from the upper tail where both are
+    near one."""
+    a = (low - v) / sigma
+    b = (high - v) / sigma
+    if a > 0.0:
+        lo, hi = -b, -a
+    else:
+        lo, hi = a, b
+    lhi = log_ndtr(hi)
+    d = log_ndtr(lo) - lhi
+    return lhi + math.log1p(-math.exp(d if d < 0.0 else 0.0)) - math.log(high - low)
+
+
+@numba.njit(cache=True)
+def _logpdf_array(x, low, high, sigma):  # pragma: no cover - compiled
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        out[i] = _logpdf(x[i], low, high, sigma)
+    return out
+
+
+@numba.njit(cache=True)
+def velocity_step(p, x):  # pragma: no cover - compiled
+    """Score one velocity sample ``x`` (C components): ``(log-likelihood, chi-square)``.
+    ``p``: moving (0 F, 1 M), sigma, low, high, the second moment and the centre.  F:
+    ``-|x|^2 / (2 sigma^2) - C (log sigma + log(2 pi) / 2)`` with chi-square ``|x|^2 / sigma^2``;
+    M: the components' :func:`_logpdf`, chi-square ``|x - centre|^2 / (width^2/12 + sigma^2)``."""
+    C = x.shape[0]
+    sigma = p[1]
+    ll = 0.0
+    chi = 0.0
+    if p[0] == 0.0:
+        for c in range(C):
+            z = x[c] / sigma
+            chi += z * z
+        ll = -0.5 * chi - C * (math.log(sigma) + 0.5 * LOG_2PI)
+    else:
+        for c in range(C):
+            ll += _logpdf(x[c], p[2], p[3], sigma)
+            d = x[c] - p[5]
+            chi += d * d
+        chi /= p[4]
+    return ll, chi
+
+
+@numba.njit(cache=True)
+def _run_kernel(x, p, U):  # pragma: no cover - compiled
+    """:func:`velocity_step` over samples ``x`` (n, C), the same for ``U`` instances
+    (stateless): (n, U) log-likelihoods and chi-squares."""
+    n = x.shape[0]
+    ll = np.empty((n, U))
+    chi2 = np.empty((n, U))
+    for t in range(n):
+        a, b = velocity_step(p, x[t])
+        for u in range(U):
+            ll[t, u] = a
+            chi2[t, u] = b
+    return ll, chi2
