@@ -64,6 +64,8 @@ def run() -> list[dict]:
             gm = train_graph(train, "free-contact", label_map=MAP)
             f, tr = _points(train)
             peer = ForceThreshold().fit(f[tr >= 0], tr[tr >= 0] == 1)
+            # the compiled kernels loaded before the timing (as bench_triples does)
+            recognize_archive(train, graph="free-contact", models=gm, write=False)
             ours_ok = peer_ok = total = 0
             t_ours = t_peer = dur = 0.0
             for s in SEEDS:
