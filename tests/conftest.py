@@ -98,3 +98,20 @@ def one_json_object(stdout: str) -> dict:
     obj = json.loads(lines[0])
     assert isinstance(obj, dict)
     return obj
+
+
+def assert_same_observer_results(fast, slow) -> None:
+    """Two observers' results (the compiled core's and the general form's) agree: the same
+    events, paths and path log-likelihoods to the bit, node probabilities to rounding."""
+    assert len(fast.events) == len(slow.events)
+    for a, b in zip(fast.events, slow.events):
+        assert (a.time, a.path, a.node, a.model, a.change_time) == \
+            (b.time, b.path, b.node, b.model, b.change_time)
+        assert (a.spawned, a.merged) == (b.spawned, b.merged)
+        np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
+        np.testing.assert_array_equal(a.kept, b.kept)
+    assert fast.map_path == slow.map_path
+    np.testing.assert_array_equal(fast.map_node, slow.map_node)
+    np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
+    assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \
+        [(p.id, p.node, p.start, p.loglik, p.history) for p in slow.paths]

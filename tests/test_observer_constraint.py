@@ -8,6 +8,7 @@ from scipy.spatial.transform import Rotation
 from contactlab.observer import Observer, observe, parse_graph
 from contactlab.observer.models import ConstraintFeature, FixedVelocity, MovingVelocity
 from contactlab.observer.models.constraint import constraint_normals, parse_constraint
+from tests.conftest import assert_same_observer_results
 
 V = np.array([[2.0, 0.3, 0.1], [0.3, 1.5, 0.2], [0.1, 0.2, 1.2]])
 
@@ -395,24 +396,11 @@ def test_the_compiled_core_gives_the_general_forms_results_on_triples(mode):
     kw = dict(position_sd=1e-5, force_sd=0.01)
 
     def models(general):
-        class CF(ConstraintFeature):
-            def core_spec(self, channels):
-                return None
-
-        class FV(FixedVelocity):
-            def core_spec(self, channels):
-                return None
-
-        class MV(MovingVelocity):
-            def core_spec(self, channels):
-                return None
-
-        class TF(TemporalFeature):
-            def kalman_spec(self, channels):
-                return None
-
-        c, f, mv, t = (CF, FV, MV, TF) if general else (ConstraintFeature, FixedVelocity,
-                                                       MovingVelocity, TemporalFeature)
+        # the general form: the same classes without a core spec (run through ``run``)
+        c, f, mv, t = [type(f"General{k.__name__}", (k,), {"core_spec": lambda self, ch: None})
+                       if general else k
+                       for k in (ConstraintFeature, FixedVelocity, MovingVelocity,
+                                 TemporalFeature)]
         hf = dict(order=1, mean=True, theta_sqrt=[0.3, 0.05], structure="plain")
         return {"C0": c.named("C0", "0", **kw),
                 "CZ": c.named("CZ", "Z", mode=mode, prior_samples=19.57, **kw),
@@ -444,15 +432,4 @@ def test_the_compiled_core_gives_the_general_forms_results_on_triples(mode):
     assert core_obs._core is not None and general_obs._core is None
     assert len([e for e in slow.events if e.model]) >= 4
     assert [n for n, _ in slow.map_path][:2] == ["free", "Z"] and "stuck" in dict(slow.map_path)
-    assert len(fast.events) == len(slow.events)
-    for a, b in zip(fast.events, slow.events):
-        assert (a.time, a.path, a.node, a.model, a.change_time) == \
-            (b.time, b.path, b.node, b.model, b.change_time)
-        assert (a.spawned, a.merged) == (b.spawned, b.merged)
-        np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
-        np.testing.assert_array_equal(a.kept, b.kept)
-    assert fast.map_path == slow.map_path
-    np.testing.assert_array_equal(fast.map_node, slow.map_node)
-    np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
-    assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \
-        [(p.id, p.node, p.start, p.loglik, p.history) for p in slow.paths]
+    assert_same_observer_results(fast, slow)

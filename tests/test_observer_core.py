@@ -11,6 +11,7 @@ from scipy.special import logsumexp
 
 from contactlab.observer import (FixedVelocity, ImpactFeature, MovingVelocity, Observer,
                                  TemporalFeature, observe, parse_graph)
+from tests.conftest import assert_same_observer_results
 
 # AR(1) with a forcing mean: y(n) = mu + a y(n-1) + e, e ~ N(0, v)
 PARAMS = {"A": (0.0, 0.5, 1.0), "B": (3.0, 0.5, 1.0), "C": (0.0, 0.5, 6.0)}
@@ -268,23 +269,12 @@ def test_the_compiled_core_gives_the_general_forms_results(structure, estimate, 
     slow = observe(general_obs, y, chunk=333)
     assert core_obs._core is not None and general_obs._core is None
     assert len([e for e in slow.events if e.model]) >= 5
-    assert len(fast.events) == len(slow.events)
-    for a, b in zip(fast.events, slow.events):
-        assert (a.time, a.path, a.node, a.model, a.change_time) == \
-            (b.time, b.path, b.node, b.model, b.change_time)
-        assert (a.spawned, a.merged) == (b.spawned, b.merged)
-        np.testing.assert_array_equal(a.candidates_loglik, b.candidates_loglik)
-        np.testing.assert_array_equal(a.kept, b.kept)
-    assert fast.map_path == slow.map_path
+    assert_same_observer_results(fast, slow)
     # the event log of the core (records made when read): indexing, slices, plain JSON
     log = core_obs.events_
     assert len(log) == len(slow.events) and log[-1].to_dict() == slow.events[-1].to_dict()
     assert [e.to_dict() for e in log[3:9]] == [e.to_dict() for e in slow.events[3:9]]
     json.dumps([e.to_dict() for e in log])
-    np.testing.assert_array_equal(fast.map_node, slow.map_node)
-    np.testing.assert_allclose(fast.node_prob, slow.node_prob, rtol=0, atol=1e-12)
-    assert [(p.id, p.node, p.start, p.loglik, p.history) for p in fast.paths] == \
-        [(p.id, p.node, p.start, p.loglik, p.history) for p in slow.paths]
 
 
 @pytest.mark.parametrize("p_prune", [0.9, 0.999])
