@@ -35,7 +35,9 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
 * ``mode="estimated"``: the frame is re-estimated after every sample from the
   instance's joint information (8.19, the running sums of
   :mod:`contactlab.constraints.recursive`) by the trace criterion's closed
-  form (8.25, :func:`contactlab.constraints.frames.trace_closed_form`), with
+  form (8.25: the eigenvectors of the centred information, as
+  :func:`contactlab.constraints.frames.trace_closed_form`; here by Jacobi
+  rotations from the instance's previous estimate, :func:`constraint_step`), with
   the nominal frame as prior: ``prior_samples`` pseudo-samples whose motion
   spans the nominal free directions and whose force spans the nominal normals
   (our conjugate form of the 8.69-8.70 alignment prior: it pulls the estimate
