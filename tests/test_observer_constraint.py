@@ -433,3 +433,4 @@ def test_the_compiled_core_gives_the_general_forms_results_on_triples(mode):
     assert len([e for e in slow.events if e.model]) >= 4
     assert [n for n, _ in slow.map_path][:2] == ["free", "Z"] and "stuck" in dict(slow.map_path)
     assert_same_observer_results(fast, slow)
+

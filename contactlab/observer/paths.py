@@ -183,11 +183,8 @@ class EventLog(Sequence):
 def count_changes(events) -> int:
     """The detected changes among ``events`` (records whose ``model`` is set): an
     observer's :class:`EventLog`, a slice of one, or any sequence of records."""
-    if isinstance(events, EventLog):
+    if isinstance(events, (EventLog, _EventView)):
         return int(events.change_flags().sum())
-    if isinstance(events, _EventView):
-        return int(events._log.change_flags()[events._idx.start:events._idx.stop:
-                                                events._idx.step].sum())
     return sum(e.model is not None for e in events)
 
 
@@ -208,6 +205,10 @@ class _EventView(Sequence):
     def __iter__(self):
         for i in self._idx:
             yield self._log._record(i)
+
+    def change_flags(self) -> np.ndarray:
+        """:meth:`EventLog.change_flags` of the slice's records."""
+        return self._log.change_flags()[self._idx.start:self._idx.stop:self._idx.step]
 
     def __eq__(self, other) -> bool:
         return list(self) == list(other)

@@ -73,8 +73,9 @@ than the arithmetic on the observer's short catch-up runs), and the observer's
 compiled core (:mod:`contactlab.observer.engine`) calls the same step, so both
 give the same numbers to the bit.  An instance's state is one row: the count of
 its samples, then the running sums along the normals (fixed frame) or the sums of
-the scaled motion, its outer products and the force's outer products and the
-latest 8.69 alpha (estimated frame).
+the scaled motion, its outer products and the force's outer products, the latest
+8.69 alpha and the latest frame estimate (estimated frame: the next sample's
+eigen-solver starts from it).
 """
 
 from __future__ import annotations
@@ -562,9 +563,10 @@ def _turn(R, lo, hi, p, B):  # pragma: no cover - compiled
     if m00 * m11 - m01 * m10 >= 0.0:
         u, v = m00 + m11, m10 - m01
         n = math.sqrt(u * u + v * v)
-        if n == 0.0:
-            u, v, n = 1.0, 0.0, 1.0
-        q00, q01, q10, q11 = u / n, -v / n, v / n, u / n
+        if n == 0.0:                     # M = 0 (not for two 2-D spans of R^3): keep R's
+            q00, q01, q10, q11 = 1.0, 0.0, 0.0, 1.0
+        else:
+            q00, q01, q10, q11 = u / n, -v / n, v / n, u / n
     else:
         u, v = m00 - m11, m01 + m10
         n = math.sqrt(u * u + v * v)
