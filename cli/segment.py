@@ -6,9 +6,10 @@ import click
 
 from contactlab import defaults as D
 
-from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+from contactlab.cli.common import (archives_argument, count, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
 from contactlab.cli.inputs import checks_archive
+from contactlab.detection.level_shift import LEVEL_DEFAULTS
 
 
 def _thresholds(ctx, param, value):
@@ -31,19 +32,26 @@ def _thresholds(ctx, param, value):
                    "trial has strain gauges, else wrench]")
 @click.option("--order", type=int, default=D.SEGMENT_ORDER, show_default=True,
               help="AR order of every channel's square-root estimator.")
-@click.option("--method", type=click.Choice(["glr", "page-hinkley"]), default=D.SEGMENT_METHOD,
-              show_default=True,
-              help="glr: two-model AR likelihood-ratio test (finds changes of the AR "
-                   "coefficients as well as of the level; the default because it was the "
-                   "most accurate on the synthetic benchmark suite); page-hinkley: the "
-                   "thesis's sequential test of the innovations' size (fig 7.6).")
+@click.option("--method", type=click.Choice(["auto", "glr", "page-hinkley", "level"]),
+              default=D.SEGMENT_METHOD, show_default=True,
+              help="auto: level on a wrench, glr on strains (the --json entry of each "
+                   "trial names the one run); glr: two-model AR likelihood-ratio test (finds "
+                   "changes of the AR coefficients as well as of the level; the most "
+                   "accurate on the synthetic strain suite); page-hinkley: the thesis's "
+                   "sequential test of the innovations' size (fig 7.6); level: changes "
+                   "of the force level of a wrist sensor (contact made and broken, phases "
+                   "that press harder), excursions inside a phase reported apart as events.")
 @click.option("--threshold", type=float, default=None,
               help="Decision threshold: for glr the likelihood ratio per degree of freedom "
                    f"(default {D.GLR_THRESHOLD:g}, the best on the benchmark suite); for "
-                   f"page-hinkley T^2 (default {D.SEGMENT_THRESHOLD:g}, the thesis's).")
+                   f"page-hinkley T^2 (default {D.SEGMENT_THRESHOLD:g}, the thesis's); for "
+                   "level the share of the recording's largest level changes a change must "
+                   f"reach (default {LEVEL_DEFAULTS['fraction']:g}, the best on wrist "
+                   "recordings of other groups).")
 @click.option("--window", "window_s", type=float, default=None, metavar="SECONDS",
-              help="glr only: seconds of signal on each side of a candidate change "
-                   f"(default {D.GLR_WINDOW_S:g}, the best on the benchmark suite).")
+              help="glr and level: seconds of signal on each side of a candidate change "
+                   f"(default glr {D.GLR_WINDOW_S:g}, the best on the benchmark suite; "
+                   f"level {LEVEL_DEFAULTS['window_s']:g}).")
 @click.option("--sweep", "sweep_values", callback=_thresholds, default=None,
               metavar="T1,T2,...",
               help="Segment at each threshold (fig 7.7); prints, writes nothing.")
@@ -56,13 +64,17 @@ def _thresholds(ctx, param, value):
                    "confined to a few channels; beyond the thesis).")
 @click.option("--tolerance", type=float, default=D.TOLERANCE_S, show_default=True,
               help="Seconds within which a boundary matches the ground truth.")
+@click.option("--label-map", "label_map", default=None, metavar="L=STATE,...",
+              help="Score against the labels' states: labels mapped to one state are one "
+                   "segment (e.g. \"1=free,2=contact,3=free,4=contact\"); unmapped labels "
+                   "are unlabelled, and boundaries found there are not scored.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @parallel_options("trials")
 @json_option
 @quiet_option
 @checks_archive(values=False, walk_trials=False)   # run_stage checks each trial
 def segment(archives, signal, order, method, threshold, window_s, sweep_values, change_size,
-            combine, tolerance, trials, workers, scheduler, as_json, quiet):
+            combine, tolerance, label_map, trials, workers, scheduler, as_json, quiet):
     """Segment every trial of each ARCHIVE into stretches of one AR model per channel.
 
     Default (--method glr): per channel an AR model with a mean; at every
@@ -84,6 +96,19 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
     threshold) and the first to fire restarts all; the firing channel is
     reported as alarm_channels.
 
+    --method level (what auto runs on a wrench: a wrist sensor without
+    strain gauges) finds the changes of the force level a person marks:
+    the force lowpassed at 2 Hz (zero phase); the difference of its means
+    over 0.5 s before and after each sample; peaks above 40 % of the
+    recording's largest such differences (and at least 0.5 N and 10 times
+    the sensor noise) are changes; each is placed where the force leaves
+    (or regains) the level nearer free space, so a touch-down is marked at
+    the ramp's start and a lift-off at its end.  A dip or bump inside a
+    phase that returns to its level within 2.5 s is an event, listed apart
+    (events_s), not two boundaries.  On wrist recordings of other groups
+    (wiping, snap-fit assembly) it found the labelled contact and phase
+    changes with F1 0.89 within 0.25 s (README).
+
     Boundaries (the first sample of each new segment, s), change-time
     estimates and alarm times are written to each trial's results/segment
     (never over the measurements).
@@ -98,6 +123,7 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
       contactlab segment runs.h5 --method page-hinkley --threshold 100
       contactlab segment runs.h5 --method page-hinkley --combine channel --threshold 50
       contactlab segment runs.h5 --workers 2
+      contactlab segment wrist.h5 --tolerance 0.25 --json
     """
     from contactlab.segmentation import SegmentStage
     from contactlab.stages import run_stage
@@ -112,20 +138,24 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
     if not tolerance > 0:
         raise click.BadParameter(f"must be > 0; got {tolerance}", param_hint="'--tolerance'")
     ctx = click.get_current_context()
-    if method == "glr":
+    if method != "page-hinkley":
         for name in ("combine", "change_size"):
             if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT:
                 flag = "--" + name.replace("_", "-")
                 raise click.UsageError(f"{flag} belongs to --method page-hinkley")
     elif window_s is not None:
-        raise click.UsageError("--window belongs to --method glr")
+        raise click.UsageError("--window belongs to --method glr or level")
+    from contactlab.observer.kinematics import parse_label_map
+
+    lmap = parse_label_map(label_map)
     if threshold is not None and not threshold > 0:
         raise click.BadParameter(f"must be > 0; got {threshold}", param_hint="'--threshold'")
     if window_s is not None and not window_s > 0:
         raise click.BadParameter(f"must be > 0; got {window_s}", param_hint="'--window'")
     stage = SegmentStage(signal=signal, order=order, threshold=threshold,
                          thresholds=sweep_values, change_size=change_size, combine=combine,
-                         tolerance_s=tolerance, method=method, window_s=window_s)
+                         tolerance_s=tolerance, method=method, window_s=window_s,
+                         label_map=lmap)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
     if as_json:
@@ -138,7 +168,12 @@ def _echo(archive, summary, sweep_values):
     for tid, entry in summary["trials"].items():
         if sweep_values is None:
             bs = ", ".join(f"{b:.3f}" for b in entry["boundaries_s"])
-            click.echo(f"{tid}: {len(entry['boundaries_s'])} boundaries [{bs}] s")
+            line = (f"{tid}: {count(len(entry['boundaries_s']), 'boundary', 'boundaries')} "
+                    f"[{bs}] s ({entry.get('method', 'page-hinkley')})")
+            if entry.get("events_s"):
+                ev = ", ".join(f"{e:.3f}" for e in entry["events_s"])
+                line += f"; {count(len(entry['events_s']), 'event')} inside a phase [{ev}] s"
+            click.echo(line)
         else:
             for t, e in entry["sweep"].items():
                 bs = ", ".join(f"{b:.3f}" for b in e["boundaries_s"])

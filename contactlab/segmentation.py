@@ -102,6 +102,7 @@ from contactlab.archive.results import TrialResults
 from contactlab.detection import PageHinkley, VarianceChangeDetector
 from contactlab.detection.ar_glr import GLR_DEFAULTS, glr_sweep
 from contactlab.detection.increments import VARIANCE_SIDES, variance_increments
+from contactlab.detection.level_shift import LEVEL_DEFAULTS, level_changes
 from contactlab.errors import DataError, UsageError
 from contactlab.estimators import ARModel, SquareRootRLS
 from contactlab.signals import SIGNALS, conditioned_signal, resolve_signal, source_of
@@ -110,7 +111,8 @@ from contactlab.stages import Stage, TrialOutcome, run_stage
 __all__ = ["SIGNALS", "SIDES", "Segmentation", "segment_signal", "segment_trial",
            "conditioned_signal", "sweep", "boundary_metrics", "truth_boundaries_s",
            "min_samples", "run_archive", "pooled_metrics", "COMBINE", "METHODS",
-           "DEFAULT_METHOD", "segment_glr", "segment_glr_sweep", "default_threshold"]
+           "DEFAULT_METHOD", "segment_glr", "segment_glr_sweep", "default_threshold",
+           "segment_level", "resolve_method", "AUTO_METHOD", "labelled_only"]
 
 #: side codes of :attr:`Segmentation.sides`: 0 increase, 1 decrease of the covariance
 SIDES = VARIANCE_SIDES
@@ -123,18 +125,31 @@ DEFAULT_BLOCK = 512
 #: detectors :func:`segment_trial` and :func:`run_archive` offer: ``glr`` (the two-model
 #: AR GLR of :mod:`contactlab.detection.ar_glr`, offline) and ``page-hinkley`` (the
 #: thesis's sequential test, :func:`segment_signal`)
-METHODS = ("glr", "page-hinkley")
+METHODS = ("auto", "glr", "page-hinkley", "level")
+#: what ``auto`` runs on each signal: the wrench of a wrist sensor changes its level at
+#: the events a person marks (contact made and broken, a phase that presses harder), a
+#: strain its vibration (7.2.1)
+AUTO_METHOD = {"wrench": "level", "strain": "glr", "hf": "glr"}
 #: the default: on the synthetic piecewise-AR suite (``make bench``) the GLR finds
 #: every change within 50 ms (F1 1.00) where the thesis's test at T^2 = 200 reaches
 #: 0.61 and misses most coefficient-only changes (module notes of ``ar_glr``)
 DEFAULT_METHOD = D.SEGMENT_METHOD
-_DEFAULT_THRESHOLDS = {"glr": GLR_DEFAULTS["threshold"], "page-hinkley": D.SEGMENT_THRESHOLD}
+_DEFAULT_THRESHOLDS = {"glr": GLR_DEFAULTS["threshold"], "page-hinkley": D.SEGMENT_THRESHOLD,
+                       "level": LEVEL_DEFAULTS["fraction"]}
 
 
-def default_threshold(method: str) -> float:
-    """The default threshold of ``method``: GLR per degree of freedom, or Page-Hinkley T^2."""
+def default_threshold(method: str) -> float | None:
+    """The default threshold of ``method``: GLR per degree of freedom, Page-Hinkley T^2,
+    or the level test's share of the recording's largest level changes (None for
+    ``auto``: the chosen method's)."""
     _check_method(method)
-    return _DEFAULT_THRESHOLDS[method]
+    return _DEFAULT_THRESHOLDS.get(method)
+
+
+def resolve_method(method: str, signal: str) -> str:
+    """The detector ``method`` runs on ``signal`` (``auto``: :data:`AUTO_METHOD`)."""
+    _check_method(method)
+    return AUTO_METHOD.get(signal, "glr") if method == "auto" else method
 
 
 def _check_method(method) -> None:
@@ -166,6 +181,9 @@ class Segmentation:
         warmup, fs, combine, ...).
     alarm_channels : (K,) int64, for ``combine="channel"`` the channel (index
         into the signal's columns) whose detector fired; -1 for ``sum``.
+    events, event_ends : (E,) int64, ``level`` only: excursions inside a phase (a dip
+        or a bump that returns to its level), their first sample and the sample they
+        end; not boundaries (empty for the other methods).
     """
 
     boundaries: np.ndarray
@@ -176,11 +194,21 @@ class Segmentation:
     channels: np.ndarray
     parameters: dict = field(default_factory=dict)
     alarm_channels: np.ndarray | None = None
+    events: np.ndarray | None = None
+    event_ends: np.ndarray | None = None
 
     def __post_init__(self):
         if self.alarm_channels is None:
             object.__setattr__(self, "alarm_channels",
                                np.full(self.boundaries.shape, -1, dtype=np.int64))
+        for name in ("events", "event_ends"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(0, dtype=np.int64))
+
+    @property
+    def events_s(self) -> np.ndarray:
+        """Start times (s) of the excursions inside a phase (``level`` only)."""
+        return self.times[self.events]
 
     def __len__(self) -> int:
         return int(self.boundaries.size)
@@ -214,7 +242,10 @@ class Segmentation:
                 "alarms": self.alarms.tolist(),
                 "sides": self.side_names,
                 **({"alarm_channels": self.alarm_channels.tolist()}
-                   if self.parameters.get("combine") == "channel" else {})}
+                   if self.parameters.get("combine") == "channel" else {}),
+                **({"events_s": self.events_s.tolist(),
+                    "event_ends_s": self.times[self.event_ends].tolist()}
+                   if self.parameters.get("method") == "level" else {})}
 
 
 def min_samples(order: int, warmup: int, variance_samples: int = 8) -> int:
@@ -480,13 +511,53 @@ def segment_glr_sweep(y, thresholds, *, fs: float, order: int = GLR_DEFAULTS["or
     return out
 
 
+def segment_level(y, *, fs: float, threshold: float = LEVEL_DEFAULTS["fraction"],
+                  window_s: float = LEVEL_DEFAULTS["window_s"], times=None,
+                  t0: float = 0.0) -> Segmentation:
+    """Segment a wrench ``y`` (N, 3 or 6: force first, N) at its level changes
+    (:mod:`contactlab.detection.level_shift`): contact made and broken, phases that
+    press harder or less; excursions that return to their level inside a phase come
+    back apart as ``events``.  ``threshold`` is the share of the recording's largest
+    level changes a change must reach; ``window_s`` the two-window test's half width.
+
+    ``sides`` are 0 (``increase``) where the force level moves away from the free-space
+    level (the recording's first ``window_s``), 1 (``decrease``) where it comes back.
+    The torques are not used: their size depends on the tool's length.
+    """
+    a = _as_signal(y)
+    if a.shape[1] not in (3, 6):
+        raise UsageError(f"the level test reads a force (3 columns) or a wrench (6); got "
+                         f"{a.shape[1]} columns")
+    if not (math.isfinite(threshold) and 0 < threshold <= 1):
+        raise UsageError(f"the level test's threshold is a share of the largest level "
+                         f"changes, in (0, 1]; got {threshold!r}")
+    if not (math.isfinite(window_s) and window_s > 0):
+        raise UsageError(f"window must be > 0 s; got {window_s!r}")
+    tt = _sample_times(len(a), fs=fs, t0=t0, times=times)
+    r = level_changes(a[:, :3], fs=fs, fraction=threshold, window_s=window_s)
+    return Segmentation(
+        boundaries=r.boundaries, alarms=r.peaks,
+        sides=np.where(r.away, 0, 1).astype(np.int64), times=tt,
+        statistic=r.statistic, channels=np.arange(3),
+        parameters={"method": "level", "threshold": float(threshold),
+                    "window_s": float(window_s), "fs": float(fs),
+                    "level_threshold_n": r.threshold, "noise_sd_n": r.noise_sd,
+                    **{k: v for k, v in LEVEL_DEFAULTS.items()
+                       if k not in ("fraction", "window_s")}},
+        events=r.events, event_ends=r.event_ends)
+
+
 def _segment_any(y, *, fs, method, threshold, order, change_size, warmup, combine,
                  window_s, times, block=DEFAULT_BLOCK) -> Segmentation:
-    """:func:`segment_glr` or :func:`segment_signal` by ``method``; ``threshold=None``
-    takes the method's default."""
+    """:func:`segment_glr`, :func:`segment_signal` or :func:`segment_level` by
+    ``method`` (resolved, not ``auto``); ``threshold=None`` takes the method's default."""
     _check_method(method)
     if threshold is None:
         threshold = _DEFAULT_THRESHOLDS[method]
+    if method == "level":
+        return segment_level(y, fs=fs, threshold=threshold, times=times,
+                             window_s=LEVEL_DEFAULTS["window_s"] if window_s is None
+                             else window_s)
     if method == "glr":
         return segment_glr(y, fs=fs, order=order, threshold=threshold,
                            window_s=GLR_DEFAULTS["window_s"] if window_s is None else window_s,
@@ -512,6 +583,7 @@ def segment_trial(trial, *, signal: str | None = None, order: int = D.SEGMENT_OR
     Boundaries come back in seconds of the trial's time base.
     """
     signal = resolve_signal(trial, signal)
+    method = resolve_method(method, signal)
     y, times, fs = conditioned_signal(trial, signal)
     try:
         seg = _segment_any(y, fs=fs, method=method, threshold=threshold, order=order,
@@ -540,34 +612,80 @@ def sweep(y_or_trial, thresholds, *, fs: float | None = None, signal: str | None
     if not thresholds:
         raise UsageError("sweep needs at least one threshold")
     window_s = kwargs.pop("window_s", None)
-    if method == "glr":
+    if method in ("glr", "level", "auto"):
         kwargs = {k: v for k, v in kwargs.items() if k == "order"}
         if window_s is not None:
             kwargs["window_s"] = window_s
 
-    def run(y, **kw):              # glr: one window statistic for every threshold
+    def run(y, method, **kw):      # glr: one window statistic for every threshold
         if method == "glr":
             return segment_glr_sweep(y, thresholds, **kw, **kwargs)
+        if method == "level":
+            return {t: segment_level(y, threshold=t, **kw,
+                                     **({} if window_s is None else {"window_s": window_s}))
+                    for t in thresholds}
         return {t: segment_signal(y, threshold=t, **kw, **kwargs) for t in thresholds}
 
     if isinstance(y_or_trial, np.ndarray) or np.ndim(y_or_trial) > 0:
         if fs is None:
             raise UsageError("sweep over an array needs fs")
-        return run(y_or_trial, fs=fs)
+        if method == "auto":
+            raise UsageError("method 'auto' needs a trial (its signal decides); give the method")
+        return run(y_or_trial, method, fs=fs)
     signal = resolve_signal(y_or_trial, signal)
     y, times, fs_out = conditioned_signal(y_or_trial, signal)
-    out = run(y, fs=fs_out, times=times)
+    out = run(y, resolve_method(method, signal), fs=fs_out, times=times)
     for seg in out.values():
         seg.parameters["signal"] = signal
     return out
 
 
-def truth_boundaries_s(trial) -> np.ndarray | None:
-    """Ground-truth boundaries (s): every ``segments.start_s`` but the first; None if none."""
+def truth_boundaries_s(trial, label_map: dict | None = None) -> np.ndarray | None:
+    """Ground-truth boundaries (s): every ``segments.start_s`` but the first; None if none.
+
+    With ``label_map`` (a recording's label name -> state, as ``recognize --label-map``)
+    the boundaries are where the per-sample labels' *state* changes: labels mapped to
+    one state are one segment, and a change into or out of an unmapped or unlabelled
+    stretch is no boundary."""
+    if label_map:
+        states = _mapped_states(trial, label_map)
+        if states is None:
+            return None
+        k = np.flatnonzero(states[1:] != states[:-1]) + 1
+        k = k[(states[k] >= 0) & (states[k - 1] >= 0)]
+        return np.asarray(trial.time, dtype=np.float64)[k]
     seg = trial.segments
     if seg is None or len(seg) == 0:
         return None
     return np.asarray(seg["start_s"], dtype=np.float64)[1:]
+
+
+def _mapped_states(trial, label_map: dict) -> np.ndarray | None:
+    """Per input sample a state code under ``label_map`` (-1 unmapped or unlabelled);
+    None when the trial has no per-sample labels."""
+    labels = getattr(trial, "labels", None)
+    names = getattr(trial, "label_names", None)
+    if labels is None or names is None:
+        return None
+    targets = sorted(set(label_map.values()))
+    code = np.array([targets.index(label_map[str(n)]) if str(n) in label_map else -1
+                     for n in names] + [-1], dtype=np.int64)
+    raw = np.asarray(labels, dtype=np.int64)
+    return code[np.where((raw >= 0) & (raw < len(names)), raw, len(names))]
+
+
+def labelled_only(trial, found_s, label_map: dict | None) -> np.ndarray:
+    """``found_s`` without the boundaries that fall where ``label_map`` leaves the
+    recording unlabelled (nothing to score them against); all of them without a map."""
+    found_s = np.asarray(found_s, dtype=np.float64)
+    if not label_map:
+        return found_s
+    states = _mapped_states(trial, label_map)
+    if states is None:
+        return found_s
+    t = np.asarray(trial.time, dtype=np.float64)
+    k = np.clip(np.searchsorted(t, found_s), 0, len(t) - 1)
+    return found_s[states[k] >= 0]
 
 
 def boundary_metrics(true_s, found_s, *, times, tolerance_s: float = 0.1) -> dict:
@@ -640,6 +758,9 @@ _BOUNDARY_NOTE = {
                     "last zero (the sample before); alarm_s: detection time",
     "glr": "boundaries_s: first sample of the new segment (most likely split); change_s: "
            "the sample before; alarm_s: end of the window that first sees it (offline)",
+    "level": "boundaries_s: where the force leaves (or regains) the level nearer free "
+             "space; change_s: the sample before; alarm_s: the peak of the two-window "
+             "level difference; events_s / event_ends_s: excursions inside a phase",
 }
 
 
@@ -652,12 +773,15 @@ class SegmentStage(Stage):
                  threshold: float | None = None, thresholds=None,
                  change_size: float = D.CHANGE_SIZE, warmup: int = D.WARMUP,
                  tolerance_s: float = D.TOLERANCE_S, write: bool = True, combine: str = "sum",
-                 method: str = DEFAULT_METHOD, window_s: float | None = None):
+                 method: str = DEFAULT_METHOD, window_s: float | None = None,
+                 label_map: dict | None = None):
         if signal is not None and signal not in SIGNALS:
             raise UsageError(f"signal must be one of {', '.join(SIGNALS)}; got {signal!r}")
         _check_method(method)
         threshold = default_threshold(method) if threshold is None else threshold
-        _check_params(order, threshold, change_size, warmup, DEFAULT_BLOCK)
+        _check_params(order, 1.0 if threshold is None else threshold, change_size, warmup,
+                      DEFAULT_BLOCK)
+        self.label_map = label_map
         _check_combine(combine)
         if method == "glr" and combine != "sum":
             raise UsageError("combine belongs to method page-hinkley (the glr test pools "
@@ -666,7 +790,8 @@ class SegmentStage(Stage):
         self.levels = None if thresholds is None else [float(t) for t in thresholds]
         for t in self.levels or []:
             _check_params(order, t, change_size, warmup, DEFAULT_BLOCK)
-        self.signal, self.order, self.threshold = signal, order, float(threshold)
+        self.signal, self.order = signal, order
+        self.threshold = None if threshold is None else float(threshold)
         self.change_size, self.warmup, self.combine = change_size, warmup, combine
         self.tolerance_s = tolerance_s
         self.write = bool(write) and self.levels is None
@@ -680,13 +805,15 @@ class SegmentStage(Stage):
             by_level = {self.threshold: segment_trial(trial, threshold=self.threshold, **kw)}
         else:
             by_level = sweep(trial, self.levels, **kw)
-        truth = truth_boundaries_s(trial)
+        truth = truth_boundaries_s(trial, self.label_map)
         entry: dict = {}
         metrics: dict = {}
         for level, seg in by_level.items():
             d = seg.as_dict()
+            d["method"] = seg.parameters.get("method", "page-hinkley")
             if truth is not None:
-                metrics[level] = boundary_metrics(truth, seg.boundaries_s, times=seg.times,
+                found = labelled_only(trial, seg.boundaries_s, self.label_map)
+                metrics[level] = boundary_metrics(truth, found, times=seg.times,
                                                   tolerance_s=self.tolerance_s)
                 if self.levels is not None:
                     d["metrics"] = metrics[level]
@@ -704,6 +831,9 @@ class SegmentStage(Stage):
                         "statistic_time_s": seg.times}
             if self.combine == "channel":
                 datasets["alarm_channels"] = seg.alarm_channels
+            if seg.parameters.get("method") == "level":
+                datasets["events_s"] = seg.events_s
+                datasets["event_ends_s"] = seg.times[seg.event_ends]
             results = TrialResults(
                 datasets,
                 attrs={"side_names": list(SIDES), "signal": seg.parameters["signal"],
