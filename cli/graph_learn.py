@@ -44,7 +44,11 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
     sequences (the observer adds log p when a path changes node); the initial
     probabilities are the share of trials starting in each node.  'train
     --graph GRAPH' fits the models and 'recognize --graph GRAPH' runs it like
-    any bundled graph; 'graph show' lists and draws it.
+    any bundled graph; 'graph show' lists and draws it.  Labelled samples the
+    map leaves out (a label for "outside the task") get a node of their own,
+    'outside', so that a model explains them; train with the map printed (it
+    adds LABEL=outside) and recognise with either map (with yours, those
+    samples are left out of the score).
 
     \b
     Examples:
@@ -72,7 +76,8 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
     doc, summary = learn_from_labels(list(archives), lmap, trials=list(trials) or None,
                                      name=name or Path(out).stem, extra=families, quiet=quiet)
     if em:
-        doc, summary["em"] = refine_with_em(doc, list(archives), label_map=lmap,
+        full = dict(e.split("=", 1) for e in summary["label_map"].split(","))
+        doc, summary["em"] = refine_with_em(doc, list(archives), label_map=full,
                                             trials=list(trials) or None, quiet=quiet,
                                             source=str(out))
     write_graph(doc, out, header="Learned by contactlab graph learn from "
@@ -91,3 +96,6 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
         n = summary["transitions"].get(e)
         click.echo(f"  {e}: p = {p:.3g}" + (f" ({n} seen)" if n else " (added by EM)"))
     click.echo(f"graph written to {out}")
+    if summary["label_map"] != ",".join(f"{k}={v}" for k, v in lmap.items()):
+        click.echo(f"labels outside the map have node {summary['nodes'][-1]!r}: train with "
+                   f"--label-map \"{summary['label_map']}\"")

@@ -20,7 +20,12 @@ segmentation) states the graph directly:
   the trials, written to the graph's edge set (``probabilities``; the observer adds
   ``log p`` when a path changes node, 6.4); the graph's one action ``task`` is every
   sample's, so a recording without an action channel needs none;
-* **initial probabilities** -- the share of trials whose first mapped label is each node.
+* **initial probabilities** -- the share of trials whose first mapped label is each node;
+* labelled samples the map leaves out (Baxter's 0 before and after the task) get a node
+  of their own, :data:`OUTSIDE`, so that some model explains them (otherwise the
+  first phase's model meets the robot at rest before the task and the path runs ahead);
+  the map to train with then maps those labels onto it (the summary's ``label_map``),
+  and recognising with the task's own map leaves them out of the score.
 
 Nodes do not restart within themselves (``self_transition = false``): a phase's
 Gaussian has no parameters to redraw.  ``train --graph`` fits the models and
@@ -42,16 +47,26 @@ from contactlab.errors import DataError
 from contactlab.signals import relabel
 
 __all__ = ["label_sequences", "count_transitions", "graph_from_labels", "learn_from_labels",
-           "ACTION", "CONTACT_N", "EXTRA_FAMILIES"]
+           "ACTION", "CONTACT_N", "EXTRA_FAMILIES", "OUTSIDE", "outside_map"]
 
 #: the learned graph's one action: every sample is under it
 ACTION = "task"
+#: the node of labelled samples the label map leaves out (outside the task)
+OUTSIDE = "outside"
 #: force change (N) from the first phase's mean force above which a phase is in contact
 CONTACT_N = 2.0
 #: model families ``extra`` may add to every node
 EXTRA_FAMILIES = ("constraint", "velocity", "temporal")
 #: lowest input rate (Hz) for a temporal model of the wrench (the conditioned 250 Hz)
 TEMPORAL_MIN_HZ = 250.0
+
+
+def outside_map(trial, label_map: dict, outside: str = OUTSIDE) -> dict:
+    """The labels the trial's samples carry and the map leaves out, onto ``outside``."""
+    names = list(getattr(trial, "label_names", None) or [])
+    used = np.unique(np.asarray(trial.labels, np.int64))
+    return {str(names[c]): outside for c in used
+            if 0 <= c < len(names) and str(names[c]) not in label_map}
 
 
 def label_sequences(trial, label_map: dict) -> tuple[list[str], np.ndarray]:
@@ -177,7 +192,19 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
     if not label_map:
         raise ValueError("a label map is needed (the recording's labels -> node names)")
     sequences, used, rates = [], [], []
-    nodes = _node_order(label_map)
+    outside = OUTSIDE if OUTSIDE not in label_map.values() else f"{OUTSIDE}-task"
+    full = dict(label_map)
+    with_outside = dict(label_map)
+    for path in archives:         # labels outside the task, when the map leaves some out
+        with open_archive(Path(path)) as arch:
+            for tid in arch.select(trials):
+                trial = arch.trial(tid)
+                if trial.labels is not None and any(str(n) in label_map
+                                                    for n in trial.label_names or []):
+                    with_outside.update(outside_map(trial, label_map, outside))
+    if len(with_outside) > len(label_map):
+        full = with_outside
+    nodes = _node_order(full)
     force = {n: [] for n in nodes}
     has_pos = True
     raw_labels: set = set()
@@ -189,7 +216,7 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                 if trial.labels is None:
                     continue
                 raw_labels.update(str(n) for n in (trial.label_names or []))
-                seq, runs = label_sequences(trial, label_map)
+                seq, runs = label_sequences(trial, full)
                 if not seq:
                     continue
                 sequences.append(seq)
@@ -211,10 +238,11 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                  "has_position": has_pos} for n in nodes}
     fam = _families(tuple(extra), stats, min(rates)) if extra else None
     src = ", ".join(Path(a).name for a in archives)
-    doc = graph_from_labels(sequences, label_map, name=name or "learned", families=fam,
+    doc = graph_from_labels(sequences, full, name=name or "learned", families=fam,
                             sources=f"learned from the labels of {len(sequences)} trials of {src}")
     first, pairs = count_transitions(sequences)
     summary = {"trials": used, "nodes": nodes,
+               "label_map": ",".join(f"{k}={v}" for k, v in full.items()),
                "initial": {n["name"]: n.get("initial", 0.0) for n in doc["nodes"]},
                "transitions": {f"{a} -> {b}": n for (a, b), n in sorted(pairs.items())},
                "models": {n["name"]: n["models"] for n in doc["nodes"]}}
