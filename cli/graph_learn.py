@@ -52,12 +52,12 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
 
     \b
     Examples:
-      contactlab graph learn wrist.h5 --label-map "free=free,contact=contact" --out learned.toml
+      contactlab graph learn wrist.h5 --label-map "free=free,contact=contact" --out task.toml
       contactlab graph learn wrist.h5 --label-map "free=free,contact=contact" \\
-          --models constraint,velocity --out learned-cv.toml --json
+          --models constraint,velocity --out task-cv.toml --json
       contactlab graph learn wrist.h5 --label-map "free=free,contact=contact" --em \\
-          --out learned-em.toml
-      contactlab graph show learned.toml
+          --out task-em.toml
+      contactlab graph show task.toml
     """
     from contactlab.fileio import check_writable
     from contactlab.observer.graph_learn import EXTRA_FAMILIES, learn_from_labels, refine_with_em
