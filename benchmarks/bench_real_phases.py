@@ -41,7 +41,8 @@ BAXTER_MAP = {"1": "s1", "2": "s2", "5": "s5", "3": "s3", "4": "s4"}
 
 def data_dir() -> Path | None:
     env = os.environ.get("CONTACTLAB_REAL_DATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
+    repo = Path(__file__).resolve().parents[1]
+    root = Path(env) if env else repo / ".." / "shared" / "data" / "real"
     return root if (root / "hiro_snap").is_dir() and (root / "baxter_pnp").is_dir() else None
 
 

@@ -122,7 +122,8 @@ def test_graph_learn_train_recognize_round_trip(archive, tmp_path):
                                   "--label-map", MAP, "--json", "-q"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
-    assert out["accuracy"] > 0.85, [(e["accuracy"], e["merged_path"]) for e in out["trials"].values()]
+    assert out["accuracy"] > 0.85, [(e["accuracy"], e["merged_path"])
+                                    for e in out["trials"].values()]
     for e in out["trials"].values():
         assert [n for n, _ in e["merged_path"]][:4] == ["outside", "approach", "engage", "mated"]
         assert e["delays"]["transitions"] == 2      # outside is not scored with MAP
