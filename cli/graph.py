@@ -21,7 +21,7 @@ def _trained(spec) -> str:
 
 @click.group(name="graph")
 def graph() -> None:
-    """Feature graphs: show and check graph files.
+    """Feature graphs: show and check graph files, learn one from labels.
 
     \b
     Example:
@@ -76,3 +76,12 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
             click.echo(f"    {names[i]} -> {', '.join(js)}")
     if out is not None:
         click.echo(f"wrote {out}")
+
+
+def _register() -> None:
+    from contactlab.cli.graph_learn import learn
+
+    graph.add_command(learn)
+
+
+_register()

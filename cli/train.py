@@ -184,6 +184,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                                    "segments": getattr(m, "n_segments_", None)}
                                for k, m in gm.kinematic.get("constraint", {}).items()},
                "velocity": {k: m.params() for k, m in gm.kinematic.get("velocity", {}).items()},
+               "gaussian": {k: {"channels": m.channels, "samples": getattr(m, "n_samples_", None)}
+                            for k, m in gm.kinematic.get("gaussian", {}).items()},
                "label_map": lmap,
                "order": order, "mean": mean, "block": block}
     if graph_out is not None:
@@ -201,6 +203,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                    f"{c['signal']}, {count(c['segments'], 'run')}")
     for k, p in summary["velocity"].items():
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
+    for k, g in summary["gaussian"].items():
+        click.echo(f"{k}: phase Gaussian, {g['channels']} channels, {g['samples']} samples")
     click.echo(f"models written to {out}")
     if graph_out is not None:
         em = summary["em"]

@@ -52,7 +52,7 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
            "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
-           "compensate_friction"]
+           "compensate_friction", "phase_stream", "PHASE", "PHASE_CUTOFF_HZ"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -71,6 +71,9 @@ TARGET_RATE_HZ = 250.0
 CUTOFF_DIVISOR = 2.0 * FACTOR
 #: differences averaged into one y_h sample (7.1: blocks of 8, every 4th sample)
 HF_BLOCK = 2 * FACTOR
+#: the task-phase stream (:func:`phase_stream`: lowpassed wrench and velocity) and its cutoff
+PHASE = "phase"
+PHASE_CUTOFF_HZ = 5.0
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
 
@@ -101,7 +104,7 @@ def window_of(signal: str, fs: float) -> int:
     the decimation step for the lowpassed signals; for y_h[k] the ``2 f`` differences
     ``y(n) - y(n-1)``, ``n = f k + 1 .. f k + 2 f`` (7.1 at f = 4), i.e. ``2 f + 1``
     inputs; raw kinematics sampled at the newest input depend on one."""
-    if signal in ("velocity", "position"):
+    if signal in ("velocity", "position", PHASE):
         return 1
     if signal == "hf":
         return hf_block_for(fs) + 1
@@ -247,7 +250,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     out: dict[str, np.ndarray] = {}
     indices: list[np.ndarray] = []
     for s in signals:
-        if s in ("velocity", "position"):
+        if s in ("velocity", "position", PHASE):
             continue
         if s in CONTACT_SIGNALS:    # position then force, both through the 7.1 lowpass
             w = condition(trial, "wrench", path=path)
@@ -277,6 +280,8 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
             out[s] = _velocity_at(trial, index, path)
         elif s == "position":
             out[s] = _raw(trial, s, path)[index]
+        elif s == PHASE:
+            out[s] = phase_stream(trial, path)[np.asarray(index)]
     if COMPENSATED in out:
         c = out[COMPENSATED][:n].copy()
         v = out["velocity"] if "velocity" in out else _velocity_at(trial, index, path)
@@ -294,6 +299,8 @@ def _check_sources(trial, signals, path) -> None:
     for s in signals:
         if s in CONTACT_SIGNALS:
             needs = ("wrench", "position")
+        elif s == PHASE:
+            needs = ("wrench",)
         elif s == "velocity":
             needs = ("velocity",) if getattr(trial, "position", None) is None else ()
         else:
@@ -317,6 +324,30 @@ def _velocity_at(trial, index, path) -> np.ndarray:
         v = derived_velocity(trial)
         return v[np.minimum(index // factor_for(trial.rate_hz), len(v) - 1)]
     return _raw(trial, "velocity", path)[index]
+
+
+def phase_stream(trial, path=None) -> np.ndarray:
+    """The task-phase stream at the input rate: the wrench and the velocity (recorded, else
+    the position's first difference times the rate; none without either) through a causal
+    second-order Butterworth lowpass at :data:`PHASE_CUTOFF_HZ` (at most 0.4 times the
+    rate), started at rest on the first sample -- (N, 9), or (N, 6) with no kinematics.
+    Task phases differ in force level, velocity direction and load over seconds; the
+    lowpass keeps that and drops the sensor noise and the impacts' ringing."""
+    from scipy.signal import butter, lfilter, lfilter_zi
+
+    fs = float(trial.rate_hz)
+    parts = [_raw(trial, "wrench", path)]
+    if getattr(trial, "velocity", None) is not None:
+        parts.append(_raw(trial, "velocity", path)[:, :3])
+    elif getattr(trial, "position", None) is not None:
+        p = _raw(trial, "position", path)[:, :3]
+        parts.append(np.diff(p, axis=0, prepend=p[:1]) * fs)
+    x = np.concatenate(parts, axis=1)
+    if len(x) == 0:
+        return x
+    b, a = butter(2, min(PHASE_CUTOFF_HZ, 0.4 * fs) / (fs / 2.0))
+    zi = lfilter_zi(b, a)[:, None] * x[:1]
+    return np.ascontiguousarray(lfilter(b, a, x, axis=0, zi=zi)[0])
 
 
 def compensate_friction(force, velocity) -> np.ndarray:

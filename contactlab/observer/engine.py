@@ -59,12 +59,13 @@ from contactlab.detection.cusum import cusum_step
 from contactlab.estimators.householder import tri_append_n
 from contactlab.observer.models.constraint import SCRATCH as CONSTRAINT_SCRATCH
 from contactlab.observer.models.constraint import constraint_step
+from contactlab.observer.models.gaussian import gaussian_step
 from contactlab.observer.models.velocity import velocity_step
 
 _HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
 
-__all__ = ["REG_AR", "REG_TIME", "REG_VELOCITY", "REG_CONSTRAINT", "OK", "FULL", "Core",
-           "run_core", "state_width"]
+__all__ = ["REG_AR", "REG_TIME", "REG_VELOCITY", "REG_CONSTRAINT", "REG_GAUSSIAN", "OK", "FULL",
+           "Core", "run_core", "state_width"]
 
 #: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
 REG_AR, REG_TIME = 0, 1
@@ -72,6 +73,9 @@ REG_AR, REG_TIME = 0, 1
 #: constraint models (:func:`~contactlab.observer.models.velocity.velocity_step`,
 #: :func:`~contactlab.observer.models.constraint.constraint_step`)
 REG_VELOCITY, REG_CONSTRAINT = 2, 3
+#: a phase's Gaussian on a multi-channel stream, stateless like the velocity models
+#: (:func:`~contactlab.observer.models.gaussian.gaussian_step`)
+REG_GAUSSIAN = 4
 #: :func:`run_core` status: done, or stopped before a sample for room
 OK, FULL = 0, 1
 # counters: paths, units, segments, free slots, slots, next path id, events, alarms,
@@ -543,6 +547,8 @@ def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
     signal's columns), its state row ``s`` advanced (``w``: scratch)."""
     if reg == REG_CONSTRAINT:
         return constraint_step(p, s, x, w)
+    if reg == REG_GAUSSIAN:
+        return gaussian_step(p, x)
     return velocity_step(p, x)
 
 
@@ -708,14 +714,14 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             ll_sum = 0.0
             chi = 0.0
             zs = 0.0
-            if reg == REG_VELOCITY and vt[k] == tt:
+            if (reg == REG_VELOCITY or reg == REG_GAUSSIAN) and vt[k] == tt:
                 ll_sum, chi = vll[k], vchi[k]   # stateless: every instance scores the same
                 C = 0
             elif reg >= REG_VELOCITY:
                 # scored directly (z = 0: its mean tests never fire); no channel filters
                 col = mi[k, 4]
                 ll_sum, chi = _direct_step(reg, mp[k], ust[u, 0], xa[row, col:col + C], wk)
-                if reg == REG_VELOCITY:
+                if reg == REG_VELOCITY or reg == REG_GAUSSIAN:
                     vt[k], vll[k], vchi[k] = tt, ll_sum, chi
                 C = 0
             for c in range(C):

@@ -39,6 +39,7 @@ MODEL_KINDS: dict[str, dict[str, bool]] = {
     "constraint": {"constraint": True, "trained": False, "mode": False, "rotate_deg": False,
                    "noise_scale": False, "offset_sd": False, "prior_samples": False,
                    "change_size": False, "position_sd": False, "force_sd": False},
+    "gaussian": {"trained": False},
 }
 #: kinds a graph may name that the observer cannot run, with the reason
 UNAVAILABLE_KINDS: dict[str, str] = {}
@@ -47,10 +48,10 @@ _UNAVAILABLE_PARAMS: dict[str, dict] = {}
 #: Signals a graph model may read (7.1 conditioning, plus the kinematic channels;
 #: the contact streams are position then force, what the constraint models read,
 #: :data:`contactlab.signals.CONTACT_SIGNALS`).
-KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position") + CONTACT_SIGNALS
+KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "phase") + CONTACT_SIGNALS
 
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
-                   "velocity-moving": "velocity", "constraint": "contact"}
+                   "velocity-moving": "velocity", "constraint": "contact", "gaussian": "phase"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
              "edges", "edge_sets", "sides", "p_prune"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}

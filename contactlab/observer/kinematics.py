@@ -25,6 +25,8 @@ import numpy as np
 from contactlab.errors import DataError, UsageError
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.constraint import K, ConstraintFeature, parse_constraint
+from contactlab.observer.models.gaussian import (GaussianFeature, read_gaussian_models,
+                                                 write_gaussian_models)
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
 from contactlab.signals import CONTACT_SIGNALS
 
@@ -32,7 +34,7 @@ __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
            "KINEMATIC_SIGNALS"]
 
-KINEMATIC_SIGNALS = CONTACT_SIGNALS + ("velocity",)
+KINEMATIC_SIGNALS = CONTACT_SIGNALS + ("velocity", "phase")
 _VELOCITY = {"velocity-fixed": FixedVelocity, "velocity-moving": MovingVelocity}
 
 
@@ -41,7 +43,8 @@ def kinematic_specs(graph: FeatureGraph) -> dict:
     without inline parameters)."""
     out = {}
     for spec in graph.models.values():
-        if spec.kind == "constraint" or (spec.kind in _VELOCITY and "sigma" not in spec.params):
+        if spec.kind in ("constraint", "gaussian") or (spec.kind in _VELOCITY
+                                                       and "sigma" not in spec.params):
             out.setdefault((spec.kind, spec.trained), spec)
     return out
 
@@ -149,7 +152,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
     frc_sd = frc_sd if np.isfinite(frc_sd) and frc_sd > NOISELESS_FORCE else FORCE_SD
     given = _given_accuracies(graph, source)
     pos_sd, frc_sd = given.get("position_sd", pos_sd), given.get("force_sd", frc_sd)
-    out: dict = {"constraint": {}, "velocity": {}}
+    out: dict = {"constraint": {}, "velocity": {}, "gaussian": {}}
     for (kind, label), spec in specs.items():
         where = f"models.{spec.name}.trained"
         signal = spec.signal
@@ -171,6 +174,9 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
                                               position_sd=pos_sd, force_sd=frc_sd,
                                               signal=signal)
                 out["constraint"][label] = model
+            elif kind == "gaussian":
+                out["gaussian"][label] = GaussianFeature.from_segments(segs, name=label,
+                                                                       signal=signal)
             else:
                 out["velocity"][label] = _VELOCITY[kind].from_segments(segs, name=label)
         except ValueError as exc:
@@ -200,6 +206,8 @@ def write_kinematic_models(h5: h5py.File, models: dict) -> None:
         sub.attrs["kind"] = m.kind
         for key, v in m.params().items():
             sub.attrs[key] = float(v)
+    if models.get("gaussian"):
+        write_gaussian_models(h5, models["gaussian"])
 
 
 def read_groups(h5: h5py.File, name: str, path, what: str, read) -> dict:
@@ -243,7 +251,8 @@ def read_kinematic_models(h5: h5py.File, path) -> dict:
     """The models :func:`write_kinematic_models` stored (empty when absent)."""
     return {"constraint": read_groups(h5, "constraints", path, "constraint model",
                                       _read_constraint),
-            "velocity": read_groups(h5, "velocity", path, "velocity model", _read_velocity)}
+            "velocity": read_groups(h5, "velocity", path, "velocity model", _read_velocity),
+            "gaussian": read_gaussian_models(h5, path)}
 
 
 def _text(v) -> str:

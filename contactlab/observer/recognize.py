@@ -128,6 +128,8 @@ def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray
         moving = np.r_[False, np.any(np.diff(c, axis=0) != 0, axis=1)]
         code = np.where(moving, graph.actions.index("move"), graph.actions.index("rest"))
         return code[np.asarray(index)]
+    if len(graph.actions) == 1:            # one action (a learned graph's task): every sample's
+        return np.zeros(len(index), np.int64)
     raise DataError(f"graph {graph.name!r} has action-dependent edges but the trial has no "
                     "action channel (pass --action)", file=str(path) if path else None,
                     field=f"/trials/{trial.id}/measurements/action")

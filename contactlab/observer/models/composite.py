@@ -20,6 +20,7 @@ from contactlab.errors import DataError
 from contactlab.observer.graph import UNAVAILABLE_KINDS, FeatureGraph, ModelSpec
 from contactlab.observer.models.base import FeatureModel
 from contactlab.observer.models.constraint import ConstraintFeature, parse_constraint
+from contactlab.observer.models.gaussian import GaussianFeature
 from contactlab.observer.models.impact import ImpactFeature
 from contactlab.observer.models.temporal import TemporalFeature
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
@@ -95,7 +96,7 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
                              noise_var=p["noise_var"], signal=spec.signal)
     label = spec.trained
     ns = {"constraint": "constraint", "velocity-fixed": "velocity",
-          "velocity-moving": "velocity"}.get(spec.kind)
+          "velocity-moving": "velocity", "gaussian": "gaussian"}.get(spec.kind)
     if ns is not None and f"{ns}:{label}" in trained:     # a models file's namespaced entry
         label = f"{ns}:{label}"
     if label not in trained:
@@ -103,6 +104,12 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
                         f"(have: {', '.join(map(str, trained)) or 'none'})",
                         file=source or graph.source, field=f"{where}.trained")
     obj = trained[label]
+    if spec.kind == "gaussian":
+        if not isinstance(obj, GaussianFeature) or obj.signal != spec.signal:
+            raise DataError(f"trained model {label!r} is not a Gaussian model of the "
+                            f"{spec.signal!r} signal", file=source or graph.source,
+                            field=f"{where}.trained")
+        return _renamed(obj, spec)
     if spec.kind == "constraint":
         return _constraint(spec, obj, graph, source)
     if spec.kind in ("velocity-fixed", "velocity-moving"):

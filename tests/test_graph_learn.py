@@ -1,0 +1,150 @@
+"""graph learn: a feature graph from labelled recordings (nodes, edges and their
+probabilities from label sequences, the phase Gaussians, a train/recognize round trip)."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from contactlab.cli import main
+from contactlab.observer.graph import parse_graph
+from contactlab.observer.graph_learn import count_transitions, graph_from_labels, label_sequences
+from contactlab.observer.models.gaussian import GaussianFeature, gaussian_step
+
+COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=label"
+MAP = "1=approach,2=engage,3=engage,4=mated"
+
+
+def _trial(labels, names):
+    return SimpleNamespace(labels=np.asarray(labels), label_names=names)
+
+
+def test_label_sequences_merge_repeats_and_skip_unmapped():
+    t = _trial([0, 0, 1, 1, -1, 2, 2, 3, 0], ["0", "1", "2", "3"])
+    seq, runs = label_sequences(t, {"1": "a", "2": "b", "3": "b"})
+    assert seq == ["a", "b"]
+    assert runs.tolist() == [[2, 4, 0], [5, 8, 1]]
+
+
+def test_edges_probabilities_and_initial_from_sequences():
+    seqs = [["a", "b", "c"], ["a", "b", "c"], ["a", "c"], ["b", "c"]]
+    first, pairs = count_transitions(seqs)
+    assert first == {"a": 3, "b": 1} and pairs[("a", "b")] == 2 and pairs[("a", "c")] == 1
+    doc = graph_from_labels(seqs, {"1": "a", "2": "b", "3": "c"}, name="g")
+    g = parse_graph(doc, source="g.toml")
+    assert g.node_names == ("a", "b", "c")
+    assert g.initial.tolist() == [0.75, 0.25, 0.0]
+    p = g.edge_probabilities[0]
+    a, b, c = range(3)
+    assert p == pytest.approx({(a, b): 2 / 3, (a, c): 1 / 3, (b, c): 1.0})
+    assert not g.edges and g.actions == ("task",)
+    assert all(not n.self_transition for n in g.nodes)
+    assert {m.kind for m in g.models.values()} == {"gaussian"}
+
+
+def test_gaussian_model_scores_like_its_compiled_step():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(200, 4)) @ rng.normal(size=(4, 4))
+    m = GaussianFeature.from_segments([x[:120], x[120:]], name="g")
+    ll, chi = m.run({}, x[:5], t0=0, starts=np.zeros(3, np.int64))
+    assert ll.shape == (5, 3) and np.all(ll[:, 0] == ll[:, 2])
+    for k in range(5):
+        a, b = gaussian_step(m._p, x[k])
+        assert a == pytest.approx(ll[k, 0], rel=1e-12) and b == pytest.approx(chi[k, 0])
+    # the log-density of N(mean, cov) (mean chi-square per dof near 1 on its own data)
+    from scipy.stats import multivariate_normal
+    assert ll[:, 0] == pytest.approx(multivariate_normal(m.mean, m.cov).logpdf(x[:5]))
+    assert 0.8 < m.score(x)[1].mean() / 4 < 1.2
+
+
+def _recording(seed: int, fs: float = 100.0) -> pd.DataFrame:
+    """A small assembly: rest outside the task (0), approach (1) moving down, rotation (2)
+    and insertion (3) pressing, mated (4) holding a load; offsets and noise per trial."""
+    rng = np.random.default_rng(seed)
+    plan = [(0, 1.0, 0.0, 0.0), (1, 3.0, 0.0, -0.05), (2, 1.0, 6.0, -0.005),
+            (3, 1.5, 12.0, -0.01), (4, 3.0, 3.0, 0.0), (0, 1.0, 0.0, 0.0)]
+    rows, z = [], 0.3
+    for label, dur, fz, vz in plan:
+        n = int((dur + rng.uniform(-0.2, 0.2)) * fs)
+        f = np.zeros((n, 6))
+        f[:, 2] = fz
+        f += rng.normal(scale=0.3, size=(n, 6))
+        zz = z + vz * np.arange(1, n + 1) / fs + rng.normal(scale=1e-4, size=n)
+        z = zz[-1]
+        rows.append(np.column_stack([f, np.full(n, 0.4), np.full(n, -0.1), zz,
+                                     np.full(n, label)]))
+    a = np.vstack(rows)
+    df = pd.DataFrame(a[:, :9], columns=["fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z"])
+    df.insert(0, "t", np.arange(len(a)) / fs)
+    df["label"] = a[:, 9].astype(int)
+    return df
+
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory):
+    d = tmp_path_factory.mktemp("learn")
+    files = []
+    for k in range(4):
+        f = d / f"run{k}.csv"
+        _recording(k).to_csv(f, index=False)
+        files.append(str(f))
+    out = d / "runs.h5"
+    r = CliRunner().invoke(main, ["import", *files, "--out", str(out), "-q", "--columns", COLUMNS])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_graph_learn_train_recognize_round_trip(archive, tmp_path):
+    g = tmp_path / "learned.toml"
+    train = ["--trial", "run0", "--trial", "run1"]
+    r = CliRunner().invoke(main, ["graph", "learn", str(archive), *train, "--label-map", MAP,
+                                  "--out", str(g), "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["nodes"] == ["approach", "engage", "mated", "outside"]
+    assert s["edges"] == {"approach -> engage": 1.0, "engage -> mated": 1.0,
+                          "mated -> outside": 1.0, "outside -> approach": 1.0}
+    assert s["initial"]["outside"] == 1.0
+    assert s["label_map"] == MAP + ",0=outside"
+    r = CliRunner().invoke(main, ["graph", "show", str(g)])
+    assert r.exit_code == 0 and "approach -> engage" in r.output, r.output
+    m = tmp_path / "m.h5"
+    r = CliRunner().invoke(main, ["train", str(archive), *train, "--graph", str(g),
+                                  "--label-map", s["label_map"], "--out", str(m), "-q"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["recognize", str(archive), "--trial", "run2", "--trial",
+                                  "run3", "--graph", str(g), "--models", str(m),
+                                  "--label-map", MAP, "--json", "-q"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["accuracy"] > 0.85, [(e["accuracy"], e["merged_path"])
+                                    for e in out["trials"].values()]
+    for e in out["trials"].values():
+        assert [n for n, _ in e["merged_path"]][:4] == ["outside", "approach", "engage", "mated"]
+        assert e["delays"]["transitions"] == 2      # outside is not scored with MAP
+
+
+def test_graph_learn_em_and_extra_models(archive, tmp_path):
+    g = tmp_path / "em.toml"
+    r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", MAP, "--em",
+                                  "--models", "constraint,velocity", "--out", str(g), "-q"])
+    assert r.exit_code == 0, r.output
+    from contactlab.observer.graph import load_graph
+    lg = load_graph(g)
+    kinds = {m.kind for m in lg.models.values()}
+    assert kinds == {"gaussian", "constraint", "velocity-moving"}
+    assert lg.models["engage-constraint"].params["constraint"] == "1"
+    assert lg.models["approach-constraint"].params["constraint"] == "0"
+    p = lg.edge_probabilities[0]
+    assert all(0 <= v <= 1 for v in p.values())
+
+
+def test_graph_learn_refuses_a_map_matching_nothing(archive, tmp_path):
+    r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", "7=a",
+                                  "--out", str(tmp_path / "x.toml")])
+    assert r.exit_code == 1 and "label-map" in r.output, r.output
