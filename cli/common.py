@@ -198,9 +198,10 @@ def to_jsonable(obj):
     return obj
 
 
-def count(n: int, noun: str) -> str:
-    """``"1 trial"``, ``"3 trials"``: a count with its noun in the right number."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
+def count(n: int, noun: str, plural: str | None = None) -> str:
+    """``"1 trial"``, ``"3 trials"``: a count with its noun in the right number
+    (``plural`` where it is not the noun plus s: ``count(2, "boundary", "boundaries")``)."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
 
 
 def echo_json(obj) -> None:
