@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import (archives_argument, echo_summaries, json_option,
+from contactlab.cli.common import (archives_argument, count, echo_summaries, json_option,
                                    json_summaries, parallel_options, quiet_option)
 from contactlab.cli.inputs import checks_archive
 
@@ -68,12 +68,12 @@ def label(archives, models, block, loo, loo_unit, labels, trials, workers, sched
 def _echo(archive, summary):
     for tid, entry in summary["trials"].items():
         acc = entry["accuracy"]
-        click.echo(f"{tid}: {len(entry['predicted'])} blocks"
+        click.echo(f"{tid}: {count(len(entry['predicted']), 'block')}"
                    + ("" if acc is None else f", {100 * acc:.1f}% correct"))
     if summary["accuracy"] is not None:
         conf = summary["confusion"]
         width = max(len(x) for x in conf["labels"])
-        click.echo(f"accuracy {100 * summary['accuracy']:.1f}% over {summary['n_blocks']} blocks"
+        click.echo(f"accuracy {100 * summary['accuracy']:.1f}% over {count(summary['n_blocks'], 'block')}"
                    + (f" (leave-one-{summary['loo']}-out)" if summary["loo"] else ""))
         click.echo("confusion, share of each true class's blocks (rows true, columns chosen):")
         click.echo(f"  {'':{width}} " + " ".join(x.rjust(width) for x in conf["labels"]))

@@ -50,12 +50,19 @@ from contactlab.cli.inputs import checks_archive
                    "[default: the map the models were trained with].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
+@click.option("--csv", "csv_out", default=None, metavar="OUT.csv",
+              type=click.Path(dir_okay=False, path_type=Path),
+              help="Also write the recognised path as CSV for other tools: OUT.csv, one row "
+                   "per sample (trial, time_s, node, node_prob, p_<node>...), and "
+                   "OUT-boundaries.csv, one row per change of node (trial, time_s, from, to).")
+@click.option("--force", is_flag=True, help="Replace the --csv files if they exist.")
 @parallel_options("trials")
 @json_option
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, transitions, label_map, trials, no_write, workers, scheduler, as_json, quiet):
+              sides, transitions, label_map, trials, no_write, csv_out, force, workers, scheduler,
+              as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -74,6 +81,8 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
           --models graph-models.h5 --json
       contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 --json
+      contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 \\
+          --no-write --csv wrist-path.csv
 
     The defaults (T^2 8, q 2, the covariance-increase test plus a two-sided
     mean test) are the best settings found on the switching benchmark suite
@@ -117,18 +126,36 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
 
     lmap = parse_label_map(label_map)
     check_label_map(lmap, g)
+    if csv_out is not None:
+        from contactlab.export import check_csv_targets
+
+        check_csv_targets(csv_out, force=force, inputs=[*archives, models_file, graph_file])
+    elif force:
+        raise click.UsageError("--force goes with --csv")
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           write=not no_write, label_map=lmap, transitions=transitions)
+                           write=not no_write, label_map=lmap, transitions=transitions,
+                           keep=csv_out is not None)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
+    runs = {path: summary.pop("_runs", []) for path, summary in summaries.items()}
+    if csv_out is not None:
+        from contactlab.export import export_recognition
+
+        written = export_recognition(runs, stage.graph.node_names, csv_out, force=force)
+        for summary in summaries.values():
+            summary["csv"] = [str(p) for p in written]
     for summary in summaries.values():
         for line in summary["warnings"]:
             click.echo(f"warning: {line}", err=True)
+        for line in summary.get("notes", []):
+            click.echo(f"note: {line}", err=True)
     if as_json:
         json_summaries(summaries)
         return
     echo_summaries(summaries, _echo)
+    if csv_out is not None:
+        click.echo(f"recognised path written to {written[0]} and {written[1]}")
 
 
 def _echo(archive, summary):
@@ -157,3 +184,4 @@ def _echo(archive, summary):
                    + f"  missed {d['missed']}, extra marks {d['extra']}")
     if summary["written"]:
         click.echo(f"results written to {archive} (results/recognize)")
+

@@ -69,12 +69,15 @@ def _thresholds(ctx, param, value):
                    "segment (e.g. \"1=free,2=contact,3=free,4=contact\"); unmapped labels "
                    "are unlabelled, and boundaries found there are not scored.")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--no-write", is_flag=True,
+              help="Compute and print the boundaries, but do not write results/segment.")
 @parallel_options("trials")
 @json_option
 @quiet_option
 @checks_archive(values=False, walk_trials=False)   # run_stage checks each trial
 def segment(archives, signal, order, method, threshold, window_s, sweep_values, change_size,
-            combine, tolerance, label_map, trials, workers, scheduler, as_json, quiet):
+            combine, tolerance, label_map, trials, no_write, workers, scheduler, as_json,
+            quiet):
     """Segment every trial of each ARCHIVE into stretches of one AR model per channel.
 
     Default (--method glr): per channel an AR model with a mean; at every
@@ -119,6 +122,7 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
     Examples:
       contactlab segment runs.h5
       contactlab segment runs.h5 --signal wrench --json
+      contactlab segment runs.h5 --no-write
       contactlab segment runs.h5 --trial stroke-a-000 --sweep 2,3,5,8
       contactlab segment runs.h5 --method page-hinkley --threshold 100
       contactlab segment runs.h5 --method page-hinkley --combine channel --threshold 50
@@ -155,16 +159,17 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
     stage = SegmentStage(signal=signal, order=order, threshold=threshold,
                          thresholds=sweep_values, change_size=change_size, combine=combine,
                          tolerance_s=tolerance, method=method, window_s=window_s,
-                         label_map=lmap)
+                         label_map=lmap, write=not no_write)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
     if as_json:
         json_summaries(summaries)
         return
-    echo_summaries(summaries, lambda archive, summary: _echo(archive, summary, sweep_values))
+    echo_summaries(summaries, lambda archive, summary: _echo(archive, summary, sweep_values,
+                                                             written=stage.write))
 
 
-def _echo(archive, summary, sweep_values):
+def _echo(archive, summary, sweep_values, written=True):
     for tid, entry in summary["trials"].items():
         if sweep_values is None:
             bs = ", ".join(f"{b:.3f}" for b in entry["boundaries_s"])
@@ -177,12 +182,13 @@ def _echo(archive, summary, sweep_values):
         else:
             for t, e in entry["sweep"].items():
                 bs = ", ".join(f"{b:.3f}" for b in e["boundaries_s"])
-                click.echo(f"{tid}: threshold {t}: {len(e['boundaries_s'])} boundaries [{bs}] s")
+                click.echo(f"{tid}: threshold {t}: {count(len(e['boundaries_s']), 'boundary', 'boundaries')} "
+                           f"[{bs}] s")
     m = summary.get("metrics")
     if m:
         for key, val in m.items():
             if isinstance(val, dict) and val.get("f1") is not None:
                 click.echo(f"{key}: precision {val['precision']:.2f} recall {val['recall']:.2f} "
                            f"F1 {val['f1']:.2f} within {val['tolerance_s']} s")
-    if sweep_values is None:
+    if written:
         click.echo(f"results written to {archive} (results/segment)")

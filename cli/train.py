@@ -145,9 +145,9 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
         echo_json(summary)
         return
     for k, m in models.models.items():
-        click.echo(f"{k}: {m.n_blocks} blocks, {m.channels} channels")
+        click.echo(f"{k}: {count(m.n_blocks, 'block')}, {count(m.channels, 'channel')}")
     for k, n in summary["skipped"].items():
-        click.echo(f"{k}: skipped ({n} blocks; a covariance of {order + int(mean)} "
+        click.echo(f"{k}: skipped ({count(n, 'block')}; a covariance of {order + int(mean)} "
                    "parameters needs more)")
     click.echo(f"models written to {out}")
 
@@ -194,13 +194,13 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
         echo_json(summary)
         return
     for k, m in gm.temporal.items():
-        click.echo(f"{k}: temporal, {m.n_blocks} blocks, {m.channels} channels")
+        click.echo(f"{k}: temporal, {count(m.n_blocks, 'block')}, {count(m.channels, 'channel')}")
     for k, n in summary["impact_segments"].items():
-        click.echo(f"{k}: impact decay, {n} impacts")
+        click.echo(f"{k}: impact decay, {count(n, 'impact')}")
     for k, c in summary["constraints"].items():
         normals = "; ".join(" ".join(f"{v:+.3f}" for v in n) for n in c["normals"]) or "none"
-        click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}) on "
-                   f"{c['signal']}, {count(c['segments'], 'run')}")
+        click.echo(f"{k}: constraint degree {c['degree']} (normals {normals}), signal "
+                   f"{c['signal']}, from {count(c['segments'], 'run')} labelled {k}")
     for k, p in summary["velocity"].items():
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     for k, g in summary["gaussian"].items():

@@ -112,7 +112,8 @@ HEADER = "t,fx,fy,fz,tx,ty,tz\n"
     (HEADER + "0,1,2,3,4,5,6\n0.1,1\n", "time=t;wrench=f*,t[xyz]", {}, "fy",
      "data row 2 ends after 2 of 7 fields"),
     (HEADER + "0.1,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]", {}, "t",
-     "time is not strictly increasing (data row 2)"),
+     "time is not strictly increasing (data row 2, 0.1 s, repeats the time stamp 0.1 s of "
+     "data row 1; 1 such row): give --repair-time"),
     (HEADER + "0,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n", "time=t;wrench=f*,t[xyz]",
      {"rate_hz": 100.0}, "t", "disagrees with the given rate 100 Hz"),
     ("t,fx,fy,fz,tx,ty,tz,lab\n0,1,2,3,4,5,6,0\n0.1,1,2,3,4,5,6,1\n",

@@ -110,7 +110,8 @@ def test_import_then_validate_and_info(tmp_path):
                  "--columns", MAP, "--quiet", "--json")
     assert result.exit_code == 0, result.output
     assert one_json_object(result.stdout) == {"file": str(out), "trials": ["a", "b"],
-                                              "n_samples": 500, "duration_s": 1.0}
+                                              "n_samples": 500, "duration_s": 1.0,
+                                              "repairs": {"a": {}, "b": {}}}
     assert validate_archive(out) == []
     again = run("import", tmp_path / "a.csv", "--out", out, "--columns", MAP, "--quiet")
     assert again.exit_code == 1

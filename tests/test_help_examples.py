@@ -131,6 +131,12 @@ def _write_csvs(root: Path) -> None:
     lines = [";".join(cols)] + [";".join(f"{cols[c][k]:.6f}".replace(".", ",") for c in cols)
                                 for k in range(t.size)]
     (root / "run-eu.csv").write_text("\n".join(lines) + "\n")
+    # a robot arm's log: a repeated time stamp, the tool's roll, pitch and yaw
+    arm = {c: v.copy() for c, v in cols.items()}
+    arm["t"][101] = arm["t"][100]
+    arm.update(roll=0.1 + 0 * t, pitch=-1.3 + 0 * t, yaw=0.01 * t)
+    lines = [",".join(arm)] + [",".join(f"{arm[c][k]:.6g}" for c in arm) for k in range(t.size)]
+    (root / "arm.csv").write_text("\n".join(lines) + "\n")
     (root / "strokes").mkdir()
     for k in range(2):
         s = rng.normal(size=(500, 8))

@@ -214,6 +214,16 @@ class Trial:
         return self._read(spec.MEASUREMENTS, "velocity")
 
     @functools.cached_property
+    def orientation(self) -> np.ndarray | None:
+        """(n, 4) unit quaternions w x y z rotating tool-frame vectors into the base frame."""
+        return self._read(spec.MEASUREMENTS, "orientation")
+
+    @property
+    def wrench_frame(self) -> str:
+        """Axes of :attr:`wrench`: ``"sensor"`` (as measured) or ``"base"``."""
+        return str(self.dataset_attrs("wrench").get("frame", "sensor"))
+
+    @functools.cached_property
     def action(self) -> np.ndarray | None:
         return self._read(spec.MEASUREMENTS, "action")
 

@@ -23,11 +23,15 @@ GROUND_TRUTH = "ground_truth"
 RESULTS = "results"
 
 #: Per-sample measurement datasets, in the order the writer and reader list them.
-MEASUREMENT_FIELDS = ("time", "strain", "wrench", "position", "velocity", "action", "command")
+MEASUREMENT_FIELDS = ("time", "strain", "wrench", "position", "velocity", "orientation",
+                      "action", "command")
 
 #: Largest relative difference between the median time step and 1 / rate_hz (check
 #: ``matches_rate`` of the schema).
 RATE_TOLERANCE = 0.01
+
+#: Largest distance of a stored orientation quaternion's norm from 1 (check ``unit_norm``).
+UNIT_NORM_TOLERANCE = 1e-6
 
 #: Dtype kinds of the schema -> numpy dtype kind letters.
 DTYPE_KINDS = {"float": "f", "int": "i", "string": "OSU", "compound": "V"}

@@ -266,6 +266,15 @@ def _segments_outside(start, end, span: tuple[float, float], rate: float | None)
             f"[{first:g}, {last + period:g}] s (first: row {i}, {start[i]:g}-{end[i]:g} s)"]
 
 
+def _check_unit_norm(ds, data, scope) -> list[str]:
+    off = np.abs(np.linalg.norm(data, axis=-1) - 1.0) > spec.UNIT_NORM_TOLERANCE
+    if not off.any():
+        return []
+    i = _first(off)
+    return [f"{int(off.sum())} rows are not unit quaternions (first: sample {i}, norm "
+            f"{float(np.linalg.norm(data[i])):.9g})"]
+
+
 #: check name (as used in the schema) -> function(dataset, data, scope) -> messages.
 CHECKS: dict[str, Callable] = {
     "finite": _check_finite,
@@ -274,6 +283,7 @@ CHECKS: dict[str, Callable] = {
     "matches_rate": _check_matches_rate,
     "label_codes": _check_label_codes,
     "segments": _check_segments,
+    "unit_norm": _check_unit_norm,
 }
 
 

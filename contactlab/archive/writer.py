@@ -196,12 +196,14 @@ class ArchiveWriter:
                   strain_channels: int | None = None, calibration=None,
                   command_columns: list[str] | None = None, action_names: list[str] | None = None,
                   strain_units: str | None = None, command_units: str | None = None,
-                  position_columns: list[str] | None = None) -> TrialWriter:
+                  position_columns: list[str] | None = None,
+                  wrench_frame: str | None = None) -> TrialWriter:
         """Start trial ``trial_id``; returns its :class:`TrialWriter`.
 
         ``strain_channels`` fixes the strain width (else the first append or
         ``calibration``, a 6 x c matrix with wrench = calibration @ strain, does).
-        ``position_columns`` renames the position columns (default x y z; a
+        ``wrench_frame`` (``"sensor"`` or ``"base"``) is written as the wrench's ``frame``
+        attribute (absent: sensor). ``position_columns`` renames the position columns (default x y z; a
         planar trace uses x y theta, theta in rad, for the polygon models).
         ``command_columns`` names the command columns; ``command_units`` is
         required when commands are appended. ``strain_units`` defaults to the
@@ -229,7 +231,8 @@ class ArchiveWriter:
                                 calibration=calibration, command_columns=command_columns,
                                 action_names=action_names, strain_units=strain_units,
                                 command_units=command_units,
-                                position_columns=position_columns)
+                                position_columns=position_columns,
+                                wrench_frame=wrench_frame)
         except BaseException:
             del self._trials_group[trial_id]
             raise
@@ -424,7 +427,7 @@ class TrialWriter:
 
     def __init__(self, archive: ArchiveWriter, group: h5py.Group, *, strain_channels=None,
                  calibration=None, command_columns=None, action_names=None, strain_units=None,
-                 command_units=None, position_columns=None):
+                 command_units=None, position_columns=None, wrench_frame=None):
         self._archive = archive
         self._group = group
         self.id = group.name.rsplit("/", 1)[-1]
@@ -448,6 +451,10 @@ class TrialWriter:
             raise self._error(f"position_columns has {len(position_columns)} names, expected 3",
                               "position")
         self._position_columns = None if position_columns is None else list(position_columns)
+        if wrench_frame not in (None, "sensor", "base"):
+            raise self._error(f"wrench_frame {wrench_frame!r} is not 'sensor' or 'base'",
+                              "wrench")
+        self._wrench_frame = wrench_frame
         self._action_names = None if action_names is None else list(action_names)
         self._strain_units = strain_units or spec.default_attr(spec.MEASUREMENTS, "strain", "units")
         self._command_units = command_units
@@ -458,16 +465,18 @@ class TrialWriter:
         self._meas = group.create_group(spec.MEASUREMENTS)
 
     def append(self, *, time, strain=None, wrench=None, position=None, velocity=None,
-               action=None, command=None) -> None:
+               orientation=None, action=None, command=None) -> None:
         """Append rows to each given dataset; every call must give the same datasets.
 
         ``time`` is (r,) seconds, strictly after the previous rows; the others
         have r rows: strain (r, c), wrench (r, 6), position and velocity
-        (r, 3), action (r,) integer codes, command (r, k).
+        (r, 3), orientation (r, 4) unit quaternions w x y z (tool to base frame),
+        action (r,) integer codes, command (r, k).
         """
         self._check_writable()
         given = {"time": time, "strain": strain, "wrench": wrench, "position": position,
-                 "velocity": velocity, "action": action, "command": command}
+                 "velocity": velocity, "orientation": orientation, "action": action,
+                 "command": command}
         given = {k: v for k, v in given.items() if v is not None}
         fields = tuple(k for k in spec.MEASUREMENT_FIELDS if k in given)
         if self._fields is None:
@@ -486,6 +495,11 @@ class TrialWriter:
         for name, arr in arrays.items():
             if len(arr) != rows:
                 raise self._error(f"{len(arr)} rows, but time has {rows}", name)
+        if "orientation" in arrays and len(arrays["orientation"]):
+            norm = np.linalg.norm(arrays["orientation"], axis=1)
+            if np.any(np.abs(norm - 1.0) > spec.UNIT_NORM_TOLERANCE):
+                raise self._error("rows must be unit quaternions (normalise them first)",
+                                  "orientation")
         t = arrays["time"]
         if rows and (np.any(np.diff(t) <= 0) or
                      (self._last_time is not None and t[0] <= self._last_time)):
@@ -666,6 +680,10 @@ class TrialWriter:
             columns = self._command_columns or [f"c{i}" for i in range(arr.shape[1])]
         if name == "position" and self._position_columns is not None:
             columns = self._position_columns
+        if name == "wrench" and self._wrench_frame is not None:
+            ds.attrs["frame"] = self._wrench_frame
+        if name == "orientation":
+            ds.attrs["convention"] = spec.default_attr(spec.MEASUREMENTS, name, "convention")
         if columns is not None:
             ds.attrs["columns"] = spec.string_array(columns)
         if name == "strain" and self._calibration is not None:

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from contactlab import defaults as D
-from contactlab.errors import DataError
+from contactlab.errors import DataError, UsageError
 from contactlab.signals import CONTACT_SIGNALS
 
 __all__ = ["ModelSpec", "Node", "FeatureGraph", "load_graph", "parse_graph", "MODEL_KINDS",
@@ -266,8 +266,14 @@ def load_graph(path) -> FeatureGraph:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise DataError("no such file, nor a bundled graph (bundled: "
-                        f"{', '.join(sorted(bundled_graphs()))})", file=str(path)) from None
+        names = sorted(bundled_graphs())
+        if path.parent == Path(".") and path.suffix != ".toml":   # a name, not a file
+            near = difflib.get_close_matches(path.name, names, n=1)
+            raise UsageError(f"no bundled graph {path.name!r}"
+                             + (f" (did you mean {near[0]}?)" if near else "")
+                             + f"; bundled: {', '.join(names)}") from None
+        raise DataError(f"no such file, nor a bundled graph (bundled: {', '.join(names)})",
+                        file=str(path)) from None
     except OSError as exc:
         raise DataError(f"cannot read ({exc.strerror})", file=str(path)) from None
     try:

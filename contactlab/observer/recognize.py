@@ -220,6 +220,7 @@ class RecognizeStage(Stage):
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         p_prune = p_prune or self.graph.p_prune or D.OBSERVER_PRUNE
         self.label_map = label_map if label_map is not None else self.models.label_map
+        self.map_given = label_map is not None
         self.observer_kw = dict(threshold=threshold, change_size=change_size,
                                 p_prune=p_prune, gap=gap, sides=sides, transitions=transitions)
         try:
@@ -236,9 +237,10 @@ class RecognizeStage(Stage):
     def run_trial(self, trial) -> TrialOutcome:
         """Observe one trial; its MAP path, confusion counts, delays and results."""
         graph, K = self.graph, self.graph.n_nodes
+        label_map, no_accuracy = self._trial_label_map(trial)
         rec = recognize_trial(trial, graph, self.built, reduce=self.models.reduce,
                               action=self.action, observer_kw=self.observer_kw,
-                              label_map=self.label_map)
+                              label_map=label_map)
         r = rec.result
         entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rec.fs]
                           for n, s in r.map_path],
@@ -246,6 +248,8 @@ class RecognizeStage(Stage):
                                   else s / rec.fs] for n, s in merge_path(r.map_path)],
                  "n_changes": count_changes(r.events),
                  "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict()}
+        if no_accuracy:
+            entry["no_accuracy"] = no_accuracy
         extra = {"confusion": np.zeros((K, K), np.int64),
                  "confusion_online": np.zeros((K, K), np.int64), "delays": None,
                  "rec": rec if self.keep else None}
@@ -265,6 +269,30 @@ class RecognizeStage(Stage):
                 attrs["accuracy"] = entry["accuracy"]
             results = TrialResults(ds, attrs, self.parameters)
         return TrialOutcome(entry, results, extra)
+
+    def _trial_label_map(self, trial) -> tuple[dict | None, str | None]:
+        """The label map for ``trial``'s truth, and why it gives no accuracy (or None).
+
+        A map from the models file (not given for this run) that names none of the
+        trial's labels is left out: a recording labelled otherwise is recognised without
+        an accuracy, not refused; a map given for this run is checked in
+        :func:`recognize_trial` (an error).
+        """
+        own = getattr(trial, "label_names", None) if trial.labels is not None else None
+        if own is None:
+            return self.label_map, None
+        own = [str(n) for n in own]
+        lmap = self.label_map
+        if lmap and not self.map_given and not any(str(s) in own for s in lmap):
+            lmap = None
+            shown = ",".join(f"{k}={v}" for k, v in self.label_map.items())
+            why = f"the models' label map ({shown}) names none of its labels ({', '.join(own)})"
+        else:
+            why = "its labels name none of the graph's nodes"
+        targets = [lmap.get(n) for n in own] if lmap else own
+        if any(t in self.graph.node_names for t in targets):
+            return lmap, None
+        return lmap, f"{why}; no accuracy (map them onto nodes with --label-map)"
 
     def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
         """Confusion matrices and delay table summed over the archive's trials."""
@@ -297,6 +325,8 @@ class RecognizeStage(Stage):
             "parameters": self.parameters, "written": bool(self.write),
             "warnings": [misfit_warning(path, tid, o.entry["fit"])
                          for tid, o in outcomes.items() if o.entry["fit"]["misfit"]],
+            "notes": [f"{path}: trial {tid}: {o.entry['no_accuracy']}"
+                      for tid, o in outcomes.items() if o.entry.get("no_accuracy")],
         }
         if self.keep:
             summary["_runs"] = [o.extra["rec"] for o in outcomes.values()]

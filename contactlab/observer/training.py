@@ -238,13 +238,19 @@ def load_graph_models(path) -> GraphModels:
 # -- training ----------------------------------------------------------------------------
 
 
+def _example_label(seen) -> str:
+    """A label of the recording to show in a --label-map example: never ``0``, which
+    integer-coded recordings use for unlabelled or before-and-after samples."""
+    return next((s for s in sorted(seen) if s not in ("0", "-1")), "1")
+
+
 def _no_label(lab, seen, path, label_map, field, unmatched=()) -> DataError:
     """The one-line error for a graph label the (mapped) ground truth lacks: the labels it
     has, the --label-map entries that matched nothing, or, without a map, how to give one."""
     hint = (f"; --label-map entries matching no label: {', '.join(unmatched)}" if unmatched
             else "" if label_map else
             "; map the recording's labels onto the graph's with --label-map, e.g. "
-            f"--label-map \"{sorted(seen)[0] if seen else '1'}={lab}\"")
+            f"--label-map \"{_example_label(seen)}={lab}\"")
     return DataError(f"no label {lab!r} in the ground truth (labels: "
                      f"{', '.join(sorted(seen))}{hint})", file=str(path), field=field)
 
