@@ -158,20 +158,95 @@ def _note(message: str) -> None:
 
 def remove_stale_temp_files(path: str | os.PathLike,
                             notify: Callable[[str], None] | None = _note) -> list[Path]:
-    """Remove the stale temporary siblings of ``path``; say so through ``notify``."""
+    """Remove the stale temporary siblings of ``path``; say so through ``notify``.
+
+    The journal of a recording that was killed (:mod:`contactlab.journal`) is
+    first played back: ``path`` returns to its last finished trial.
+    """
+    from contactlab.journal import SUFFIX, rollback
+
     removed = []
-    for tmp in stale_temp_files(path):
+    stale = stale_temp_files(path)
+    for tmp in sorted(stale, key=lambda p: not p.name.endswith(SUFFIX)):  # journals first
+        played = False
         try:
-            tmp.unlink()
+            if tmp.name.endswith(SUFFIX):
+                played = rollback(path, tmp)
+            else:
+                tmp.unlink()
         except OSError as err:
             if notify:
                 notify(f"{tmp}: stale temporary file left by an interrupted run "
-                       f"cannot be removed ({err.strerror})")
+                       f"cannot be {'played back' if tmp.name.endswith(SUFFIX) else 'removed'}"
+                       f" ({err.strerror})")
             continue
         removed.append(tmp)
-        if notify:
+        if notify and played:
+            notify(f"{path}: returned to its last finished trial: the run writing it was "
+                   f"killed (its journal {tmp.name} is played back and removed)")
+        elif notify:
             notify(f"removed {tmp}, a temporary file left by an interrupted run")
     return removed
+
+
+def recording_pid(path: str | os.PathLike) -> int | None:
+    """The pid of a live process recording into ``path`` in place (None: none)."""
+    from contactlab.journal import SUFFIX
+
+    final = Path(path)
+    pattern = _temp_pattern(final)
+    try:
+        names = os.listdir(final.parent if str(final.parent) else ".")
+    except OSError:
+        return None
+    for name in names:
+        match = pattern.fullmatch(name)
+        if match and name.endswith(SUFFIX) and match.group(1) is not None:
+            pid = int(match.group(1))
+            if pid != os.getpid() and _alive(pid):
+                return pid
+    return None
+
+
+@contextlib.contextmanager
+def temp_beside(path: str | os.PathLike, *, force: bool = False) -> Iterator[tuple[Path, Path]]:
+    """Yield ``(path, tmp)``: a new temporary file beside ``path`` that the caller
+    moves into place itself (:func:`atomic_path` at its end; an incremental
+    archive at its first finished trial).
+
+    On an exception the temporary file is removed (unless it was moved) and a
+    write failure (full disk, read-only, permission) is re-raised as a one-line
+    DataError naming ``path``; a second signal removes it before quitting.
+    """
+    final = check_writable(path, force=force)
+    remove_stale_temp_files(final)
+    # A SIGINT/SIGTERM while the file is written is raised only at a checkpoint, never
+    # inside h5py or between creating the temporary file and the block that removes it.
+    with interrupt.deferred():
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
+                                       dir=final.parent)
+        except OSError as err:
+            raise (write_error(err, final) or err) from None
+        tmp_path = Path(tmp)
+        try:
+            with interrupt.on_quit(lambda: _unlink(tmp_path)):
+                os.close(fd)
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
+                yield final, tmp_path
+        except BaseException as err:
+            _unlink(tmp_path)
+            failure = write_error(err, final) if isinstance(err, Exception) else None
+            if failure is not None:
+                raise failure from None
+            raise
+
+
+def _unlink(path: Path) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        path.unlink()
 
 
 @contextlib.contextmanager
@@ -186,34 +261,11 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False,
     the block is raised when it ends, before the rename (``interruptible=False``:
     the file is renamed all the same and the caller raises it).
     """
-    final = check_writable(path, force=force)
-    remove_stale_temp_files(final)
-    # A SIGINT/SIGTERM while the file is written is raised only here, before the
-    # rename (the original stays), never inside h5py or between creating the
-    # temporary file and the block that removes it.
-    with interrupt.deferred():
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
-                                       dir=final.parent)
-        except OSError as err:
-            raise (write_error(err, final) or err) from None
-        tmp_path = Path(tmp)
-        try:
-            os.close(fd)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
-            yield tmp_path
-            if interruptible:
-                interrupt.checkpoint()
-            os.replace(tmp_path, final)
-        except BaseException as err:
-            with contextlib.suppress(FileNotFoundError):
-                tmp_path.unlink()
-            failure = write_error(err, final) if isinstance(err, Exception) else None
-            if failure is not None:
-                raise failure from None
-            raise
+    with temp_beside(path, force=force) as (final, tmp_path):
+        yield tmp_path
+        if interruptible:
+            interrupt.checkpoint()
+        os.replace(tmp_path, final)
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
