@@ -18,6 +18,7 @@ import errno
 import hashlib
 import os
 import re
+import shutil
 import stat
 import sys
 import tempfile
@@ -172,6 +173,8 @@ def remove_stale_temp_files(path: str | os.PathLike,
         try:
             if tmp.name.endswith(SUFFIX):
                 played = rollback(path, tmp)
+            elif tmp.is_dir() and not tmp.is_symlink():  # a report written aside
+                shutil.rmtree(tmp)
             else:
                 tmp.unlink()
         except OSError as err:
@@ -232,9 +235,7 @@ def temp_beside(path: str | os.PathLike, *, force: bool = False) -> Iterator[tup
         try:
             with interrupt.on_quit(lambda: _unlink(tmp_path)):
                 os.close(fd)
-                umask = os.umask(0)
-                os.umask(umask)
-                os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; outputs are ordinary files
+                os.chmod(tmp_path, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
                 yield final, tmp_path
         except BaseException as err:
             _unlink(tmp_path)
@@ -266,6 +267,85 @@ def atomic_path(path: str | os.PathLike, *, force: bool = False,
         if interruptible:
             interrupt.checkpoint()
         os.replace(tmp_path, final)
+
+
+def make_directory(path: str | os.PathLike) -> Path:
+    """Create the directory ``path`` (and its parents) to write outputs into; refuse
+    a read-only one (by its mode bits, as :func:`check_writable`) or a file there.
+    A failure is a one-line DataError naming ``path``."""
+    path = Path(path)
+    existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
+    if not existing.is_dir():
+        raise DataError("is not a directory", file=str(existing))
+    reason = read_only_reason(existing)
+    if reason:
+        raise DataError(reason, file=str(existing))
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        failure = write_error(err, path)
+        if failure is None:
+            raise DataError(f"cannot be created ({err.strerror or err})", file=str(path)) from None
+        raise failure from None
+    return path
+
+
+@contextlib.contextmanager
+def atomic_directory(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a new temporary directory beside ``path``; when the block ends cleanly,
+    move what it holds into ``path`` whole: the directory is renamed to ``path`` when
+    there is none yet, else each file is renamed into it (files of other names in
+    ``path`` are left as they are).
+
+    On an exception (a full disk, an interrupt) the temporary directory is removed
+    and ``path`` is untouched; a write failure becomes a DataError naming the file
+    that was being written. A second signal removes it before quitting.
+    """
+    final = Path(path)
+    if final.exists() and not final.is_dir():
+        raise DataError("is not a directory", file=str(final))
+    make_directory(final.parent)
+    if final.exists():
+        reason = read_only_reason(final)
+        if reason:
+            raise DataError(reason, file=str(final))
+    remove_stale_temp_files(final)
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.{os.getpid()}-", suffix=".tmp",
+                                    dir=final.parent))
+    except OSError as err:
+        raise (write_error(err, final) or err) from None
+    try:
+        with interrupt.on_quit(lambda: _remove_tree(tmp)):
+            os.chmod(tmp, 0o777 & ~_umask())
+            yield tmp
+            with interrupt.held():  # a second signal waits for the moves (renames only)
+                if not final.exists():
+                    os.rename(tmp, final)
+                else:
+                    for entry in sorted(os.listdir(tmp)):
+                        os.replace(tmp / entry, final / entry)
+                    os.rmdir(tmp)
+    except BaseException as err:
+        _remove_tree(tmp)
+        if isinstance(err, DataError) and err.file and err.file.startswith(str(tmp)):
+            # name the file as it was to be called, not its temporary place
+            raise DataError(err.message, file=str(final) + err.file[len(str(tmp)):],
+                            field=err.field) from None
+        failure = write_error(err, final) if isinstance(err, Exception) else None
+        if failure is not None:
+            raise failure from None
+        raise
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+def _remove_tree(path: Path) -> None:
+    shutil.rmtree(path, ignore_errors=True)
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

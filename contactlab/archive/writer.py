@@ -181,7 +181,7 @@ class ArchiveWriter:
         try:
             if incremental:
                 self._reserve = self.tmp_path.with_name(self.tmp_path.name[:-4] + "_reserve.tmp")
-                _reserve_space(self._reserve, RESERVE_BYTES)
+                _reserve_space(self._reserve, RESERVE_BYTES, self.path)
                 self._io = JournaledFile(self.tmp_path)
                 self._file = h5py.File(self._io, "w")
             else:
@@ -444,12 +444,13 @@ def _sync_directory(folder: Path) -> None:
             os.close(fd)
 
 
-def _reserve_space(path: Path, size: int) -> None:
-    """Create ``path`` holding ``size`` allocated bytes (DataError when there is no room)."""
+def _reserve_space(path: Path, size: int, target: Path) -> None:
+    """Create ``path`` holding ``size`` allocated bytes (a DataError naming ``target``,
+    the archive it is for, when there is no room)."""
     try:
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     except OSError as err:
-        raise (write_error(err, path.parent) or err) from None
+        raise (write_error(err, target) or err) from None
     try:
         try:
             os.posix_fallocate(fd, 0, size)
@@ -461,7 +462,7 @@ def _reserve_space(path: Path, size: int) -> None:
         os.close(fd)
         with contextlib.suppress(OSError):
             path.unlink()
-        raise (write_error(err, path.parent) or err) from None
+        raise (write_error(err, target) or err) from None
     os.close(fd)
 
 
