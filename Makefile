@@ -56,8 +56,8 @@ test: $(STAMP)
 
 ## Results under kills and concurrent stages at full count: 100 SIGKILLs during results
 ## writes, 20 concurrent segment + label pairs, 10 interrupted stages; and one, two and
-## three SIGINT/SIGTERM or a SIGKILL at random moments of acquire (210 runs), import (70)
-## and the verbs that write (100) (make test runs a few).
+## three SIGINT/SIGTERM or a SIGKILL at random moments of acquire (140 runs), import (42)
+## and the verbs that write (84) (make test runs a few).
 stress: $(STAMP)
 	CONTACTLAB_STRESS=1 $(BIN)/python -m pytest tests/test_stages_crash.py \
 	    tests/test_interrupts.py -p no:cacheprovider

@@ -79,6 +79,7 @@ def check_writable(path: str | os.PathLike, *, force: bool,
     file or directory, or to replace one of ``inputs``; return it as a Path."""
     path = Path(path)
     check_not_input(path, inputs)
+    refuse_while_recorded(path)
     if path.is_dir():
         raise DataError("is a directory, not a file", file=str(path))
     if path.exists() and not force:
@@ -209,6 +210,15 @@ def recording_pid(path: str | os.PathLike) -> int | None:
             if pid != os.getpid() and _alive(pid):
                 return pid
     return None
+
+
+def refuse_while_recorded(path: str | os.PathLike) -> None:
+    """DataError when a live process is recording into ``path`` (its last trial is
+    being written in place: neither read nor rewrite it until the run ends)."""
+    pid = recording_pid(path)
+    if pid is not None:
+        raise DataError(f"is being recorded by a running process (pid {pid}); "
+                        "wait for it to end", file=str(path))
 
 
 @contextlib.contextmanager

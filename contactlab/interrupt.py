@@ -166,9 +166,9 @@ def signals_as_interrupt(*, exiting: bool = False):
     (Terminated for SIGTERM) and are recorded for :func:`received`. Nested uses
     share the outermost one's record.
 
-    ``exiting``: the process ends with the block (the CLI); when a signal was
-    received, later ones are ignored instead of restoring the previous handlers,
-    so that a signal during the exit does not replace its status and line."""
+    ``exiting``: the process ends with the block (the CLI): later signals are
+    ignored instead of restoring the previous handlers, so that one during the
+    exit does not replace its status and line (the work is done by then)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -188,7 +188,7 @@ def signals_as_interrupt(*, exiting: bool = False):
         yield
     finally:
         for s, h in previous.items():
-            signal.signal(s, signal.SIG_IGN if exiting and _received else h)
+            signal.signal(s, signal.SIG_IGN if exiting else h)
         if sys.unraisablehook is not previous_hook:
             sys.unraisablehook = previous_hook
         _state["active"] = 0

@@ -145,7 +145,7 @@ def _check_trials(path, reference, finished):
 def test_acquire_keeps_every_finished_trial_whatever_the_signals(spec, reference, tmp_path,
                                                                  plan):
     rng = random.Random(hash(plan) % 1000)
-    for attempt in range(30 if STRESS else 1):
+    for attempt in range(20 if STRESS else 1):
         folder = tmp_path / f"a{attempt}"
         folder.mkdir()
         out = folder / "x.h5"
@@ -202,6 +202,35 @@ with signals_as_interrupt():
     assert _temps(tmp_path) == []
 
 
+def test_an_archive_being_recorded_is_neither_read_nor_replaced(tmp_path):
+    from conftest import write_archive as write
+
+    from contactlab.journal import SUFFIX
+
+    path = tmp_path / "x.h5"
+    write(path, n=200)
+    before = path.read_bytes()
+    sleeper = subprocess.Popen(["sleep", "30"])  # the recording process, alive
+    journal = tmp_path / f".x.h5.{sleeper.pid}-abcd1234{SUFFIX}"
+    journal.write_bytes(b"")
+    try:
+        for args in (("info", path), ("validate", path), ("segment", path, "-q"),
+                     ("acquire", "--spec", "stroke-a", "--out", path, "--force", "-q")):
+            res = subprocess.run([sys.executable, "-m", "contactlab", *map(str, args)],
+                                 capture_output=True, text=True, timeout=120)
+            assert res.returncode == 1, (args, res.stderr)
+            assert res.stderr.splitlines() == [
+                f"contactlab: error: {path}: is being recorded by a running process "
+                f"(pid {sleeper.pid}); wait for it to end"], res.stderr
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert path.read_bytes() == before
+    res = subprocess.run([sys.executable, "-m", "contactlab", "info", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and not journal.exists(), res.stderr  # its run is gone
+
+
 # -- import -------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -238,7 +267,7 @@ def imported(csv_files, tmp_path_factory):
 def test_import_keeps_every_finished_trial_whatever_the_signals(csv_files, imported,
                                                                 tmp_path, plan):
     rng = random.Random(7 + len(plan))
-    for attempt in range(10 if STRESS else 2):
+    for attempt in range(6 if STRESS else 2):
         folder = tmp_path / f"i{attempt}"
         folder.mkdir()
         out = folder / "x.h5"
@@ -286,25 +315,46 @@ def _results(path):
     return out
 
 
+@pytest.fixture(scope="module")
+def recognisable(tmp_path_factory):
+    """A test archive with segment results, its feature graph and trained models."""
+    from test_recognize import GRAPH as ABC, TEST, TRAIN, _write
+
+    from contactlab.observer.training import train_graph
+
+    folder = tmp_path_factory.mktemp("recog")
+    graph = folder / "abc.toml"
+    graph.write_text(ABC)
+    _write(folder / "train.h5", TRAIN, seed=0)
+    _write(folder / "test.h5", TEST, seed=10)
+    train_graph(folder / "train.h5", graph, order=1, mean=True, block=100,
+                reduce="mean").save(folder / "models.h5")
+    res = subprocess.run([sys.executable, "-m", "contactlab", "segment", folder / "test.h5",
+                          "-q"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    return folder / "test.h5", graph, folder / "models.h5"
+
+
 VERBS = {
-    "segment": lambda m: ["--threshold", "300", "-q"],
-    "label": lambda m: ["--models", m, "-q"],
-    "estimate": lambda m: ["-q"],
-    "recognize": lambda m: ["--graph", GRAPH, "--models", m, "-q"],
+    "segment": lambda a, r: (a[0], ["--threshold", "300", "-q"]),
+    "label": lambda a, r: (a[0], ["--models", a[1], "-q"]),
+    "estimate": lambda a, r: (a[0], ["-q"]),
+    "recognize": lambda a, r: (r[0], ["--graph", r[1], "--models", r[2], "-q"]),
 }
 
 
 @pytest.mark.parametrize("verb", sorted(VERBS))
-def test_a_verb_interrupted_keeps_the_results_that_were_there(analysed, tmp_path, verb):
-    base, models = analysed
+def test_a_verb_interrupted_keeps_the_results_that_were_there(analysed, recognisable,
+                                                              tmp_path, verb):
+    base, extra = VERBS[verb](analysed, recognisable)
     rng = random.Random(sum(map(ord, verb)))
-    for attempt, plan in enumerate(PLANS * 3 if STRESS else [rng.choice(PLANS)]):
+    for attempt, plan in enumerate(PLANS * 2 if STRESS else [rng.choice(PLANS)]):
         folder = tmp_path / f"v{attempt}"
         folder.mkdir()
         path = folder / "a.h5"
         path.write_bytes(base.read_bytes())
         before, results = measurement_bytes(path), _results(path)
-        run = _Run(verb, path, *VERBS[verb](models))
+        run = _Run(verb, path, *extra)
         time.sleep(rng.uniform(1.0, 4.0))
         code = run.signal(plan, rng)
         _check_exit(run, code, plan)
@@ -339,3 +389,25 @@ def test_train_interrupted_leaves_no_models_file_or_a_whole_one(analysed, tmp_pa
         if out.exists():
             with h5py.File(out, "r") as f:
                 assert len(f.attrs) > 0
+
+
+def test_report_interrupted_leaves_no_report_or_a_whole_one(analysed, tmp_path):
+    base, _ = analysed
+    rng = random.Random(17)
+    for attempt, plan in enumerate(PLANS * 2 if STRESS else [rng.choice(PLANS)]):
+        out = tmp_path / f"rep{attempt}"
+        run = _Run("report", base, "--out", out, "-q")
+        time.sleep(rng.uniform(1.0, 4.0))
+        code = run.signal(plan, rng)
+        _check_exit(run, code, plan)
+        if plan[0] == KILL:
+            from contactlab.fileio import remove_stale_temp_files
+
+            remove_stale_temp_files(out, notify=None)  # what the next report does first
+        assert _temps(tmp_path) == []
+        if out.exists():
+            names = sorted(p.name for p in out.iterdir())
+            assert "index.html" in names and "report.pdf" in names, names
+            assert len([n for n in names if n.endswith(".png")]) == 4 + 4 * 2, names
+        else:
+            assert code != 0

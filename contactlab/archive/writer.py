@@ -1,9 +1,9 @@
 """Writing archives: atomic by default, incremental for acquisition.
 
 One module on purpose: :class:`ArchiveWriter` and its :class:`TrialWriter`
-share one temporary file, its space reserve and one abort path (a failed
-trial write releases the reserve, deletes the unfinished trial and keeps the
-closed ones); split, each would reach into the other's state.
+share one file, its space reserve and one abort path (a failed trial write
+releases the reserve and returns the file to its last finished trial); split,
+each would reach into the other's state.
 
 ::
 
@@ -16,15 +16,24 @@ closed ones); split, each would reach into the other's state.
 Everything goes to a temporary file beside the target (``.runs.h5.XXXX.tmp``)
 that is renamed into place when the ``with`` block ends cleanly. An exception
 removes the temporary file, so no half-written archive ever carries the
-final name. With ``incremental=True`` an exception (Ctrl-C included) instead
-keeps every trial that was closed: unfinished trials are deleted and the file
-is renamed into place before the exception propagates.
+final name.
+
+With ``incremental=True`` (acquisition, import) each finished trial is
+committed (:meth:`ArchiveWriter.commit`): the first commit renames the file
+into place, later trials are written in place behind a rollback journal
+(:mod:`contactlab.journal`), so the archive under its final name always holds
+every finished trial, at a write cost linear in trials. An exception (Ctrl-C
+included) returns the file to its last commit, byte for byte, and says which
+trials it kept; a second signal does the same from the signal handler and
+quits at once; after a SIGKILL the next run on the archive plays the journal
+back. Until the first trial is finished only the temporary file exists (an
+archive replaced with ``force`` or appended to stays as it was).
 
 A full disk must not strand the finished trials either: an incremental writer
 keeps a small reserve file (:data:`RESERVE_BYTES`) beside the archive and
-deletes it when a write fails, so that HDF5 has the room to delete the
-unfinished trial and close the file cleanly. The failure is then reported in
-one line naming the archive and the trials it kept.
+deletes it when a write fails, so that there is room to close the file and
+play the journal back. The failure is then reported in one line naming the
+archive and the trials it kept.
 """
 
 from __future__ import annotations
@@ -274,7 +283,7 @@ class ArchiveWriter:
         return self._copied + list(self._trials)
 
     def flush(self) -> None:
-        """Push everything written so far to the temporary file on disk."""
+        """Push everything written so far to the file (not a commit: see :meth:`commit`)."""
         self._check_open()
         self.check_space(0)
         self._file.flush()
