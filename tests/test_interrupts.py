@@ -90,13 +90,25 @@ def _check_exit(run, code, plan):
         assert run.lines[-1] == f"contactlab: {signal_line(plan[0])}", err
 
 
-def _next_run_cleans_up(path, folder):
+def _interrupt(run, plan, rng, path, folder, *, archive=True):
+    """Send ``plan``'s signals, check the exit, let the next run on ``path`` (an archive,
+    or another output) clean up after a SIGKILL, and check that no temporary file is
+    left; the exit status."""
+    code = run.signal(plan, rng)
+    _check_exit(run, code, plan)
+    if plan[0] == KILL:
+        _next_run_cleans_up(path, folder, archive=archive)
+    assert _temps(folder) == []
+    return code
+
+
+def _next_run_cleans_up(path, folder, *, archive=True):
     """The next run on the archive plays back or removes what a SIGKILL left."""
-    if path.exists():
+    if archive and path.exists():
         res = subprocess.run([sys.executable, "-m", "contactlab", "validate", str(path)],
                              capture_output=True, text=True, timeout=120)
         assert res.returncode == 0, res.stderr + res.stdout
-    else:  # nothing is in place yet: a temporary file a later write of it removes
+    else:  # no archive in place: what the next write of it removes first
         from contactlab.fileio import remove_stale_temp_files
 
         remove_stale_temp_files(path, notify=None)
@@ -152,13 +164,9 @@ def test_acquire_keeps_every_finished_trial_whatever_the_signals(spec, reference
         run = _Run("acquire", "--spec", spec, "--out", out, "--seed", 3)
         assert run.wait_for(f"written ({rng.randint(1, 3)}/{N_TRIALS})"), run.lines
         time.sleep(rng.uniform(0.0, 0.4))
-        code = run.signal(plan, rng)
-        _check_exit(run, code, plan)
+        code = _interrupt(run, plan, rng, out, folder)
         finished = [line.split()[2] for line in run.lines if " written (" in line]
-        if plan[0] == KILL:
-            _next_run_cleans_up(out, folder)
-        else:
-            assert _temps(folder) == []
+        if plan[0] != KILL:
             if code:  # the run said what it kept, the line before the last
                 kept = run.lines[-2]
                 assert kept.startswith(f"contactlab: {out}: ") and "kept" in kept, run.lines
@@ -276,11 +284,7 @@ def test_import_keeps_every_finished_trial_whatever_the_signals(csv_files, impor
         while not _temps(folder) and run.proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.002)  # the writing has started
         time.sleep(rng.uniform(0.0, 0.3))
-        code = run.signal(plan, rng)
-        _check_exit(run, code, plan)
-        if plan[0] == KILL:
-            _next_run_cleans_up(out, folder)
-        assert _temps(folder) == []
+        code = _interrupt(run, plan, rng, out, folder)
         ids = _check_trials(out, imported, [])
         assert code != 0 or len(ids) == N_TRIALS
 
@@ -318,21 +322,13 @@ def _results(path):
 @pytest.fixture(scope="module")
 def recognisable(tmp_path_factory):
     """A test archive with segment results, its feature graph and trained models."""
-    from test_recognize import GRAPH as ABC, TEST, TRAIN, _write
+    from test_recognize import recognition_files
 
-    from contactlab.observer.training import train_graph
-
-    folder = tmp_path_factory.mktemp("recog")
-    graph = folder / "abc.toml"
-    graph.write_text(ABC)
-    _write(folder / "train.h5", TRAIN, seed=0)
-    _write(folder / "test.h5", TEST, seed=10)
-    train_graph(folder / "train.h5", graph, order=1, mean=True, block=100,
-                reduce="mean").save(folder / "models.h5")
-    res = subprocess.run([sys.executable, "-m", "contactlab", "segment", folder / "test.h5",
-                          "-q"], capture_output=True, text=True)
+    files = recognition_files(tmp_path_factory.mktemp("recog"))
+    res = subprocess.run([sys.executable, "-m", "contactlab", "segment", files["test"], "-q"],
+                         capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
-    return folder / "test.h5", graph, folder / "models.h5"
+    return files["test"], files["graph"], files["models"]
 
 
 VERBS = {
@@ -356,11 +352,7 @@ def test_a_verb_interrupted_keeps_the_results_that_were_there(analysed, recognis
         before, results = measurement_bytes(path), _results(path)
         run = _Run(verb, path, *extra)
         time.sleep(rng.uniform(1.0, 4.0))
-        code = run.signal(plan, rng)
-        _check_exit(run, code, plan)
-        if plan[0] == KILL:
-            _next_run_cleans_up(path, folder)
-        assert _temps(folder) == []
+        code = _interrupt(run, plan, rng, path, folder)
         assert validate_archive(path) == [] and measurement_bytes(path) == before
         after = _results(path)
         for stage, trials in results.items():
@@ -379,13 +371,7 @@ def test_train_interrupted_leaves_no_models_file_or_a_whole_one(analysed, tmp_pa
         out = tmp_path / f"m{attempt}.h5"
         run = _Run("train", base, "--out", out, "--block", 20, "--order", 1, "-q")
         time.sleep(rng.uniform(1.0, 3.0))
-        code = run.signal(plan, rng)
-        _check_exit(run, code, plan)
-        if plan[0] == KILL:
-            from contactlab.fileio import remove_stale_temp_files
-
-            remove_stale_temp_files(out, notify=None)
-        assert _temps(tmp_path) == []
+        code = _interrupt(run, plan, rng, out, tmp_path, archive=False)
         if out.exists():
             with h5py.File(out, "r") as f:
                 assert len(f.attrs) > 0
@@ -398,13 +384,7 @@ def test_report_interrupted_leaves_no_report_or_a_whole_one(analysed, tmp_path):
         out = tmp_path / f"rep{attempt}"
         run = _Run("report", base, "--out", out, "-q")
         time.sleep(rng.uniform(1.0, 4.0))
-        code = run.signal(plan, rng)
-        _check_exit(run, code, plan)
-        if plan[0] == KILL:
-            from contactlab.fileio import remove_stale_temp_files
-
-            remove_stale_temp_files(out, notify=None)  # what the next report does first
-        assert _temps(tmp_path) == []
+        code = _interrupt(run, plan, rng, out, tmp_path, archive=False)
         if out.exists():
             names = sorted(p.name for p in out.iterdir())
             assert "index.html" in names and "report.pdf" in names, names

@@ -95,18 +95,7 @@ def test_read_only_directory_is_refused(tmp_path):
 def read_only_fs(tmp_path):
     """A read-only file system (a tmpfs mounted ro; skipped where mounting is not
     permitted): the kernel refuses with EROFS even the super-user."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a read-only tmpfs needs root")
-    mnt = tmp_path / "rofs"
-    mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(mnt)],
-                          capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {proc.stderr.strip()}")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
+    yield from _tmpfs(tmp_path / "rofs", "ro,size=1m")
 
 
 def _report_and_reproduce(archive, where):
@@ -161,11 +150,16 @@ def test_atomic_write_failure_leaves_the_original(tmp_path):
 @pytest.fixture
 def small_disk(tmp_path):
     """An 8 MiB tmpfs (skipped where mounting is not permitted)."""
+    yield from _tmpfs(tmp_path / "disk", "size=8m")
+
+
+def _tmpfs(mnt, options):
+    """Mount a tmpfs with ``options`` at ``mnt`` for the test (skipped where mounting
+    is not permitted)."""
     if os.geteuid() != 0:
-        pytest.skip("mounting a small tmpfs needs root")
-    mnt = tmp_path / "disk"
+        pytest.skip("mounting a tmpfs needs root")
     mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8m", "tmpfs", str(mnt)],
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
                           capture_output=True, text=True)
     if proc.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {proc.stderr.strip()}")
