@@ -55,9 +55,12 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 ## Results under kills and concurrent stages at full count: 100 SIGKILLs during results
-## writes, 20 concurrent segment + label pairs, 10 interrupted stages (make test runs a few).
+## writes, 20 concurrent segment + label pairs, 10 interrupted stages; and one, two and
+## three SIGINT/SIGTERM or a SIGKILL at random moments of acquire (140 runs), import (42)
+## and the verbs that write (84) (make test runs a few).
 stress: $(STAMP)
-	CONTACTLAB_STRESS=1 $(BIN)/python -m pytest tests/test_stages_crash.py -p no:cacheprovider
+	CONTACTLAB_STRESS=1 $(BIN)/python -m pytest tests/test_stages_crash.py \
+	    tests/test_interrupts.py -p no:cacheprovider
 
 ## Fuzz every reader of user files with many more random cases than `make test` runs
 ## (archives, CSV files, feature graphs, models files; a few minutes).

@@ -42,7 +42,10 @@ def acquire(source, spec_name, out, n_trials, seed, append, force, host, port, d
     """Record trials into an archive: simulated from a dataset spec, or from hardware.
 
     Each trial is written as soon as it is complete, so an interrupted run
-    (Ctrl-C or SIGTERM) leaves every finished trial in a valid archive. The
+    leaves every finished trial in a valid archive: Ctrl-C or SIGTERM drops
+    the trial in progress and says what was kept, a second one quits at once,
+    and after a SIGKILL the next command
+    on the archive returns it to its last finished trial. The
     same --seed gives the same trials, and --trials 3 gives the first three
     trials of --trials 8. An existing archive is never replaced without
     --force; --append adds trials to it.

@@ -43,7 +43,7 @@ class ContactlabGroup(_ClosingBars):
         """Run the CLI; usage errors become one line on stderr and exit status 2."""
         kwargs["standalone_mode"] = False
         try:
-            with interrupt.signals_as_interrupt():
+            with interrupt.signals_as_interrupt(exiting=True):
                 rv = super().main(*args, **kwargs)
                 signum = interrupt.received()
                 if signum:  # the interrupt was swallowed on the way (e.g. in a finaliser)
@@ -107,11 +107,7 @@ def _exit_broken_pipe() -> None:
 
 def _exit_interrupted(signum: int) -> None:
     """One line and exit status 128 + signal number (130 for SIGINT, 143 for SIGTERM)."""
-    import signal
-
-    name = signal.Signals(signum).name
-    what = "terminated" if signum == signal.SIGTERM else "interrupted"
-    click.echo(f"{PROG}: {what} ({name})", err=True)
+    click.echo(f"{PROG}: {interrupt.signal_line(signum)}", err=True)
     sys.exit(128 + int(signum))
 
 

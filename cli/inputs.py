@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 
 from contactlab.archive.validate import check_archive
-from contactlab.fileio import remove_stale_temp_files
+from contactlab.fileio import refuse_while_recorded, remove_stale_temp_files
 
 
 def check_inputs(archives, trials=None, *, values: bool = True,
@@ -30,6 +30,7 @@ def check_inputs(archives, trials=None, *, values: bool = True,
     ``values=False``: the layout only; ``walk_trials=False``: not the trials'
     contents either (see the module notes)."""
     for path in archives:
+        refuse_while_recorded(path)
         remove_stale_temp_files(path)
         check_archive(path, trials=list(trials) if trials else None, values=values,
                       walk_trials=walk_trials)

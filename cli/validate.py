@@ -9,6 +9,7 @@ import click
 from contactlab.archive import open_archive, summarize, validate_archive
 from contactlab.cli.common import PROG, count, echo_json, json_option
 from contactlab.errors import DataError
+from contactlab.fileio import refuse_while_recorded, remove_stale_temp_files
 
 
 @click.command()
@@ -40,6 +41,8 @@ def validate(archives, as_json):
 
 
 def _check(archive: Path, *, quiet: bool) -> dict:
+    refuse_while_recorded(archive)
+    remove_stale_temp_files(archive)  # a killed recording's journal: played back first
     problems = validate_archive(archive)
     summary = summarize(archive) if not problems else None
     if quiet:

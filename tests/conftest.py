@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 
 os.environ.setdefault("MPLBACKEND", "Agg")      # as the CLI does: figures go to files
 
@@ -12,6 +13,17 @@ import pytest  # noqa: E402
 from contactlab.archive import create_archive  # noqa: E402
 
 RATE_HZ = 1000.0
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_restored():
+    """A CLI run that received a signal ignores later ones (it is exiting); in the test
+    process the handlers are put back after each test."""
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    for s, handler in saved.items():
+        signal.signal(s, handler)
+
 LABEL_NAMES = ["free", "contact", "sliding"]
 
 

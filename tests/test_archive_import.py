@@ -172,11 +172,39 @@ def test_parse_column_map_text_and_json_file(tmp_path):
     ("time=t,u;wrench=fx", "takes exactly one column"),
     ("wrench=a;wrench=b", "names field 'wrench' twice"),
     ("", "column map is empty"),
-    ("missing.json", "cannot read column map file"),
 ])
 def test_parse_column_map_rejects_bad_maps(text, fragment):
     with pytest.raises(UsageError, match=fragment):
         parse_column_map(text)
+
+
+@pytest.mark.parametrize("content, field, fragment", [
+    ("5", None, "not int"),
+    ("null", None, "not null"),
+    ('{"time": 5, "wrench": "fx"}', "time", "not 5"),
+    ('{"time": null, "wrench": "fx"}', "time", "not null"),
+    ('{"time": "t", "wrench": ["fx", null]}', "wrench", 'not ["fx", null]'),
+    ('{"time": "t", "force": "fx"}', "force", "unknown field"),
+    ('{"time": "t"}', None, "needs strain, wrench or position"),
+    (None, None, "cannot be read (No such file or directory)"),
+])
+def test_a_bad_column_map_file_is_bad_data_naming_the_file_and_the_field(tmp_path, content,
+                                                                         field, fragment):
+    """The README's rule: a mistake in a file exits 1 naming the file and the field, the
+    same mistake typed on the command line exits 2 naming the option."""
+    from test_bad_input_corpus import assert_one_line_error, run
+
+    path = tmp_path / "cols.json"
+    if content is not None:
+        path.write_text(content)
+    csv = tmp_path / "run.csv"
+    csv.write_text("t,fx\n0,1\n0.001,2\n")
+    res = run("import", csv, "--out", tmp_path / "o.h5", "--columns", path)
+    line = assert_one_line_error(res, path, field and f"{path}: {field}: ", code=1)
+    assert fragment in line, line
+    res = run("import", csv, "--out", tmp_path / "o.h5", "--columns", "time=t;force=fx")
+    assert res.exit_code == 2 and "--columns" in res.stderr
+    assert not (tmp_path / "o.h5").exists()
 
 
 def test_labels_give_ground_truth_segments_runs_of_equal_labels(tmp_path):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-import shutil
 
 import h5py
 import numpy as np
@@ -163,20 +162,25 @@ def test_incremental_with_no_finished_trial_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_incremental_flushes_finished_trials_to_the_temp_file(tmp_path):
+def test_incremental_puts_finished_trials_in_place_and_rolls_back_the_rest(tmp_path):
     path = tmp_path / "acq.h5"
-    data = synthetic_measurements(50)
+    data = synthetic_measurements(3000)
     archive = create_archive(path, incremental=True)
+    assert not path.exists()  # nothing finished yet: only a temporary file
     with archive.add_trial("t1", rate_hz=RATE_HZ) as trial:
         trial.append(time=data["time"], wrench=data["wrench"])
-    assert not path.exists()
-    snapshot = tmp_path / "snapshot.h5"  # what a crash right now would leave on disk
-    shutil.copyfile(archive.tmp_path, snapshot)
-    with h5py.File(snapshot, "r") as f:
+    committed = path.read_bytes()  # what a crash right now would leave: a whole archive
+    assert validate_archive(path) == []
+    with h5py.File(path, "r") as f:
         assert f["trials/t1"].attrs["complete"]
         np.testing.assert_array_equal(f["trials/t1/measurements/wrench"][()], data["wrench"])
-    snapshot.unlink()
-    assert archive.close() == path and path.exists() and _leftovers(tmp_path) == []
+    unfinished = archive.add_trial("t2", rate_hz=RATE_HZ)
+    unfinished.append(time=data["time"], wrench=data["wrench"])
+    archive.flush()  # the unfinished trial reaches the file in place ...
+    assert path.read_bytes() != committed
+    assert archive.abort() == path
+    assert path.read_bytes() == committed  # ... and is undone, byte for byte
+    assert _leftovers(tmp_path) == []
 
 
 @pytest.mark.parametrize("call, fragment, field", [

@@ -86,7 +86,12 @@ TEST = {"te0": [("A", 2000), ("C", 1500), ("B", 1800), ("A", 1700)],
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    d = tmp_path_factory.mktemp("recog")
+    return recognition_files(tmp_path_factory.mktemp("recog"))
+
+
+def recognition_files(d):
+    """A training and a test archive of synthetic switching in ``d``, the feature
+    graph and the models trained on it."""
     graph = d / "abc.toml"
     graph.write_text(GRAPH)
     _write(d / "train.h5", TRAIN, seed=0)

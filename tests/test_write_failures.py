@@ -10,6 +10,7 @@ from __future__ import annotations
 import errno
 import hashlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -90,6 +91,39 @@ def test_read_only_directory_is_refused(tmp_path):
     assert "read-only" in line and list(folder.iterdir()) == []
 
 
+@pytest.fixture
+def read_only_fs(tmp_path):
+    """A read-only file system (a tmpfs mounted ro; skipped where mounting is not
+    permitted): the kernel refuses with EROFS even the super-user."""
+    yield from _tmpfs(tmp_path / "rofs", "ro,size=1m")
+
+
+def _report_and_reproduce(archive, where):
+    """Each report-writing call into ``where``: (arguments, the directory named)."""
+    return [(("report", archive, "--out", where / "rep", "-q"), where / "rep"),
+            (("reproduce", "ph-demo", "--out", where / "exp", "-q"), where / "exp")]
+
+
+def test_report_and_reproduce_into_a_read_only_directory_are_refused(archive, tmp_path):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    for args, _ in _report_and_reproduce(archive, folder):
+        line = assert_one_line_error(run(*args), folder)
+        assert "read-only" in line
+    assert list(folder.iterdir()) == []
+
+
+def test_report_and_reproduce_on_a_read_only_file_system(archive, read_only_fs,
+                                                         monkeypatch):
+    for args, named in _report_and_reproduce(archive, read_only_fs):
+        line = assert_one_line_error(run(*args), named)
+        assert "read-only file system" in line
+    monkeypatch.chdir(read_only_fs)  # no --out: reports/STEM in the working directory
+    line = assert_one_line_error(run("report", archive, "-q"), "reports")
+    assert "read-only file system" in line
+
+
 def test_write_error_names_the_target(tmp_path):
     err = RuntimeError("Can't decrement id ref count (file write failed: errno = 28, "
                        "error message = 'No space left on device')")
@@ -116,11 +150,16 @@ def test_atomic_write_failure_leaves_the_original(tmp_path):
 @pytest.fixture
 def small_disk(tmp_path):
     """An 8 MiB tmpfs (skipped where mounting is not permitted)."""
+    yield from _tmpfs(tmp_path / "disk", "size=8m")
+
+
+def _tmpfs(mnt, options):
+    """Mount a tmpfs with ``options`` at ``mnt`` for the test (skipped where mounting
+    is not permitted)."""
     if os.geteuid() != 0:
-        pytest.skip("mounting a small tmpfs needs root")
-    mnt = tmp_path / "disk"
+        pytest.skip("mounting a tmpfs needs root")
     mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8m", "tmpfs", str(mnt)],
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
                           capture_output=True, text=True)
     if proc.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {proc.stderr.strip()}")
@@ -132,7 +171,7 @@ def small_disk(tmp_path):
 
 def _check_kept(res, out, folder):
     line = assert_one_line_error(res, out, "no space left")
-    assert "finished trials are kept" in line, line
+    assert "finished trial" in line and "kept in it" in line, line
     assert validate_archive(out) == []
     with open_archive(out) as a:
         assert len(a) >= 1 and all(t.attrs["complete"] for t in a)
@@ -165,6 +204,42 @@ def test_import_on_a_full_disk_keeps_the_finished_trials(small_disk, tmp_path):
               "time=t;strain=s*;wrench=fx,fy,fz,tx,ty,tz")
     kept = _check_kept(res, out, small_disk)
     assert 1 <= len(kept) < 6
+
+
+def test_a_disk_too_full_to_start_names_the_archive_not_its_directory(small_disk, tmp_path):
+    st = os.statvfs(small_disk)
+    (small_disk / "filler").write_bytes(bytes(st.f_bavail * st.f_frsize - (1 << 20)))
+    spec = tmp_path / "q.toml"
+    spec.write_text(QUICK.format(duration=0.3, trials=1))
+    out = small_disk / "runs.h5"
+    line = assert_one_line_error(run("acquire", "--spec", spec, "--out", out, "-q"), out)
+    assert line.startswith(f"contactlab: error: {out}: cannot be written: no space left"), line
+    assert temp_files(small_disk) == []
+
+
+def test_report_on_a_full_disk_leaves_no_partial_report(small_disk, tmp_path):
+    big = tmp_path / "big.h5"
+    write_archive(big, trials=[f"t{i}" for i in range(3)], n=1500)
+    room = tmp_path / "room"
+    room.mkdir()
+    res = run("report", big, "--out", room, "-q")
+    assert res.exit_code == 0, res.output
+    needed = sum(p.stat().st_size for p in room.iterdir())
+    st = os.statvfs(small_disk)
+    filler = tmp_path / "disk" / "filler"  # leaves room for about half the report
+    filler.write_bytes(bytes(st.f_bavail * st.f_frsize - needed // 2))
+    out = small_disk / "rep"
+    res = run("report", big, "--out", out, "-q")
+    line = assert_one_line_error(res, "no space left")
+    assert re.search(rf"{re.escape(str(out))}/[^ /]+: cannot be written", line), line
+    filler.unlink()
+    assert list(small_disk.iterdir()) == []  # nothing half written, no temporary directory
+    filler.write_bytes(bytes(st.f_bavail * st.f_frsize - needed // 2))
+    (small_disk / "rep").mkdir()
+    (small_disk / "rep" / "notes.txt").write_text("mine")
+    res = run("report", big, "--out", out, "-q", "--force")
+    assert res.exit_code == 1 and "no space left" in res.stderr
+    assert sorted(p.name for p in small_disk.rglob("*")) == ["filler", "notes.txt", "rep"]
 
 
 # -- stale temporary files ------------------------------------------------------------

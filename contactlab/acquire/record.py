@@ -1,10 +1,14 @@
 """The acquisition loop: a :class:`~contactlab.acquire.base.Source` -> an archive.
 
-Each trial is written as it completes through the incremental archive writer,
-so an interruption (Ctrl-C, or SIGTERM, which :func:`record` turns into the
-same KeyboardInterrupt while it runs) leaves every finished trial readable and
-the archive valid. ``append`` copies the existing trials into the new file
-first; the result replaces the original only by an atomic rename.
+Each trial is committed as it completes through the incremental archive writer
+(in place behind a rollback journal once the first one is), so an interruption
+leaves every finished trial readable and the archive valid: Ctrl-C or SIGTERM
+(which :func:`record` turns into the same KeyboardInterrupt while it runs)
+drops the trial in progress and says what was kept, a second signal quits at
+once keeping the same, and a SIGKILL loses at most the trial in progress (the
+next run on the archive plays the journal back). ``append`` copies the existing
+trials into a new file first; it replaces the original by an atomic rename when
+its first new trial is finished.
 """
 
 from __future__ import annotations

@@ -75,7 +75,9 @@ _WIDTHS = {"rpy": 3}
 def parse_column_map(text: str) -> dict[str, list[str]]:
     """``"time=t;wrench=fx,fy,fz,tx,ty,tz"`` (or a path to a JSON file) -> a column map.
 
-    Raises UsageError saying what is wrong with the text.
+    A mistake in the text is a UsageError (exit 2) naming ``--columns``; one in a
+    JSON file, or a file that cannot be read, is a DataError (exit 1) naming the
+    file and the field (the README's rule: where the mistake is written decides).
     """
     text = text.strip()
     path = Path(text)
@@ -83,16 +85,14 @@ def parse_column_map(text: str) -> dict[str, list[str]]:
         try:
             raw = json.loads(path.read_text(encoding="utf-8"))
         except OSError as err:
-            raise UsageError(f"cannot read column map file {text}: {err.strerror}") from None
+            raise DataError(f"column map file cannot be read ({err.strerror})",
+                            file=text) from None
         except (ValueError, RecursionError) as err:
             raise DataError(f"is not valid JSON ({err})", file=text) from None
         if not isinstance(raw, dict):
             raise DataError(f"must hold one JSON object mapping fields to columns, not "
                             f"{type(raw).__name__ if raw is not None else 'null'}", file=text)
-        try:
-            return normalize_column_map(raw)
-        except UsageError as err:
-            raise DataError(str(err), file=text) from None
+        return normalize_column_map(raw, file=text)
     mapping: dict[str, str] = {}
     for part in filter(None, (p.strip() for p in text.split(";"))):
         field, eq, cols = part.partition("=")
@@ -107,24 +107,39 @@ def parse_column_map(text: str) -> dict[str, list[str]]:
     return normalize_column_map(mapping)
 
 
-def normalize_column_map(columns: dict) -> dict[str, list[str]]:
-    """Check field names and turn every value into a list of column names/patterns."""
+def normalize_column_map(columns: dict, *, file: str | None = None) -> dict[str, list[str]]:
+    """Check field names and turn every value into a list of column names/patterns.
+
+    A mistake is a UsageError, or with ``file`` (the map came from that file) a
+    DataError naming the file and the field."""
+    def error(message: str, field: str | None = None):
+        if file is not None:
+            return DataError(message, file=file, field=field)
+        return UsageError(message)
+
     out: dict[str, list[str]] = {}
     for field, value in columns.items():
         if field not in FIELDS:
-            raise UsageError(f"unknown field {field!r} in the column map (fields: "
-                             f"{', '.join(FIELDS)})")
-        names = value.split(",") if isinstance(value, str) else list(value)
-        names = [str(n).strip() for n in names if str(n).strip()]
+            raise error(f"unknown field {field!r} in the column map (fields: "
+                        f"{', '.join(FIELDS)})", field)
+        if isinstance(value, str):
+            names = value.split(",")
+        elif isinstance(value, (list, tuple)) and all(isinstance(n, str) for n in value):
+            names = list(value)
+        else:
+            raise error(f"field {field!r} must map to a column name or a list of column "
+                        f"names, not {json.dumps(value) if file is not None else repr(value)}",
+                        field)
+        names = [n.strip() for n in names if n.strip()]
         if not names:
-            raise UsageError(f"field {field!r} maps to no column")
+            raise error(f"field {field!r} maps to no column", field)
         if field in SCALAR_FIELDS and (len(names) > 1 or _is_pattern(names[0])):
-            raise UsageError(f"field {field!r} takes exactly one column, not {value!r}")
+            raise error(f"field {field!r} takes exactly one column, not {value!r}", field)
         out[field] = names
     if not {"strain", "wrench", "position"} & set(out):
-        raise UsageError("the column map needs strain, wrench or position")
+        raise error("the column map needs strain, wrench or position")
     if {"orientation", "rpy"} <= set(out):
-        raise UsageError("give orientation (a quaternion) or rpy (roll, pitch, yaw), not both")
+        raise error("give orientation (a quaternion) or rpy (roll, pitch, yaw), not both")
     return out
 
 

@@ -61,7 +61,8 @@ from contactlab.archive.reader import open_archive
 from contactlab.archive import writer
 from contactlab.archive.writer import check_name, utc_now
 from contactlab.errors import DataError, UsageError
-from contactlab.fileio import atomic_path, check_writable, read_only_reason
+from contactlab.fileio import (atomic_path, check_writable, read_only_reason,
+                               refuse_while_recorded)
 
 #: Attributes write_stage sets itself on every stage group.
 RESERVED_ATTRS = ("created", "software_version", "parameters")
@@ -145,6 +146,7 @@ def check_archive_writable(path: str | os.PathLike) -> None:
     anything, so the bits, not ``os.access``, say whether it was made read-only)."""
     if not Path(path).exists():
         raise DataError("no such file", file=str(path))
+    refuse_while_recorded(path)
     reason = read_only_reason(path)
     if reason:
         raise DataError(f"archive {reason}; results not written", file=str(path))

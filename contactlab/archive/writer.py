@@ -1,9 +1,9 @@
 """Writing archives: atomic by default, incremental for acquisition.
 
 One module on purpose: :class:`ArchiveWriter` and its :class:`TrialWriter`
-share one temporary file, its space reserve and one abort path (a failed
-trial write releases the reserve, deletes the unfinished trial and keeps the
-closed ones); split, each would reach into the other's state.
+share one file, its space reserve and one abort path (a failed trial write
+releases the reserve and returns the file to its last finished trial); split,
+each would reach into the other's state.
 
 ::
 
@@ -16,15 +16,24 @@ closed ones); split, each would reach into the other's state.
 Everything goes to a temporary file beside the target (``.runs.h5.XXXX.tmp``)
 that is renamed into place when the ``with`` block ends cleanly. An exception
 removes the temporary file, so no half-written archive ever carries the
-final name. With ``incremental=True`` an exception (Ctrl-C included) instead
-keeps every trial that was closed: unfinished trials are deleted and the file
-is renamed into place before the exception propagates.
+final name.
+
+With ``incremental=True`` (acquisition, import) each finished trial is
+committed (:meth:`ArchiveWriter.commit`): the first commit renames the file
+into place, later trials are written in place behind a rollback journal
+(:mod:`contactlab.journal`), so the archive under its final name always holds
+every finished trial, at a write cost linear in trials. An exception (Ctrl-C
+included) returns the file to its last commit, byte for byte, and says which
+trials it kept; a second signal does the same from the signal handler and
+quits at once; after a SIGKILL the next run on the archive plays the journal
+back. Until the first trial is finished only the temporary file exists (an
+archive replaced with ``force`` or appended to stays as it was).
 
 A full disk must not strand the finished trials either: an incremental writer
 keeps a small reserve file (:data:`RESERVE_BYTES`) beside the archive and
-deletes it when a write fails, so that HDF5 has the room to delete the
-unfinished trial and close the file cleanly. The failure is then reported in
-one line naming the archive and the trials it kept.
+deletes it when a write fails, so that there is room to close the file and
+play the journal back. The failure is then reported in one line naming the
+archive and the trials it kept.
 """
 
 from __future__ import annotations
@@ -44,7 +53,8 @@ import numpy as np
 from contactlab import __version__, interrupt
 from contactlab.archive import spec
 from contactlab.errors import DataError, UsageError
-from contactlab.fileio import atomic_path, write_error
+from contactlab.fileio import atomic_path, temp_beside, write_error
+from contactlab.journal import JournaledFile, journal_path_for, rollback
 
 #: Rows per HDF5 chunk of the per-sample datasets.
 CHUNK_ROWS = 1024
@@ -163,17 +173,28 @@ class ArchiveWriter:
         self._stack = contextlib.ExitStack()
         # a signal must not surface inside h5py: it is raised at the next check_space
         self._stack.enter_context(interrupt.deferred())
-        # incremental: what was written is kept even when a signal came at the very end
-        self.tmp_path: Path = self._stack.enter_context(
-            atomic_path(self.path, force=force, interruptible=not incremental))
+        self._io: JournaledFile | None = None
+        self._placed = False         # incremental: the file is in place under self.path
+        self._committed: list[str] = []
+        self._trials: dict[str, TrialWriter] = {}
+        self._copied: list[str] = []
+        self._closed = False
+        if incremental:
+            _, self.tmp_path = self._stack.enter_context(temp_beside(self.path, force=force))
+            self._stack.enter_context(interrupt.on_quit(self._quit))
+        else:
+            self.tmp_path = self._stack.enter_context(atomic_path(self.path, force=force))
         self._reserve: Path | None = None
         self._failures = _FinaliserFailures()
         self._failures.install()
         try:
             if incremental:
                 self._reserve = self.tmp_path.with_name(self.tmp_path.name[:-4] + "_reserve.tmp")
-                _reserve_space(self._reserve, RESERVE_BYTES)
-            self._file = h5py.File(self.tmp_path, "w")
+                _reserve_space(self._reserve, RESERVE_BYTES, self.path)
+                self._io = JournaledFile(self.tmp_path)
+                self._file = h5py.File(self._io, "w")
+            else:
+                self._file = h5py.File(self.tmp_path, "w")
             self._file.attrs["format"] = spec.FORMAT
             self._file.attrs["format_version"] = spec.FORMAT_VERSION
             self._file.attrs["software_version"] = __version__
@@ -184,11 +205,10 @@ class ArchiveWriter:
         except BaseException as err:
             self._release_reserve()
             self._failures.uninstall()
+            if self._io is not None:
+                self._io.close()
             self._stack.__exit__(type(err), err, err.__traceback__)
             raise
-        self._trials: dict[str, TrialWriter] = {}
-        self._copied: list[str] = []
-        self._closed = False
 
     # -- trials -----------------------------------------------------------------
     def add_trial(self, trial_id: str, *, rate_hz: float, controller: str = "",
@@ -210,6 +230,7 @@ class ArchiveWriter:
         schema's default (V).
         """
         self._check_open()
+        self.check_space(0)  # the safe point of a signal received between trials
         check_name(trial_id, "trial id")
         if trial_id in self._trials or trial_id in self._copied:
             raise UsageError(f"trial {trial_id!r} added twice")
@@ -265,7 +286,7 @@ class ArchiveWriter:
         return self._copied + list(self._trials)
 
     def flush(self) -> None:
-        """Push everything written so far to the temporary file on disk."""
+        """Push everything written so far to the file (not a commit: see :meth:`commit`)."""
         self._check_open()
         self.check_space(0)
         self._file.flush()
@@ -286,6 +307,28 @@ class ArchiveWriter:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.tmp_path))
 
     # -- ending -----------------------------------------------------------------
+    def commit(self, trial_id: str) -> None:
+        """Incremental: keep everything written so far, whatever happens next (the
+        finished trial ``trial_id`` is then one the archive keeps).
+
+        The first commit moves the file into place; later ones write in place
+        behind the rollback journal (:mod:`contactlab.journal`), so a kill, even
+        SIGKILL, loses at most what came after the last commit.
+        """
+        self.check_space(0)  # a signal before the commit drops the trial
+        self._file.flush()
+        self.check_space(0)
+        self._io.sync()
+        with interrupt.held():  # the move, the journal and the record of it go together
+            if not self._placed:
+                os.replace(self.tmp_path, self.path)
+                _sync_directory(self.path.parent)
+                self._placed = True
+                self._io.start_journal(journal_path_for(self.tmp_path))
+            else:
+                self._io.commit()
+            self._committed.append(trial_id)
+
     def close(self) -> Path:
         """Close every open trial and rename the file into place; return its path."""
         self._check_open()
@@ -302,12 +345,20 @@ class ArchiveWriter:
             self._failures.uninstall()
             if self._failures.first is not None:
                 raise self._failures.first
+            if self._io is not None:
+                with interrupt.held():
+                    if not self._placed:
+                        self._io.sync()
+                        os.replace(self.tmp_path, self.path)
+                        self._placed = True
+                    self._io.finish()
         except BaseException as err:
             self._release_reserve()
+            self._roll_back()
             self._stack.__exit__(type(err), err, err.__traceback__)
             raise
         self._release_reserve()
-        self._stack.close()  # renames tmp_path over path
+        self._stack.close()  # normal mode: renames tmp_path over path
         interrupt.checkpoint()  # a signal during the last steps: the archive is in place
         return self.path
 
@@ -315,32 +366,55 @@ class ArchiveWriter:
         """End after a failure.
 
         Normal mode: remove the temporary file and return None. Incremental
-        mode: delete unfinished trials and rename the file into place when at
-        least one trial was closed (return its path), else remove it.
+        mode: return the archive to its last commit, in place when a trial was
+        committed (return its path), else remove it.
         """
         if self._closed:
             return None
         self._closed = True
         self._release_reserve()  # room for HDF5 to close the file after a full disk
         error = error or RuntimeError("archive writing aborted")
-        # copied trials (append) alone are no reason to keep: the original still holds them
-        keep = self.incremental and any(t.complete for t in self._trials.values())
-        if keep:
-            for tid, trial in self._trials.items():
-                if not trial.complete:
-                    # should deleting fail, the trial stays marked complete=False
-                    with contextlib.suppress(Exception):
-                        del self._trials_group[tid]
-        try:
+        with contextlib.suppress(Exception):  # the rollback undoes what closing writes
             self._file.close()
-        except Exception:  # noqa: BLE001 - the file could not be finished: keep nothing
-            keep = False
         self._failures.uninstall()
-        if keep:
+        self._roll_back()
+        if self._placed:
             self._stack.close()
             return self.path
         self._stack.__exit__(type(error), error, error.__traceback__)
         return None
+
+    def kept_line(self) -> str:
+        """What an interrupted incremental writer keeps, in one line."""
+        new = [t for t in self._trials if t not in self._committed]
+        dropped = f"; the unfinished trial {new[-1]} is dropped" if new else ""
+        if not self._placed:
+            what = ("left as it was" if self.path.exists() else "not written")
+            return f"{self.path}: {what}: no trial was finished{dropped}"
+        n = len(self._committed)
+        return (f"{self.path}: {n} finished trial{'' if n == 1 else 's'} kept "
+                f"({', '.join(self._committed)}){dropped}")
+
+    def _roll_back(self) -> None:
+        """Incremental: back to the last commit (in place), or nothing (temporary)."""
+        if self._io is None:
+            return
+        journal = self._io.journal
+        self._io.close()
+        if self._placed and journal is not None:
+            rollback(self.path, journal)
+
+    def _quit(self) -> str:
+        """The second signal's action (inside the handler: plain os calls only)."""
+        if self._io is not None and self._io.journal is not None and self._placed:
+            rollback(self.path, self._io.journal)
+        elif not self._placed:
+            with contextlib.suppress(FileNotFoundError):
+                self.tmp_path.unlink()
+        if self._reserve is not None:
+            with contextlib.suppress(FileNotFoundError):
+                self._reserve.unlink()
+        return self.kept_line()
 
     def _release_reserve(self) -> None:
         if self._reserve is not None:
@@ -358,10 +432,13 @@ class ArchiveWriter:
         failure = write_error(exc, self.path) if isinstance(exc, Exception) else None
         kept = self.abort(exc)
         if failure is not None:
-            done = [tid for tid, t in self._trials.items() if t.complete]
-            note = (f"; the {len(done)} finished trials are kept in it ({', '.join(done)})"
+            n = len(self._committed)
+            note = (f"; the {n} finished trial{'' if n == 1 else 's'} "
+                    f"{'is' if n == 1 else 'are'} kept in it ({', '.join(self._committed)})"
                     if kept else "; nothing was written")
             raise DataError(failure.message + note, file=str(self.path)) from None
+        if self.incremental and isinstance(exc, KeyboardInterrupt):
+            print(f"contactlab: {self.kept_line()}", file=sys.stderr, flush=True)
         return False
 
     def _check_open(self) -> None:
@@ -369,12 +446,23 @@ class ArchiveWriter:
             raise UsageError(f"archive {self.path} is already closed")
 
 
-def _reserve_space(path: Path, size: int) -> None:
-    """Create ``path`` holding ``size`` allocated bytes (DataError when there is no room)."""
+def _sync_directory(folder: Path) -> None:
+    """Push a rename in ``folder`` to the disk (where the file system allows it)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _reserve_space(path: Path, size: int, target: Path) -> None:
+    """Create ``path`` holding ``size`` allocated bytes (a DataError naming ``target``,
+    the archive it is for, when there is no room)."""
     try:
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     except OSError as err:
-        raise (write_error(err, path.parent) or err) from None
+        raise (write_error(err, target) or err) from None
     try:
         try:
             os.posix_fallocate(fd, 0, size)
@@ -386,7 +474,7 @@ def _reserve_space(path: Path, size: int) -> None:
         os.close(fd)
         with contextlib.suppress(OSError):
             path.unlink()
-        raise (write_error(err, path.parent) or err) from None
+        raise (write_error(err, target) or err) from None
     os.close(fd)
 
 
@@ -633,9 +721,9 @@ class TrialWriter:
         if "command" in self._meas:
             self._meas["command"].attrs["units"] = self._command_units
         self._group.attrs["complete"] = True
-        self.complete = True
         if self._archive.incremental:
-            self._archive.flush()
+            self._archive.commit(self.id)
+        self.complete = True
 
     def __enter__(self) -> TrialWriter:
         return self

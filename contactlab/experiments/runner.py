@@ -41,11 +41,11 @@ def reproduce(experiments: list[Experiment], *, out: Path, seed: int, quiet: boo
     run's summary dict plus its wall time; an experiment that fails is raised
     after the others finished and the index was written.
     """
+    from contactlab.fileio import make_directory
     from contactlab.stages import check_workers, parallel_map
 
     check_workers(workers, scheduler)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_directory(out)  # a read-only or full place: one line naming it
     serial = workers == 1 and scheduler is None   # in this process: each shows its own bar
     got = parallel_map(run_experiment,
                        [(exp.name, out, seed, quiet if serial else True) for exp in experiments],

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from contactlab.archive import open_archive  # noqa: E402
+from contactlab.fileio import atomic_directory  # noqa: E402
 from contactlab.signals import condition, default_signal  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -33,6 +34,14 @@ def report_archive(path: str | Path, *, out_dir: str | Path, trials: list[str] |
     """
     path = Path(path)
     out_dir = Path(out_dir)
+    with atomic_directory(out_dir) as aside:  # a failure leaves no partial report
+        summary = _write_report(path, aside, trials, quiet)
+    return {"file": summary["file"], "out_dir": str(out_dir), "trials": summary["trials"],
+            "figures": summary["figures"], "recognition": summary["recognition"],
+            "html": str(out_dir / "index.html"), "pdf": str(out_dir / "report.pdf")}
+
+
+def _write_report(path: Path, out_dir: Path, trials, quiet: bool) -> dict:
     figures: list[str] = []
     with open_archive(path) as archive:
         ids = archive.select(trials)
@@ -69,10 +78,8 @@ def report_archive(path: str | Path, *, out_dir: str | Path, trials: list[str] |
         recognition = recognition_summary(archive, ids)
         if recognition is not None:
             _recognition_section(page, recognition)
-        paths = page.write()
-    return {"file": str(path), "out_dir": str(out_dir), "trials": ids, "figures": figures,
-            "recognition": recognition,
-            "html": str(paths["html"]), "pdf": str(paths["pdf"])}
+        page.write()
+    return {"file": str(path), "trials": ids, "figures": figures, "recognition": recognition}
 
 
 def recognition_summary(archive, ids) -> dict | None:
