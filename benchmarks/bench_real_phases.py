@@ -27,7 +27,8 @@ time each takes (train + recognise).
 
 from __future__ import annotations
 
-import os
+from benchmarks.real_data import SKIPPED, real_data_dir
+
 import tempfile
 import time
 from pathlib import Path
@@ -40,10 +41,7 @@ BAXTER_MAP = {"1": "s1", "2": "s2", "5": "s5", "3": "s3", "4": "s4"}
 
 
 def data_dir() -> Path | None:
-    env = os.environ.get("CONTACTLAB_REAL_DATA")
-    repo = Path(__file__).resolve().parents[1]
-    root = Path(env) if env else repo / ".." / "shared" / "data" / "real"
-    return root if (root / "hiro_snap").is_dir() and (root / "baxter_pnp").is_dir() else None
+    return real_data_dir("hiro_snap", "baxter_pnp")
 
 
 def _import(csvs, out: Path, scratch: Path) -> Path:
@@ -139,7 +137,7 @@ def _ours(path, train, test, lmap, scratch: Path, tag: str):
 def run() -> list[dict]:
     root = data_dir()
     if root is None:
-        print("  skipped: no real recordings (../shared/data/real or $CONTACTLAB_REAL_DATA)")
+        print(SKIPPED)
         return []
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

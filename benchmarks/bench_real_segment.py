@@ -16,12 +16,13 @@ F1 within 0.25 s, boundaries pooled over the trials of a data set (ruptures' met
 
 from __future__ import annotations
 
-import os
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks.real_data import SKIPPED, real_data_dir
 
 COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=label"
 SETS = {
@@ -31,13 +32,6 @@ SETS = {
 }
 PENALTIES = (10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0)
 TOLERANCE_S = 0.25
-
-
-def real_data_dir() -> Path | None:
-    """The real recordings' folder, or None when this machine has none."""
-    env = os.environ.get("CONTACTLAB_REAL_DATA")
-    path = Path(env) if env else Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
-    return path if path.is_dir() else None
 
 
 def _pelt_f1(trials, lmap, penalty) -> tuple[int, int, int]:
@@ -81,7 +75,7 @@ def _f1(tp, n_found, n_true) -> float:
 def run() -> list[dict]:
     root = real_data_dir()
     if root is None:
-        print("  skipped: no real recordings (../shared/data/real or $CONTACTLAB_REAL_DATA)")
+        print(SKIPPED)
         return []
     from click.testing import CliRunner
 
