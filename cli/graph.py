@@ -7,8 +7,6 @@ from pathlib import Path
 import click
 
 from contactlab.cli.common import count, echo_json, json_option
-from contactlab.observer.draw import draw_graph
-from contactlab.observer.graph import load_graph
 
 
 def _trained(spec) -> str:
@@ -45,6 +43,9 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
       contactlab graph show datasets_spec/graphs/hf-context-free.toml
       contactlab graph show datasets_spec/graphs/hf-context.toml --out hf-graph.png --json
     """
+    from contactlab.observer.draw import draw_graph
+    from contactlab.observer.graph import load_graph
+
     g = load_graph(graph_file)
     if out is not None:
         draw_graph(g, out, force=force)

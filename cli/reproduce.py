@@ -9,8 +9,6 @@ import click
 from contactlab.cli.common import (echo_json, json_option, parallel_options, quiet_option,
                                    seed_option)
 from contactlab.experiments import EXPERIMENTS
-from contactlab.experiments.runner import reproduce as run_experiments
-from contactlab.experiments.runner import resolve
 
 
 @click.command()
@@ -54,6 +52,9 @@ def reproduce(names, run_all, list_only, out, seed, workers, scheduler, as_json,
                 click.echo(f"{r['name']:<{width}}  {r['status']:<{status}}  {r['thesis']}")
                 click.echo(f"    {r['what']}" + (f": {r['headline']}" if r["headline"] else ""))
         return
+    from contactlab.experiments.runner import reproduce as run_experiments
+    from contactlab.experiments.runner import resolve
+
     experiments = resolve(list(names), run_all=run_all)
     summaries = run_experiments(experiments, out=out, seed=seed, quiet=quiet, workers=workers,
                                 scheduler=scheduler)

@@ -53,7 +53,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy import signal
 
 __all__ = [
     "DEFAULT_LOG_FLOOR", "butter_sos", "lowpass_delay", "difference", "lowpass_decimate",
@@ -102,6 +101,8 @@ def _designed(fs: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, np.n
     """The Butterworth sections and their unit-step initial state (``sosfilt_zi``),
     designed once per setting: a batch of trials conditions each with the same filter,
     and the design costs as much as filtering a 10-s trial."""
+    from scipy import signal      # on first use: it costs 0.5 s to import
+
     sos = signal.butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
     zi = signal.sosfilt_zi(sos)
     sos.flags.writeable = zi.flags.writeable = False
@@ -110,6 +111,8 @@ def _designed(fs: float, cutoff_hz: float, order: int) -> tuple[np.ndarray, np.n
 
 def lowpass_delay(*, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2) -> float:
     """DC group delay of :func:`butter_sos`, in input samples (~1.71 for the defaults)."""
+    from scipy import signal
+
     b, a = signal.sos2tf(butter_sos(fs=fs, cutoff_hz=cutoff_hz, order=order))
     _, gd = signal.group_delay((b, a), w=[1e-6])
     return float(gd[0])

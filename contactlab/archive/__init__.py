@@ -10,7 +10,6 @@ validator, results store and CSV import.
 - :mod:`.importer`  :func:`import_csv` (``contactlab import``)
 """
 
-from contactlab.archive.importer import import_csv, parse_column_map
 from contactlab.archive.reader import Archive, Results, Trial, open_archive
 from contactlab.archive.results import TrialResults, write_results, write_stage
 from contactlab.archive.summary import summarize
@@ -22,3 +21,12 @@ __all__ = [
     "import_csv", "open_archive", "parse_column_map", "summarize", "validate_archive",
     "TrialResults", "write_results", "write_stage",
 ]
+
+
+def __getattr__(name: str):
+    # the CSV importer needs pandas (0.3 s to import): loaded when first asked for
+    if name in ("import_csv", "parse_column_map"):
+        from contactlab.archive import importer
+
+        return getattr(importer, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
