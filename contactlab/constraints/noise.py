@@ -41,7 +41,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import signal
 
 __all__ = ["raw_noise_sd", "lowpass_noise_gain", "conditioned_noise_sd"]
 
@@ -75,6 +74,8 @@ def lowpass_noise_gain(*, fs: float, cutoff_hz: float | None, order: int = 2) ->
     sos = butter_sos(fs=fs, cutoff_hz=cutoff_hz, order=order)
     impulse = np.zeros(int(20 * fs / cutoff_hz) + 64)
     impulse[0] = 1.0
+    from scipy import signal
+
     h = signal.sosfilt(sos, impulse)
     return float(h @ h)
 

@@ -71,7 +71,6 @@ import math
 
 import numpy as np
 from numba import njit
-from scipy.signal import find_peaks
 
 from contactlab import defaults as D
 from contactlab.errors import UsageError
@@ -502,6 +501,8 @@ def _boundaries(prefix: ARPrefix, stat, finite, window: int, threshold: float,
                 refine: bool, seen: dict) -> tuple[list[int], list[float]]:
     """Steps 3-5 of the module notes at one threshold: peaks, refinement, pruning
     (``seen``: the refinement searches done, shared by the thresholds of a sweep)."""
+    from scipy.signal import find_peaks
+
     peaks, _ = find_peaks(finite, height=threshold, distance=window)
     bounds = [int(t) for t in peaks]
     scores = [float(stat[t]) for t in bounds]

@@ -88,15 +88,24 @@ def detection_delays(truth, path, node_names, *, window: int = 50) -> dict:
     ch = np.flatnonzero(np.diff(lab) != 0) + 1
     true_tr = [(int(lab[c]), int(idx[c])) for c in ch]
     marks = [(names.index(n), s) for n, s in merge_path(path)[1:]]
+    # each node's marks in time order (merge_path's order), to find a transition's
+    # candidates within the window by bisection rather than by a scan of every mark
+    by_node: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for k, (mn, ms) in enumerate(marks):
+        by_node.setdefault(mn, ([], []))[0].append(ms)
+        by_node[mn][1].append(k)
+    by_node = {mn: (np.asarray(ts, np.int64), np.asarray(ks, np.int64))
+               for mn, (ts, ks) in by_node.items()}
     used = set()
     counts = dict.fromkeys(DELAY_BINS, 0)
     delays, missed = [], 0
     for node, s in true_tr:
         best = None
-        for k, (mn, ms) in enumerate(marks):
-            if mn == node and k not in used and abs(ms - s) <= window:
-                if best is None or abs(ms - s) < abs(marks[best][1] - s):
-                    best = k
+        ts, ks = by_node.get(node, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        lo, hi = np.searchsorted(ts, s - window), np.searchsorted(ts, s + window, side="right")
+        for ms, k in zip(ts[lo:hi].tolist(), ks[lo:hi].tolist()):
+            if k not in used and (best is None or abs(ms - s) < abs(marks[best][1] - s)):
+                best = k
         if best is None:
             missed += 1
             continue
