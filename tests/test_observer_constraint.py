@@ -92,6 +92,25 @@ def test_fit_recovers_the_frame_and_noise_of_labelled_segments():
     assert np.diag(fixed.V)[1:].max() > 10 * np.diag(m.V)[1:].max()   # wrong frame: force leaks
 
 
+def test_trained_covariance_is_the_residuals_in_the_frame_the_model_scores():
+    # anisotropic friction along the surface: the free block of V must be the scaled
+    # force's second moment in the model's own free directions (plus the noise floor),
+    # whatever basis of the free span the frame estimator happened to return
+    rng = np.random.default_rng(9)
+    segs = []
+    for _ in range(3):
+        s = _plane(rng, 400, 12.0)
+        tangent = Rotation.from_euler("x", 12.0, degrees=True).as_matrix()[:, 0]
+        s[:, 3:] += np.outer(rng.normal(0, 0.3, len(s)), tangent)    # friction along x'
+        segs.append(s)
+    m = ConstraintFeature.from_segments(segs, name="contact", degree=1, position_sd=1e-5,
+                                        force_sd=0.01)
+    T = m.frame[:, 1:]
+    f = np.concatenate([s[:, 3:] for s in segs]) * m._alpha
+    want = (f @ T).T @ (f @ T) / len(f) + np.eye(2)
+    np.testing.assert_allclose(m.V[1:, 1:], want, rtol=1e-9, atol=1e-9)
+
+
 def test_velocity_models_fit_their_oracles():
     rng = np.random.default_rng(7)
     still = rng.normal(0, 0.003, size=(5000, 3))

@@ -250,15 +250,15 @@ class ConstraintFeature(FeatureModel):
             if not f.determined_ or np.isnan(N).any():
                 raise ValueError(f"{name}: the labelled data do not determine a degree-"
                                  f"{degree} frame ({f.reason_})")
-            R = _complement(N)
-            V = f.V_
         else:
             N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
-            R = _complement(N)
-            m = N.shape[1]
-            P = np.zeros((2 * K, K))
-            P[:K, :m], P[K:, m:] = R[:, :m], R[:, m:]
-            V = P.T @ info @ P + np.eye(K)      # the estimator's noise floor (8.20)
+        # V in the model's own frame [N, T]: the estimator's V_ is in its own free basis,
+        # another rotation of the free span than the complement the model scores in
+        R = _complement(N)
+        m = N.shape[1]
+        P = np.zeros((2 * K, K))
+        P[:K, :m], P[K:, m:] = R[:, :m], R[:, m:]
+        V = P.T @ info @ P + np.eye(K)      # the estimator's noise floor (8.20)
         model = cls(name=name, normals=R[:, :N.shape[1]], V=V, mode=mode,
                     position_sd=position_sd, force_sd=force_sd, **kw)
         model.n_samples_ = n
