@@ -1,0 +1,115 @@
+"""bench: free space vs contact on real wrist recordings, trained on some, recognised on others.
+
+Recordings of other groups (``../shared/data/real`` or ``$CONTACTLAB_REAL_DATA``; skipped
+with one line when absent): the wiping demonstration, one recording, imported as two
+trials with ``import --window`` (train on 0-22 s, recognise 22-43 s; its label 4 counted
+as contact), and the HIRO snap-fit trials (train on S-02 and S-03, recognise S-04..S-09;
+train on the first 14, recognise the other 13; rotation, insertion and mating counted as
+contact).  Ours: ``train --graph free-contact --label-map ...`` then ``recognize`` with
+default flags, points of the conditioned time base.  Peer: the force threshold ``|F| > k
+sigma`` (:class:`contactlab.peers.force_threshold.ForceThreshold`) with ``k`` chosen on
+the training trials, on the raw samples.  Also: how many recognised trials the misfit
+check warned about (it should be silent where the models fit).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.real_data import SKIPPED, real_data_dir
+
+COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=label"
+WIPE_MAP = "1=free,2=contact,3=free,4=contact"
+HIRO_MAP = "1=free,2=contact,3=contact,4=contact"
+
+
+def _cli(*args) -> str:
+    from click.testing import CliRunner
+
+    from contactlab.cli import main
+
+    r = CliRunner().invoke(main, [str(a) for a in args])
+    assert r.exit_code == 0, r.output
+    return r.stdout             # warnings go to stderr
+
+
+def _threshold(archive, train_ids, test_ids, lmap) -> float:
+    """Point accuracy of the force threshold fitted on ``train_ids``, on ``test_ids``."""
+    from contactlab.archive import open_archive
+    from contactlab.peers.force_threshold import ForceThreshold
+
+    cmap = dict(part.split("=") for part in lmap.split(","))
+
+    def points(ids):
+        F, C = [], []
+        with open_archive(archive) as a:
+            for tid in ids:
+                tr = a.trial(tid)
+                names = [cmap.get(str(n)) for n in tr.label_names]
+                lab = np.asarray(tr.labels, np.int64)
+                state = np.array([names[k] if k >= 0 else None for k in lab], dtype=object)
+                keep = state != None  # noqa: E711 (elementwise)
+                F.append(np.asarray(tr.wrench)[keep, :3])
+                C.append(state[keep] == "contact")
+        return np.concatenate(F), np.concatenate(C)
+
+    peer = ForceThreshold().fit(*points(train_ids))
+    f, c = points(test_ids)
+    return float(np.mean(peer.predict(f) == c))
+
+
+def _ours(archive, train_ids, test_ids, lmap, models) -> tuple[float, int, float]:
+    import json
+
+    def trials(ids):
+        return [a for t in ids for a in ("--trial", t)]
+
+    t0 = time.perf_counter()
+    _cli("train", archive, "--graph", "free-contact", "--label-map", lmap, "--out", models,
+         "--force", "-q", *trials(train_ids))
+    out = json.loads(_cli("recognize", archive, "--graph", "free-contact", "--models", models,
+                          "--label-map", lmap, "--no-write", "-q", "--json",
+                          *trials(test_ids)))
+    elapsed = time.perf_counter() - t0
+    misfits = sum(bool((e.get("fit") or {}).get("misfit")) for e in out["trials"].values())
+    return float(out["accuracy"]), misfits, elapsed
+
+
+def run() -> list[dict]:
+    root = real_data_dir("wiping", "hiro_snap")
+    if root is None:
+        print(SKIPPED)
+        return []
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        wipe = d / "wipe.h5"
+        _cli("import", *sorted((root / "wiping").glob("*.csv")), "--out", wipe, "-q",
+             "--columns", COLUMNS, "--window", "0:22", "--window", "22:43")
+        hiro = d / "hiro.h5"
+        csvs = sorted((root / "hiro_snap").glob("*.csv"))
+        _cli("import", *csvs, "--out", hiro, "-q", "--columns", COLUMNS)
+        from contactlab.archive import open_archive
+
+        with open_archive(wipe) as a:
+            w_ids = list(a.trial_ids)
+        ids = [c.stem for c in csvs]
+        splits = [("wiping, 0-22 s -> 22-43 s", wipe, w_ids[:1], w_ids[1:], WIPE_MAP),
+                  ("HIRO, S-02/03 -> S-04..09", hiro, ids[:2], ids[2:8], HIRO_MAP),
+                  ("HIRO, first 14 -> other 13", hiro, ids[:14], ids[14:], HIRO_MAP)]
+        for name, archive, tr, te, lmap in splits:
+            acc, misfits, secs = _ours(archive, tr, te, lmap, d / "m.h5")
+            t0 = time.perf_counter()
+            peer = _threshold(archive, tr, te, lmap)
+            peer_s = time.perf_counter() - t0
+            rows.append({"name": f"free/contact, {name}", "ours_s": secs,
+                         "peer": "force threshold (k on train)", "peer_s": peer_s,
+                         "ratio": peer_s / secs,
+                         "notes": f"points correct: ours {100 * acc:.1f} %, threshold "
+                                  f"{100 * peer:.1f} %; misfit warnings on {misfits} of "
+                                  f"{len(te)} recognised trials; default flags"})
+    return rows
