@@ -1,0 +1,59 @@
+"""The committed experiment pages say what the current code computes.
+
+The fast pages (a few seconds each) are rerun with the seed they were made with and
+every number and text of their ``results.json`` is compared with the committed one; a
+page made by older code fails here until it is regenerated (``contactlab reproduce NAME
+--out reports --seed S``).  Wall-clock times and the page's own path are not results.
+A refactor that leaves results unchanged passes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from contactlab.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+FAST = ("ph-demo", "impact-envelope", "impact-spectrogram", "ar-fit", "hf-models")
+NOT_RESULTS = ("wall_time_s", "html", "seconds", "elapsed_s")
+
+
+def _flat(d, prefix=""):
+    out = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            if k not in NOT_RESULTS:
+                out.update(_flat(v, f"{prefix}/{k}"))
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            out.update(_flat(v, f"{prefix}[{i}]"))
+    else:
+        out[prefix] = d
+    return out
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=1e-7,
+                                                                 abs_tol=1e-12)
+    return a == b
+
+
+@pytest.mark.parametrize("name", FAST)
+def test_committed_page_matches_the_code(name, tmp_path):
+    committed = json.loads((REPO / "reports" / name / "results.json").read_text())
+    seed = committed.get("seed", 1)
+    r = CliRunner().invoke(main, ["reproduce", name, "--out", str(tmp_path), "--seed",
+                                  str(seed), "-q"])
+    assert r.exit_code == 0, r.output
+    fresh = json.loads((tmp_path / name / "results.json").read_text())
+    a, b = _flat(committed), _flat(fresh)
+    stale = sorted(k for k in set(a) | set(b) if not _same(a.get(k), b.get(k)))
+    assert not stale, (f"reports/{name} is older than the code ({len(stale)} results differ, "
+                       f"e.g. {stale[:3]}): regenerate it with 'contactlab reproduce {name} "
+                       f"--out reports --seed {seed}'")
