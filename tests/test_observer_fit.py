@@ -4,6 +4,7 @@ squared velocity over its variance."""
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from contactlab.observer.fit import MISFIT, path_fit
 from contactlab.observer.graph import parse_graph
@@ -28,9 +29,13 @@ def test_fixed_model_fit_is_the_mean_square_over_its_variance():
     sigma = 1e-3
     v = rng.normal(0.0, sigma, (2000, 3))
     fit = path_fit(graph, _models(sigma), {"velocity": v}, [("still", 0)])
-    assert fit.by_model["F"] == pytest.approx(np.mean(v ** 2) / sigma ** 2, rel=1e-12)
-    # 6000 chi-square(1) terms: mean 1, sd sqrt(2 / 6000)
-    assert abs(fit.overall - 1.0) < 4 * np.sqrt(2 / 6000) and not fit.misfit
+    assert fit.by_model_mean["F"] == pytest.approx(np.mean(v ** 2) / sigma ** 2, rel=1e-12)
+    # the robust level: the median chi-square(3) over the distribution's median (scipy)
+    chi = np.sum(v ** 2, axis=1) / sigma ** 2
+    assert fit.by_model["F"] == pytest.approx(np.median(chi) / stats.chi2(3).median(),
+                                              rel=1e-12)
+    # 2000 chi-square(3) values: the median's ratio is 1 within a few percent
+    assert abs(fit.overall - 1.0) < 0.1 and not fit.misfit
     # three times the trained noise: nine times the chi-square, a misfit
     fit3 = path_fit(graph, _models(sigma), {"velocity": 3 * v}, [("still", 0)])
     assert fit3.overall == pytest.approx(9 * fit.overall, rel=1e-12)
@@ -46,9 +51,25 @@ def test_each_segment_is_scored_by_its_node_models_only():
     v = np.r_[still, moving]
     right = path_fit(graph, _models(sigma), {"velocity": v}, [("still", 0), ("moving", 500)])
     assert right.samples == 1200
-    assert right.by_model["F"] == pytest.approx(np.mean(still ** 2) / sigma ** 2, rel=1e-12)
+    assert right.by_model_mean["F"] == pytest.approx(np.mean(still ** 2) / sigma ** 2,
+                                                     rel=1e-12)
     assert not right.misfit
     # the moving samples labelled still: F sees them, a misfit
     wrong = path_fit(graph, _models(sigma), {"velocity": v}, [("still", 0)])
     assert set(wrong.by_model) == {"F"} and wrong.misfit
     assert wrong.to_dict()["misfit"] is True and wrong.to_dict()["worst_model"] == "F"
+
+
+def test_a_few_wild_samples_are_no_misfit_but_a_noisier_recording_is():
+    # a recording's glitches (a position jump: one velocity of 10^4 sigma) move the mean
+    # chi-square per degree of freedom past the warning level; the robust level stays at 1
+    graph = parse_graph(GRAPH)
+    rng = np.random.default_rng(5)
+    sigma = 1e-3
+    v = rng.normal(0.0, sigma, (2000, 3))
+    v[[100, 900, 1500]] = 10.0
+    fit = path_fit(graph, _models(sigma), {"velocity": v}, [("still", 0)])
+    assert fit.by_model_mean["F"] > 100 * MISFIT
+    assert abs(fit.overall - 1.0) < 0.1 and not fit.misfit
+    noisy = path_fit(graph, _models(sigma), {"velocity": 4 * v}, [("still", 0)])
+    assert noisy.misfit and noisy.overall == pytest.approx(16 * fit.overall, rel=1e-12)
