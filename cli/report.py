@@ -52,7 +52,10 @@ def report(archive, out, trials, force, as_json, quiet):
     click.echo(f"{archive}: {count(len(summary['trials']), 'trial')} -> {summary['html']}, {summary['pdf']}")
     r = summary.get("recognition")
     if r and r["points"]:
+        major = r["majority_node"]
+        label = r.get("node_labels", {}).get(major)
+        major = f"{major} ({label})" if label else major
         click.echo(f"recognised: {100 * r['accuracy']:.1f} % of {r['points']} labelled points "
                    f"marked correctly by the MAP path (on-line {100 * r['accuracy_online']:.1f} "
-                   f"%); chance: {100 * r['chance_majority']:.1f} % always {r['majority_node']},"
-                   f" {100 * r['chance_uniform']:.0f} % uniform")
+                   f"%); chance: {100 * r['chance_majority']:.1f} % always {major}, "
+                   f"{100 * r['chance_uniform']:.0f} % uniform")

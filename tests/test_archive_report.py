@@ -171,3 +171,29 @@ def test_report_gives_recognition_accuracy_beside_chance(tmp_path):
     line = next(ln for ln in text.splitlines() if ln.startswith("recognised: "))
     assert "55.9 % of 170 labelled points" in line and "64.7 % always B" in line
     assert "What was recognised" in (out / "index.html").read_text()
+
+
+def test_report_names_nodes_with_their_graph_labels(tmp_path):
+    # a graph whose node names are the thesis's hypotheses (H0, H1): the summary and the
+    # page say what each is
+    graph = tmp_path / "g.toml"
+    graph.write_text(
+        'name = "g"\nedges = ["H0 -> H1", "H1 -> H0"]\n'
+        '[models.M0]\nkind = "velocity-fixed"\ntrained = "H0"\nsigma = 0.001\n'
+        '[models.M1]\nkind = "velocity-moving"\ntrained = "H1"\nlow = -0.01\n'
+        'high = 0.01\nsigma = 0.001\n'
+        '[[nodes]]\nname = "H0"\nlabel = "stationary"\nmodels = { v = "M0" }\n'
+        'initial = 1.0\n[[nodes]]\nname = "H1"\nlabel = "moving"\nmodels = { v = "M1" }\n')
+    path = tmp_path / "runs.h5"
+    write_archive(path, trials=("t01",))
+    k = 100
+    write_results(path, "t01", "recognize", datasets={
+        "time_s": np.arange(k) / 250.0, "node_prob": np.full((k, 2), 0.5),
+        "labels": np.zeros(k, int), "map_node": np.zeros(k, int),
+        "truth": np.r_[np.zeros(70, int), np.ones(30, int)]},
+        attrs={"nodes": "H0,H1"}, parameters={"graph": str(graph)})
+    out = tmp_path / "rep"
+    text = CliRunner().invoke(main, ["report", str(path), "--out", str(out)]).stdout
+    line = next(ln for ln in text.splitlines() if ln.startswith("recognised: "))
+    assert "always H0 (stationary)" in line
+    assert "H1 (moving)" in (out / "index.html").read_text()

@@ -120,8 +120,9 @@ def recognition_summary(archive, ids) -> dict | None:
         return None
     n = int(total.sum())
     counts = total.sum(axis=1)
-    title, thesis = _graph_info(graph)
+    title, thesis, labels = _graph_info(graph)
     return {"graph": graph, "graph_title": title, "graph_thesis": thesis, "nodes": names,
+            "node_labels": {k: labels[k] for k in names if labels.get(k, k) != k},
             "points": n,
             "accuracy": float(np.trace(total) / n) if n else None,
             "accuracy_online": float(np.trace(online) / online.sum()) if online.sum() else None,
@@ -131,18 +132,25 @@ def recognition_summary(archive, ids) -> dict | None:
             "confusion": total.tolist(), "trials": per_trial}
 
 
-def _graph_info(graph) -> tuple[str | None, str]:
-    """Title and thesis section of the graph file the results name (None, "" if unreadable)."""
+def _graph_info(graph) -> tuple[str | None, str, dict]:
+    """Title, thesis section and node labels (name -> label) of the graph file the results
+    name (None, "", {} if unreadable)."""
     from contactlab.errors import ContactlabError
     from contactlab.observer.graph import load_graph
 
     if not graph:
-        return None, ""
+        return None, "", {}
     try:
         g = load_graph(graph)
     except (ContactlabError, OSError, ValueError):
-        return None, ""
-    return g.title, str(g.thesis or "")
+        return None, "", {}
+    return g.title, str(g.thesis or ""), {nd.name: nd.label for nd in g.nodes if nd.label}
+
+
+def _named(r: dict, node: str) -> str:
+    """``node`` with its graph label where the graph gives one: "H0 (stationary, free)"."""
+    label = r.get("node_labels", {}).get(node)
+    return f"{node} ({label})" if label else str(node)
 
 
 def _recognition_section(page, r: dict) -> None:
@@ -163,7 +171,7 @@ def _recognition_section(page, r: dict) -> None:
         f"Over {r['points']} labelled points of {sum(t['points'] > 0 for t in r['trials'])} "
         f"trials the final MAP path marks {100 * r['accuracy']:.1f} % correctly (the on-line "
         f"MAP node: {100 * r['accuracy_online']:.1f} %). Chance levels to read this against: "
-        f"always choosing the most frequent true node ({r['majority_node']}) scores "
+        f"always choosing the most frequent true node ({_named(r, r['majority_node'])}) scores "
         f"{100 * r['chance_majority']:.1f} %, choosing uniformly among the "
         f"{len(r['nodes'])} nodes {100 * r['chance_uniform']:.1f} %. A point is a sample of "
         "the observer's signal; unlabelled points are left out.")
@@ -171,7 +179,7 @@ def _recognition_section(page, r: dict) -> None:
     rows = []
     for name, row in zip(r["nodes"], m):
         n = row.sum()
-        rows.append([name, *row.tolist(), int(n),
+        rows.append([_named(r, name), *row.tolist(), int(n),
                      f"{100 * row[len(rows)] / n:.1f} %" if n else "-"])
     page.table(rows, columns=["true \\ chosen", *r["nodes"], "points", "row correct"],
                caption="Point confusion of the final MAP path, pooled over the trials (rows: "
