@@ -6,8 +6,8 @@ of ``time``, ``strain``, ``wrench``, ``position``, ``velocity``, ``command``,
 ``action``, in any split) and returns, per chunk, the observer's measurement
 streams for every conditioned sample that is complete: ``{signal: (n, C)}``, the
 newest input sample of each (``index``) and its time.  The concatenation of its
-outputs over a recording equals ``trial_signals`` on the whole recording, to the
-last bit, for every split into chunks: the lowpass/decimation carries its filter
+outputs over a recording equals ``trial_signals`` on the whole recording for every
+split into chunks, bit for bit (y_h to the rounding of its log floor, below): the lowpass/decimation carries its filter
 state (:class:`~contactlab.conditioning.LowpassDecimator`), the y_h block averages
 carry their partial blocks (:class:`~contactlab.conditioning.LogEnergy`), the
 derived velocity its last position, the task-phase lowpass its state.
@@ -18,7 +18,8 @@ Two batch quantities need the whole recording and are taken from its start inste
   (:func:`~contactlab.conditioning.quantisation_floor`): the first
   :data:`FLOOR_WARMUP_S` seconds are held back and the floor taken from them (the
   converter's step appears within milliseconds in noisy quantised strains, so the
-  floor is the batch one; unquantised strains have a floor far below any difference);
+  floor is the batch one, to the rounding of the differences it is the least of;
+  unquantised strains have a floor far below any difference);
 * the friction compensation's noise level (``contact-compensated``), which is not
   offered live: such a graph is refused.
 
@@ -38,8 +39,10 @@ from contactlab.signals import (COMPENSATED, CONTACT_SIGNALS, PHASE, PHASE_CUTOF
 
 __all__ = ["LiveConditioner", "needed_fields", "FLOOR_WARMUP_S"]
 
-#: seconds of strain held back at the start to find y_h's log floor
+#: strain held back at the start to find y_h's log floor: this many seconds, and at
+#: least :data:`FLOOR_WARMUP_ROWS` rows
 FLOOR_WARMUP_S = 0.25
+FLOOR_WARMUP_ROWS = 250
 _RAW = ("velocity", "position", PHASE)
 
 
@@ -192,7 +195,7 @@ class LiveConditioner:
         if self._hold is not None:
             self._hold.append(chunk)
             n_held = sum(len(c["time"]) for c in self._hold)
-            if n_held < max(self.block + 1, round(FLOOR_WARMUP_S * self.fs)):
+            if n_held < max(self.block + 1, FLOOR_WARMUP_ROWS, round(FLOOR_WARMUP_S * self.fs)):
                 return self._empty()
             held, self._hold = self._hold, None
             strain = np.concatenate([np.asarray(c["strain"], np.float64) for c in held])

@@ -216,36 +216,39 @@ class CsvLines:
             cols[field] = idx
         self._cols = {f: c for f, c in cols.items() if f in ("time",) + self.fields}
         self._width = len(head)
+        self._use = sorted({i for c in self._cols.values() for i in c})
 
     def _parse(self, lines: list[str]) -> np.ndarray:
-        """(n, width) float rows of the well-formed lines; malformed ones are skipped."""
-        rows, first = [], self._line
-        for ln in lines:
-            self._line += 1
-            if not ln.strip():
-                continue
-            parts = ln.split(self._delim) if self._delim else ln.split()
-            rows.append(parts)
+        """(n, width) float rows of the well-formed lines (the mapped columns as numbers,
+        the others NaN); malformed lines are skipped with a line on stderr."""
+        first = self._line
+        self._line += len(lines)
+        split = [(k, ln.split(self._delim) if self._delim else ln.split())
+                 for k, ln in enumerate(lines) if ln.strip()]
+        use = self._use
         try:
-            a = np.array(rows, dtype=np.float64)
-            if a.ndim == 2 and a.shape[1] == self._width and np.isfinite(a).all():
-                return a
+            a = np.array([p for _, p in split], dtype=str)
+            if a.ndim == 2 and a.shape[1] == self._width:
+                out = np.full(a.shape, np.nan)
+                out[:, use] = a[:, use].astype(np.float64)
+                if np.isfinite(out[:, use]).all():
+                    return out
         except ValueError:
             pass
         good = []           # the slow path: only for a batch holding a bad line
-        for k, ln in enumerate(lines):
-            if not ln.strip():
-                continue
-            parts = ln.split(self._delim) if self._delim else ln.split()
-            try:
-                v = np.array(parts, dtype=np.float64)
-                ok = v.shape == (self._width,) and np.isfinite(v).all()
-            except ValueError:
-                ok = False
-            if ok:
-                good.append(v)
-            else:
-                self._skip(first + k + 1, f"expected {self._width} numbers")
+        for k, parts in split:
+            why = f"expected {self._width} fields, got {len(parts)}"
+            if len(parts) == self._width:
+                try:
+                    v = np.full(self._width, np.nan)
+                    v[use] = np.array([parts[i] for i in use], dtype=np.float64)
+                    if np.isfinite(v[use]).all():
+                        good.append(v)
+                        continue
+                    why = "a value is not finite"
+                except ValueError:
+                    why = "a value is not a number"
+            self._skip(first + k + 1, why)
         return np.array(good).reshape(-1, self._width)
 
     def _skip(self, line: int, why: str) -> None:
