@@ -26,6 +26,7 @@ from contactlab.cli.reproduce import reproduce
 from contactlab.cli.segment import segment
 from contactlab.cli.train import train
 from contactlab.cli.validate import validate
+from contactlab.cli.watch import watch
 
 
 @click.group(cls=ContactlabGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -36,14 +37,14 @@ def main(debug: bool) -> None:
 
     \b
     Stages: acquire, segment, label, estimate, recognize (or recognise),
-    train, report, plus validate, import, info and reproduce. Example:
+    watch (live), train, report, plus validate, import, info and reproduce. Example:
       contactlab reproduce ph-demo --out reports
     """
 
 
 # In pipeline order: data in, the analysis stages, then reporting.
 for _command in (acquire, import_cmd, validate, info, segment, train, label, estimate,
-                 recognize, report, reproduce, graph):
+                 recognize, watch, report, reproduce, graph):
     main.add_command(_command)
 
 # the British spelling of the recognising verb, accepted and not listed

@@ -27,7 +27,7 @@ from contactlab.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 ORDER = ["acquire", "import", "validate", "info", "segment", "train", "label", "estimate",
-         "recognize", "report", "reproduce", "graph"]
+         "recognize", "watch", "report", "reproduce", "graph"]
 SKIP = {
     "--source netft": "needs a Net F/T sensor on the network",
     "--source phantom": "needs a PHANToM and its HD library",
