@@ -9,6 +9,7 @@ from contactlab.constraints import (FORCE_SD, POSITION_SD, CartesianConstraint,
                                     CartesianStiffness, angular_error_deg, joint_projection)
 from contactlab.constraints import frames as F
 from contactlab.errors import DataError, UsageError
+from contactlab.constraints.scaling import reciprocal_scaling
 
 
 def contact_block(m, *, n=100, seed=0, amp=2e-3, press=1.0, force_var=0.2, mu=0.0,
@@ -235,3 +236,53 @@ def test_estimate_from_running_information_equals_the_block_estimate():
         np.testing.assert_allclose(got.log_likelihoods[i], want.log_likelihoods[0], rtol=1e-9)
         assert got.degree[i] == want.degree[0] == 1
     assert got.n.tolist() == ends.tolist()
+
+
+def _diagonal_information(R, dx, dw):
+    """Joint information with Ixx = R diag(dx) R^T, Iww = R diag(dw) R^T, no cross terms."""
+    I = np.zeros((6, 6))
+    I[:3, :3] = R @ np.diag(dx) @ R.T
+    I[3:, 3:] = R @ np.diag(dw) @ R.T
+    return I
+
+
+def test_ratio_start_is_the_exact_minimiser_of_a_diagonal_information():
+    # oracle: with Ixx, Iww diagonal in R, log det V = sum_normals log(dx+1) + sum_free
+    # log(dw+1); the best m axes are those with the smallest (dx+1)/(dw+1) (enumerated)
+    from itertools import combinations
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        R = Rotation.random(random_state=rng).as_matrix()
+        dx, dw = rng.uniform(0, 1000, 3), rng.uniform(0, 1000, 3)
+        I = _diagonal_information(R, dx, dw)
+        for m in (1, 2):
+            best = min(combinations(range(3), m), key=lambda c: sum(
+                math.log(dx[i] + 1) - math.log(dw[i] + 1) for i in c))
+            R0 = F.ratio_start(I[None], m, 1.0)[0]
+            ang = np.degrees(np.arccos(np.clip(np.linalg.svd(R0[:, :m].T @ R[:, best],
+                                                             compute_uv=False).min(), -1, 1)))
+            assert ang < 1e-5
+
+
+def test_default_start_finds_the_optimum_when_friction_outweighs_motion():
+    # the velocity-form line of 8.1.1.2: motion along the free direction (22 units rms)
+    # smaller than the stick friction force along it (55 units), which is larger than
+    # the force into one of the normals (24 units).  The trace start (Ixx - Iww) takes
+    # the free direction for a normal and Newton stays in that basin; the default keeps
+    # the better of the trace and ratio starts, whose frame is the true one (the exact
+    # optimum, previous test).
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.random(random_state=np.random.default_rng(5)).as_matrix()
+    dx = np.array([1.0, 1.0, 500.0])       # normals: velocity noise only; free: moves
+    dw = np.array([600.0, 5000.0, 3000.0])
+    I = _diagonal_information(R, dx, dw)
+    sc = reciprocal_scaling(1.0, 1.0, 3)
+    N = R[:, :2]
+    trace_only = CartesianConstraint(degree=2, start="trace").estimate_information(I, 400, scaling=sc)
+    default = CartesianConstraint(degree=2).estimate_information(I, 400, scaling=sc)
+    assert angular_error_deg(trace_only.normals_, N) > 45          # the local optimum
+    assert angular_error_deg(default.normals_, N) < 1e-4
+    assert default.loglik_ >= default.loglik_at(N) - 1e-9

@@ -74,7 +74,7 @@ VELOCITY_SD = 0.001
 
 MOTIONS = ("position", "velocity")
 CRITERIA = ("logdet", "trace")
-STARTS = ("trace", "gram-schmidt", "both")
+STARTS = ("trace", "ratio", "gram-schmidt", "both", "trace+ratio")
 
 
 def min_samples(k: int = 3) -> int:
@@ -372,7 +372,10 @@ class CartesianConstraint:
         for "trace": "newton" (the thesis's iteration on 8.27) or "eigh"
         (closed form).
     start : log-det Newton start: "trace" (the trace criterion's closed-form
-        minimiser), "gram-schmidt" (8.28) or "both" (keep the better).
+        minimiser), "ratio" (generalised eigenvectors of Ixx against Iww,
+        :func:`.frames.ratio_start`), "gram-schmidt" (8.28), "both" (trace and
+        Gram-Schmidt) or "trace+ratio" (the default); with two starts the frame
+        with the higher log-likelihood is kept.
     motion : "position" (default; the thesis's preferred, less noisy) or "velocity".
     position_sd, force_sd, velocity_sd : measurement accuracies (scalar or per
         axis) used to normalise units (8.7-8.9).
@@ -389,7 +392,7 @@ class CartesianConstraint:
     """
 
     def __init__(self, *, degree: int | None = None, criterion: str = "logdet",
-                 solver: str = "newton", start: str = "trace", motion: str = "position",
+                 solver: str = "newton", start: str = "trace+ratio", motion: str = "position",
                  position_sd=POSITION_SD, force_sd=FORCE_SD, velocity_sd=VELOCITY_SD,
                  friction: bool = False, noise_floor: float = 1.0, center: str | None = None,
                  exploration_threshold: float = DEFAULT_THRESHOLD,
@@ -449,8 +452,11 @@ class CartesianConstraint:
             for b in range(B):
                 R[b], _, _, iters[b] = F.powell_logdet(I[b], R0[b], m, self.noise_floor)
             return R, iters
-        starts = {"trace": [F.trace_closed_form], "gram-schmidt": [F.gram_schmidt_start],
-                  "both": [F.trace_closed_form, F.gram_schmidt_start]}[self.start]
+        ratio = lambda I_, m_: F.ratio_start(I_, m_, self.noise_floor)  # noqa: E731
+        starts = {"trace": [F.trace_closed_form], "ratio": [ratio],
+                  "gram-schmidt": [F.gram_schmidt_start],
+                  "both": [F.trace_closed_form, F.gram_schmidt_start],
+                  "trace+ratio": [F.trace_closed_form, ratio]}[self.start]
         best_R, best_f = None, None
         for make in starts:
             R, f, it = F.newton_logdet(I, make(I, m), m, self.noise_floor)

@@ -37,7 +37,7 @@ import math
 import numpy as np
 
 __all__ = ["embed", "innovation_cov", "logdet_value", "logdet_gradient", "cayley",
-           "trace_closed_form", "gram_schmidt_start", "newton_logdet", "logdet_hessian",
+           "trace_closed_form", "ratio_start", "gram_schmidt_start", "newton_logdet", "logdet_hessian",
            "powell_logdet", "trace_newton", "trace_value"]
 
 
@@ -116,6 +116,35 @@ def trace_closed_form(I: np.ndarray, m: int) -> np.ndarray:
     D = I[:, :k, :k] - I[:, k:, k:]
     _, vec = np.linalg.eigh(D)
     return vec
+
+
+def ratio_start(I: np.ndarray, m: int, floor: float = 0.0) -> np.ndarray:
+    """A start for the log-det criterion that does not depend on the units' ratio.
+
+    Normals: the m generalised eigenvectors of ``(Ixx + floor Id) n = lam (Iww + floor Id) n``
+    with the smallest ``lam`` (the directions with the least motion for their force),
+    orthonormalised; free directions: their orthogonal complement.  When Ixx and Iww
+    are diagonal in one orthonormal basis (and the cross terms vanish) the log-det
+    criterion is ``sum_normals log(Ixx_ii + floor) + sum_free log(Iww_ii + floor)``,
+    so choosing each axis by the ratio ``Ixx_ii / Iww_ii`` is then its exact minimiser.
+    The trace start (``Ixx - Iww``) compares motion with force in absolute units
+    instead, and picks a free direction as a normal whenever the force along it
+    (stick friction, say) is larger in force units than its motion in motion units.
+    Shape (B, k, k).
+    """
+    k = I.shape[-1] // 2
+    eye = np.eye(k)
+    Ixx = I[:, :k, :k] + floor * eye
+    Iww = I[:, k:, k:] + floor * eye
+    # scale-safe: a singular Iww (no force at all) gets a tiny ridge
+    ridge = 1e-12 * np.maximum(np.trace(Iww, axis1=1, axis2=2), 1e-300)[:, None, None]
+    L = np.linalg.cholesky(Iww + ridge * eye)
+    Linv = np.linalg.inv(L)
+    C = Linv @ Ixx @ np.swapaxes(Linv, 1, 2)
+    _, u = np.linalg.eigh(0.5 * (C + np.swapaxes(C, 1, 2)))
+    v = np.swapaxes(Linv, 1, 2) @ u                     # generalised eigenvectors, ascending
+    q, r = np.linalg.qr(np.concatenate([v[:, :, :m], v[:, :, m:]], axis=2))
+    return q * np.where(np.diagonal(r, axis1=1, axis2=2) < 0, -1.0, 1.0)[:, None, :]
 
 
 def gram_schmidt_start(I: np.ndarray, m: int) -> np.ndarray:
