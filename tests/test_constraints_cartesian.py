@@ -286,3 +286,44 @@ def test_default_start_finds_the_optimum_when_friction_outweighs_motion():
     assert angular_error_deg(trace_only.normals_, N) > 45          # the local optimum
     assert angular_error_deg(default.normals_, N) < 1e-4
     assert default.loglik_ >= default.loglik_at(N) - 1e-9
+
+
+@pytest.mark.parametrize("m", [1, 2])
+def test_per_sample_scores_average_to_the_analytic_gradient(m):
+    # oracle: logdet_gradient (the derivative of log det V, itself checked against Powell)
+    rng = np.random.default_rng(11)
+    y = rng.standard_normal((200, 6)) * rng.uniform(0.5, 30, 6) + rng.standard_normal(6)
+    R = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    I = y.T @ y / len(y)
+    _, g = F.logdet_gradient(I[None], R[None], m, 1.0)
+    s = F.logdet_scores(y, R, m, 1.0)
+    assert np.allclose(s.mean(axis=0), g[0].reshape(-1), rtol=1e-9, atol=1e-12)
+
+
+def test_long_run_covariance_of_an_ar1_series():
+    # closed form: the long-run variance of x_t = rho x_{t-1} + e_t is sd_e^2 / (1 - rho)^2;
+    # white noise keeps its variance
+    rng = np.random.default_rng(2)
+    from scipy.signal import lfilter
+    e = rng.standard_normal((40000, 1))
+    x = lfilter([1.0], [1.0, -0.8], e, axis=0)
+    lr, lag = F.long_run_covariance(x)
+    assert lag > 5
+    assert abs(lr[0, 0] / (1 / 0.2 ** 2) - 1) < 0.15
+    w, lag_w = F.long_run_covariance(e)
+    assert abs(w[0, 0] - 1) < 0.05 and lag_w <= 10
+
+
+def test_hac_sd_equals_iid_sd_on_independent_samples():
+    # independent Gaussian samples: the sandwich estimates the inverse information
+    # (the same sd to within its sampling error)
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(4)
+    Rt = Rotation.random(random_state=rng).as_matrix()
+    n = 2000
+    pos = rng.normal(0, 3e-3, (n, 2)) @ Rt[:, 1:].T + rng.normal(0, 1e-5, (n, 3))
+    frc = rng.normal(1.0, 0.3, (n, 1)) * Rt[:, :1].T + rng.normal(0, 0.01, (n, 3))
+    kw = dict(degree=1, position_sd=1e-5, force_sd=0.01)
+    hac = CartesianConstraint(**kw).estimate(pos, frc)
+    iid = CartesianConstraint(**kw, uncertainty="iid").estimate(pos, frc)
+    assert hac.angle_sd_deg_ == pytest.approx(iid.angle_sd_deg_, rel=0.15)
