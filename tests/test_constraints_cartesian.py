@@ -9,6 +9,7 @@ from contactlab.constraints import (FORCE_SD, POSITION_SD, CartesianConstraint,
                                     CartesianStiffness, angular_error_deg, joint_projection)
 from contactlab.constraints import frames as F
 from contactlab.errors import DataError, UsageError
+from contactlab.constraints.scaling import reciprocal_scaling
 
 
 def contact_block(m, *, n=100, seed=0, amp=2e-3, press=1.0, force_var=0.2, mu=0.0,
@@ -235,3 +236,94 @@ def test_estimate_from_running_information_equals_the_block_estimate():
         np.testing.assert_allclose(got.log_likelihoods[i], want.log_likelihoods[0], rtol=1e-9)
         assert got.degree[i] == want.degree[0] == 1
     assert got.n.tolist() == ends.tolist()
+
+
+def _diagonal_information(R, dx, dw):
+    """Joint information with Ixx = R diag(dx) R^T, Iww = R diag(dw) R^T, no cross terms."""
+    I = np.zeros((6, 6))
+    I[:3, :3] = R @ np.diag(dx) @ R.T
+    I[3:, 3:] = R @ np.diag(dw) @ R.T
+    return I
+
+
+def test_ratio_start_is_the_exact_minimiser_of_a_diagonal_information():
+    # oracle: with Ixx, Iww diagonal in R, log det V = sum_normals log(dx+1) + sum_free
+    # log(dw+1); the best m axes are those with the smallest (dx+1)/(dw+1) (enumerated)
+    from itertools import combinations
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        R = Rotation.random(random_state=rng).as_matrix()
+        dx, dw = rng.uniform(0, 1000, 3), rng.uniform(0, 1000, 3)
+        I = _diagonal_information(R, dx, dw)
+        for m in (1, 2):
+            best = min(combinations(range(3), m), key=lambda c: sum(
+                math.log(dx[i] + 1) - math.log(dw[i] + 1) for i in c))
+            R0 = F.ratio_start(I[None], m, 1.0)[0]
+            ang = np.degrees(np.arccos(np.clip(np.linalg.svd(R0[:, :m].T @ R[:, best],
+                                                             compute_uv=False).min(), -1, 1)))
+            assert ang < 1e-5
+
+
+def test_default_start_finds_the_optimum_when_friction_outweighs_motion():
+    # the velocity-form line of 8.1.1.2: motion along the free direction (22 units rms)
+    # smaller than the stick friction force along it (55 units), which is larger than
+    # the force into one of the normals (24 units).  The trace start (Ixx - Iww) takes
+    # the free direction for a normal and Newton stays in that basin; the default keeps
+    # the better of the trace and ratio starts, whose frame is the true one (the exact
+    # optimum, previous test).
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.random(random_state=np.random.default_rng(5)).as_matrix()
+    dx = np.array([1.0, 1.0, 500.0])       # normals: velocity noise only; free: moves
+    dw = np.array([600.0, 5000.0, 3000.0])
+    I = _diagonal_information(R, dx, dw)
+    sc = reciprocal_scaling(1.0, 1.0, 3)
+    N = R[:, :2]
+    trace_only = CartesianConstraint(degree=2, start="trace").estimate_information(I, 400, scaling=sc)
+    default = CartesianConstraint(degree=2).estimate_information(I, 400, scaling=sc)
+    assert angular_error_deg(trace_only.normals_, N) > 45          # the local optimum
+    assert angular_error_deg(default.normals_, N) < 1e-4
+    assert default.loglik_ >= default.loglik_at(N) - 1e-9
+
+
+@pytest.mark.parametrize("m", [1, 2])
+def test_per_sample_scores_average_to_the_analytic_gradient(m):
+    # oracle: logdet_gradient (the derivative of log det V, itself checked against Powell)
+    rng = np.random.default_rng(11)
+    y = rng.standard_normal((200, 6)) * rng.uniform(0.5, 30, 6) + rng.standard_normal(6)
+    R = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    I = y.T @ y / len(y)
+    _, g = F.logdet_gradient(I[None], R[None], m, 1.0)
+    s = F.logdet_scores(y, R, m, 1.0)
+    assert np.allclose(s.mean(axis=0), g[0].reshape(-1), rtol=1e-9, atol=1e-12)
+
+
+def test_long_run_covariance_of_an_ar1_series():
+    # closed form: the long-run variance of x_t = rho x_{t-1} + e_t is sd_e^2 / (1 - rho)^2;
+    # white noise keeps its variance
+    rng = np.random.default_rng(2)
+    from scipy.signal import lfilter
+    e = rng.standard_normal((40000, 1))
+    x = lfilter([1.0], [1.0, -0.8], e, axis=0)
+    lr, lag = F.long_run_covariance(x)
+    assert lag > 5
+    assert abs(lr[0, 0] / (1 / 0.2 ** 2) - 1) < 0.15
+    w, lag_w = F.long_run_covariance(e)
+    assert abs(w[0, 0] - 1) < 0.05 and lag_w <= 10
+
+
+def test_hac_sd_equals_iid_sd_on_independent_samples():
+    # independent Gaussian samples: the sandwich estimates the inverse information
+    # (the same sd to within its sampling error)
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(4)
+    Rt = Rotation.random(random_state=rng).as_matrix()
+    n = 2000
+    pos = rng.normal(0, 3e-3, (n, 2)) @ Rt[:, 1:].T + rng.normal(0, 1e-5, (n, 3))
+    frc = rng.normal(1.0, 0.3, (n, 1)) * Rt[:, :1].T + rng.normal(0, 0.01, (n, 3))
+    kw = dict(degree=1, position_sd=1e-5, force_sd=0.01)
+    hac = CartesianConstraint(**kw).estimate(pos, frc)
+    iid = CartesianConstraint(**kw, uncertainty="iid").estimate(pos, frc)
+    assert hac.angle_sd_deg_ == pytest.approx(iid.angle_sd_deg_, rel=0.15)

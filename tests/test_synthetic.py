@@ -56,3 +56,22 @@ def test_contact_moves_only_freely_and_pushes_only_along_normals():
         assert np.abs(x @ N).max() < 1e-12                     # no motion along a normal
         assert np.abs(t.force @ free).max() < 1e-12           # no force along a free direction
         assert (np.linalg.norm(t.force @ N, axis=1) > 0.1).all()
+
+
+def test_compliant_drifting_contact_matches_its_closed_forms():
+    # compliance: the noise-free position along the normal is -g/k (a line of slope -1/k
+    # against the normal force); drift: the frame turns by drift_deg from first to last
+    import numpy as np
+    from contactlab.synthetic import contact_trial
+
+    tr = contact_trial(seed=3, degree=1, stiffness=2000.0, press_n=(0.2, 2.0),
+                       friction=(0.0, 0.0), position_sd=1e-9, force_sd=1e-9)
+    n = tr.normals[:, 0]
+    slope = np.polyfit(tr.force @ n, tr.position @ n, 1)[0]
+    assert abs(slope * 2000.0 + 1.0) < 1e-3
+    dr = contact_trial(seed=3, degree=2, drift_deg=5.0)
+    a, b = dr.normals_at(0), dr.normals_at(len(dr.position) - 1)
+    ang = np.degrees(np.arccos(np.clip(np.linalg.svd(a.T @ b, compute_uv=False).min(), -1, 1)))
+    assert ang <= 5.0 + 1e-6 and np.allclose(dr.frames[0] @ dr.frames[0].T, np.eye(3))
+    default = contact_trial(seed=3, degree=2)
+    assert default.frames is None

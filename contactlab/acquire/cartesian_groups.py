@@ -21,7 +21,7 @@ from contactlab.progress import progress
 from contactlab.signals import factor_for
 
 __all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups", "consecutive_blocks",
-           "random_blocks"]
+           "random_blocks", "reported_normals"]
 
 SPEC = "cartesian"
 GROUPS = ("free", "plane", "line", "corner")
@@ -33,7 +33,11 @@ class GroupData:
 
     ``normals`` (3, m): the true unit normals of the surfaces of the group;
     ``run`` (n,): which run each sample came from; ``contact`` (n,): number of
-    surfaces touched at each sample (ground truth).
+    surfaces touched at each sample (ground truth).  ``reported_normals`` (n, 3, m):
+    the same surfaces' normals in the frame of the *reported* positions at each
+    sample: the PHANToM's kinematic error maps a true displacement dp to
+    ``J(p) dp`` (``J = Id + A + Q(p, .)``, :meth:`contactlab.sim.sensor.Encoders.kinematic_error`),
+    so a surface ``n^T dp = 0`` reads as ``(J^{-T} n)^T dp' = 0``.
     """
 
     name: str
@@ -43,6 +47,7 @@ class GroupData:
     normals: np.ndarray
     run: np.ndarray
     contact: np.ndarray
+    reported_normals: np.ndarray | None = None
 
     @property
     def degree(self) -> int:
@@ -65,6 +70,17 @@ def true_normals(result) -> np.ndarray:
     return q
 
 
+def reported_normals(normals: np.ndarray, position: np.ndarray, encoders) -> np.ndarray:
+    """Normals (n, 3, m) of surfaces with true normals (3, m) in the reported-position frame
+    at each reported position (n, 3) (:class:`GroupData`).  The Jacobian is evaluated at
+    the reported position: the kinematic error moves it by ~1 % of its distance from
+    the workspace centre, a change of J of order 1e-4."""
+    a, q = encoders.kinematic_error()
+    J = np.eye(3) + a + np.einsum("ijk,nk->nij", q, np.asarray(position, float))
+    out = np.linalg.solve(np.swapaxes(J, 1, 2), np.broadcast_to(normals, (len(J),) + normals.shape))
+    return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
+
+
 def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
                 duration_s: float | None = None) -> dict[str, GroupData]:
     """Simulate the 16 runs of the ``cartesian`` spec and lump each group.
@@ -75,9 +91,11 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
     every run (tests).
     """
     from contactlab.acquire import load_spec, simulate_trial
+    from contactlab.acquire.sim import hardware
     from contactlab.signals import condition
 
     spec = load_spec(SPEC)
+    encoders = hardware(spec)["encoders"]
     parts: dict[str, dict[str, list]] = {}
     normals: dict[str, np.ndarray] = {}
     k = 0
@@ -96,7 +114,8 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
             normals[g.name] = true_normals(r)
     groups = {name: GroupData(name, np.concatenate(d["p"]), np.concatenate(d["f"]),
                               np.concatenate(d["v"]), normals[name], np.concatenate(d["run"]),
-                              np.concatenate(d["c"]))
+                              np.concatenate(d["c"]),
+                              reported_normals(normals[name], np.concatenate(d["p"]), encoders))
               for name, d in parts.items()}
     if tare and "free" in groups:
         zero = groups["free"].force.mean(axis=0)

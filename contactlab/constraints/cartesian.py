@@ -74,7 +74,7 @@ VELOCITY_SD = 0.001
 
 MOTIONS = ("position", "velocity")
 CRITERIA = ("logdet", "trace")
-STARTS = ("trace", "gram-schmidt", "both")
+STARTS = ("trace", "ratio", "gram-schmidt", "both", "trace+ratio")
 
 
 def min_samples(k: int = 3) -> int:
@@ -372,7 +372,10 @@ class CartesianConstraint:
         for "trace": "newton" (the thesis's iteration on 8.27) or "eigh"
         (closed form).
     start : log-det Newton start: "trace" (the trace criterion's closed-form
-        minimiser), "gram-schmidt" (8.28) or "both" (keep the better).
+        minimiser), "ratio" (generalised eigenvectors of Ixx against Iww,
+        :func:`.frames.ratio_start`), "gram-schmidt" (8.28), "both" (trace and
+        Gram-Schmidt) or "trace+ratio" (the default); with two starts the frame
+        with the higher log-likelihood is kept.
     motion : "position" (default; the thesis's preferred, less noisy) or "velocity".
     position_sd, force_sd, velocity_sd : measurement accuracies (scalar or per
         axis) used to normalise units (8.7-8.9).
@@ -381,6 +384,8 @@ class CartesianConstraint:
     center : override the centring: "motion", "both" or "none" (module notes).
     exploration_threshold : see :mod:`.exploration`.
     max_tilt_sd_deg : a frame with a larger angular standard error is undetermined.
+    uncertainty : "hac" (default) or "iid": how the frame's standard error counts
+        correlated samples (:meth:`_uncertainty`).
 
     Example
     -------
@@ -389,12 +394,13 @@ class CartesianConstraint:
     """
 
     def __init__(self, *, degree: int | None = None, criterion: str = "logdet",
-                 solver: str = "newton", start: str = "trace", motion: str = "position",
+                 solver: str = "newton", start: str = "trace+ratio", motion: str = "position",
                  position_sd=POSITION_SD, force_sd=FORCE_SD, velocity_sd=VELOCITY_SD,
                  friction: bool = False, noise_floor: float = 1.0, center: str | None = None,
                  exploration_threshold: float = DEFAULT_THRESHOLD,
-                 max_tilt_sd_deg: float = 30.0):
+                 max_tilt_sd_deg: float = 30.0, uncertainty: str = "hac"):
         self.degree = degree
+        self.uncertainty = uncertainty
         self.criterion = criterion
         self.solver = solver
         self.start = start
@@ -414,6 +420,8 @@ class CartesianConstraint:
 
     def _check(self, k: int) -> list[int]:
         _check_common(self)
+        if self.uncertainty not in ("hac", "iid"):
+            raise UsageError(f"uncertainty must be 'hac' or 'iid'; got {self.uncertainty!r}")
         if self.criterion not in CRITERIA:
             raise UsageError(f"criterion must be one of {', '.join(CRITERIA)}; "
                              f"got {self.criterion!r}")
@@ -449,8 +457,11 @@ class CartesianConstraint:
             for b in range(B):
                 R[b], _, _, iters[b] = F.powell_logdet(I[b], R0[b], m, self.noise_floor)
             return R, iters
-        starts = {"trace": [F.trace_closed_form], "gram-schmidt": [F.gram_schmidt_start],
-                  "both": [F.trace_closed_form, F.gram_schmidt_start]}[self.start]
+        ratio = lambda I_, m_: F.ratio_start(I_, m_, self.noise_floor)  # noqa: E731
+        starts = {"trace": [F.trace_closed_form], "ratio": [ratio],
+                  "gram-schmidt": [F.gram_schmidt_start],
+                  "both": [F.trace_closed_form, F.gram_schmidt_start],
+                  "trace+ratio": [F.trace_closed_form, ratio]}[self.start]
         best_R, best_f = None, None
         for make in starts:
             R, f, it = F.newton_logdet(I, make(I, m), m, self.noise_floor)
@@ -560,7 +571,7 @@ class CartesianConstraint:
                 reason = "insufficient exploration: no direction moved or pushed"
         mm = m if m is not None else 0
         R = frames[0, mm] if m is not None else np.eye(k)
-        cov, angle_sd = self._uncertainty(I, R, mm, n) if m is not None \
+        cov, angle_sd = self._uncertainty(I, R, mm, n, samples) if m is not None \
             else (np.full((0, 0), np.nan), math.nan)
         if not reason and not (angle_sd <= self.max_tilt_sd_deg):
             reason = (f"frame not determined by the data (angular standard error "
@@ -584,7 +595,17 @@ class CartesianConstraint:
             iterations_=int(iters[0]), scaling=scaling, noise_floor=self.noise_floor,
             parameters=self.get_params())
 
-    def _uncertainty(self, I, R, m, n):
+    def _uncertainty(self, I, R, m, n, samples=None):
+        """Covariance (rad^2) of the frame's tilts and its largest sd (deg).
+
+        "iid": the inverse observed information ``(n/2 H)^{-1}``, exact for independent
+        Gaussian samples.  "hac" (default, when the samples are at hand): the sandwich
+        ``H^{-1} Omega H^{-1} / n`` with Omega the long-run covariance of the per-sample
+        scores (:func:`.frames.long_run_covariance`), which equals the former for
+        independent samples and also counts slow, correlated disturbances (compliance,
+        friction, hand motion) that make n samples worth fewer; never below the "iid"
+        value (the measurement noise alone gives at least that).
+        """
         k = R.shape[0]
         d = m * (k - m)
         if d == 0:
@@ -595,7 +616,17 @@ class CartesianConstraint:
         if not np.all(np.isfinite(w)) or w.min() <= 0:
             return np.full((d, d), np.nan), math.inf
         cov = np.linalg.inv(info)
-        return cov, float(np.degrees(np.sqrt(1.0 / w.min())))
+        if self.uncertainty == "hac" and samples is not None and len(samples) == n:
+            omega, _ = F.long_run_covariance(F.logdet_scores(np.asarray(samples), R, m,
+                                                             self.noise_floor))
+            Hinv = np.linalg.inv(H)
+            sandwich = Hinv @ omega @ Hinv / n
+            sandwich = 0.5 * (sandwich + sandwich.T)
+            if np.all(np.isfinite(sandwich)):
+                cov = sandwich if np.linalg.eigvalsh(sandwich).max() > \
+                    np.linalg.eigvalsh(cov).max() else cov
+        top = float(np.linalg.eigvalsh(cov).max())
+        return cov, float(np.degrees(np.sqrt(top)))
 
     def get_params(self) -> dict:
         return {"degree": self.degree, "criterion": self.criterion, "solver": self.solver,
@@ -605,7 +636,7 @@ class CartesianConstraint:
                 "velocity_sd": np.asarray(self.velocity_sd).tolist(),
                 "friction": self.friction, "noise_floor": self.noise_floor,
                 "center": self.center, "exploration_threshold": self.exploration_threshold,
-                "max_tilt_sd_deg": self.max_tilt_sd_deg}
+                "max_tilt_sd_deg": self.max_tilt_sd_deg, "uncertainty": self.uncertainty}
 
 
 # -- the stiffness form ------------------------------------------------------------------------

@@ -37,8 +37,8 @@ import math
 import numpy as np
 
 __all__ = ["embed", "innovation_cov", "logdet_value", "logdet_gradient", "cayley",
-           "trace_closed_form", "gram_schmidt_start", "newton_logdet", "logdet_hessian",
-           "powell_logdet", "trace_newton", "trace_value"]
+           "trace_closed_form", "ratio_start", "gram_schmidt_start", "newton_logdet", "logdet_hessian",
+           "powell_logdet", "trace_newton", "trace_value", "logdet_scores", "long_run_covariance"]
 
 
 def embed(R: np.ndarray, m: int) -> np.ndarray:
@@ -118,6 +118,35 @@ def trace_closed_form(I: np.ndarray, m: int) -> np.ndarray:
     return vec
 
 
+def ratio_start(I: np.ndarray, m: int, floor: float = 0.0) -> np.ndarray:
+    """A start for the log-det criterion that does not depend on the units' ratio.
+
+    Normals: the m generalised eigenvectors of ``(Ixx + floor Id) n = lam (Iww + floor Id) n``
+    with the smallest ``lam`` (the directions with the least motion for their force),
+    orthonormalised; free directions: their orthogonal complement.  When Ixx and Iww
+    are diagonal in one orthonormal basis (and the cross terms vanish) the log-det
+    criterion is ``sum_normals log(Ixx_ii + floor) + sum_free log(Iww_ii + floor)``,
+    so choosing each axis by the ratio ``Ixx_ii / Iww_ii`` is then its exact minimiser.
+    The trace start (``Ixx - Iww``) compares motion with force in absolute units
+    instead, and picks a free direction as a normal whenever the force along it
+    (stick friction, say) is larger in force units than its motion in motion units.
+    Shape (B, k, k).
+    """
+    k = I.shape[-1] // 2
+    eye = np.eye(k)
+    Ixx = I[:, :k, :k] + floor * eye
+    Iww = I[:, k:, k:] + floor * eye
+    # scale-safe: a singular Iww (no force at all) gets a tiny ridge
+    ridge = 1e-12 * np.maximum(np.trace(Iww, axis1=1, axis2=2), 1e-300)[:, None, None]
+    L = np.linalg.cholesky(Iww + ridge * eye)
+    Linv = np.linalg.inv(L)
+    C = Linv @ Ixx @ np.swapaxes(Linv, 1, 2)
+    _, u = np.linalg.eigh(0.5 * (C + np.swapaxes(C, 1, 2)))
+    v = np.swapaxes(Linv, 1, 2) @ u                     # generalised eigenvectors, ascending
+    q, r = np.linalg.qr(np.concatenate([v[:, :, :m], v[:, :, m:]], axis=2))
+    return q * np.where(np.diagonal(r, axis1=1, axis2=2) < 0, -1.0, 1.0)[:, None, :]
+
+
 def gram_schmidt_start(I: np.ndarray, m: int) -> np.ndarray:
     """The thesis's initial rotation (8.28): per-block eigenvectors, Gram-Schmidt.
 
@@ -167,6 +196,55 @@ def logdet_hessian(I, R, m: int, floor: float = 0.0, h: float = 1e-5) -> np.ndar
         _, gm = logdet_gradient(I, R @ cayley(-e.reshape(B, k - m, m), k, m), m, floor)
         H[:, :, j] = (gp - gm).reshape(B, d) / (2 * h)
     return 0.5 * (H + np.swapaxes(H, 1, 2))
+
+
+def logdet_scores(y: np.ndarray, R: np.ndarray, m: int, floor: float = 0.0) -> np.ndarray:
+    """Per-sample terms ``s_t`` (n, d) of the gradient of ``log det V`` in the Grassmann
+    coordinates at the frame R (k, k): ``g = mean_t s_t`` (:func:`logdet_gradient`).
+
+    With ``V = (1/n) sum nu_t nu_t^T + floor Id``, ``dV = (1/n) sum (dnu_t nu_t^T + ...)``
+    so ``d log det V = (1/n) sum_t 2 nu_t^T V^{-1} dnu_t``.  Tilting normal j toward free
+    direction i (``dN = T A``, ``dT = -N A^T``) changes ``nu_t = [N^T x_t; T^T w_t]`` by
+    ``e_j (T^T x_t)_i`` in the motion block and ``-e_i (N^T w_t)_j`` in the force block:
+    ``s_t[i, j] = 2 [(V^{-1} nu_t)_j (T^T x_t)_i - (V^{-1} nu_t)_{m+i} (N^T w_t)_j]``,
+    flattened row-major as the coordinates of :func:`logdet_hessian`.
+    """
+    k = R.shape[0]
+    x, w = y[:, :k], y[:, k:]
+    N, T = R[:, :m], R[:, m:]
+    nu = np.concatenate([x @ N, w @ T], axis=1)
+    V = nu.T @ nu / len(y) + floor * np.eye(k)
+    z = np.linalg.solve(V, nu.T).T                       # V^{-1} nu_t
+    tx, nw = x @ T, w @ N                                  # (n, k-m), (n, m)
+    s = 2.0 * (tx[:, :, None] * z[:, None, :m] - z[:, m:, None] * nw[:, None, :])
+    return s.reshape(len(y), -1)
+
+
+def long_run_covariance(s: np.ndarray) -> tuple[np.ndarray, int]:
+    """Long-run covariance ``sum_l Cov(s_t, s_{t-l})`` (d, d) of a series (n, d) and the lag
+    used: Bartlett weights (Newey and West 1987) with the bandwidth of Andrews (1991)'s
+    AR(1) plug-in rule, ``1.1447 (alpha n)^{1/3}``, at most n - 1.  For white scores it
+    is their covariance; slow disturbances (a compliant contact's penetration, friction
+    along a smooth motion) make neighbouring samples' scores alike, and the sum of their
+    autocovariances is what the variance of the mean score has."""
+    n, d = s.shape
+    s = s - s.mean(axis=0)
+    g0 = s.T @ s / n
+    if n < 3:
+        return g0, 0
+    a, b = s[1:], s[:-1]
+    rho = np.clip(np.einsum("ni,ni->i", a, b) / np.maximum(np.einsum("ni,ni->i", b, b),
+                                                            1e-300), -0.99, 0.99)
+    sig2 = np.einsum("ni,ni->i", a - rho * b, a - rho * b) / (n - 1)
+    num = np.sum(4 * rho ** 2 * sig2 ** 2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
+    den = np.sum(sig2 ** 2 / (1 - rho) ** 4)
+    alpha = num / den if den > 0 else 0.0
+    lag = int(min(n - 1, math.floor(1.1447 * (alpha * n) ** (1.0 / 3.0))))
+    omega = g0.copy()
+    for l in range(1, lag + 1):
+        gl = s[l:].T @ s[:-l] / n
+        omega += (1.0 - l / (lag + 1.0)) * (gl + gl.T)
+    return 0.5 * (omega + omega.T), lag
 
 
 def newton_logdet(I: np.ndarray, R0: np.ndarray, m: int, floor: float = 0.0, *,

@@ -15,7 +15,7 @@ Configurations (the five tables): stiffness form with / without the friction
 filter 8.29, constraint form (log-det criterion) with / without, constraint
 form on velocity with the filter; plus the thesis's own solver (Powell over
 Euler angles from the Gram-Schmidt start, 8.28) beside the library's default
-(batched Newton from the trace criterion's closed-form start) on the same draws.
+(batched Newton from the better of the trace and ratio starts) on the same draws.
 
 Choices (also on the page):
 - Sensor zeroing.  The thesis's sensor is "calibrated and zeroed" (8.1.1); the
@@ -83,9 +83,11 @@ class Config:
     def estimator(self, degree: int):
         if self.form == "stiffness":
             return CartesianStiffness(degree=degree, friction=self.friction, motion=self.motion)
-        start = "gram-schmidt" if self.solver == "powell" else "trace"
-        return CartesianConstraint(degree=degree, friction=self.friction, motion=self.motion,
-                                   solver=self.solver, start=start)
+        if self.solver == "powell":     # the thesis's search from its Gram-Schmidt start
+            return CartesianConstraint(degree=degree, friction=self.friction,
+                                       motion=self.motion, solver="powell",
+                                       start="gram-schmidt")
+        return CartesianConstraint(degree=degree, friction=self.friction, motion=self.motion)
 
 
 CONFIGS = (
@@ -108,6 +110,14 @@ def true_projection(normals: np.ndarray, scaling) -> np.ndarray:
     return joint_projection(scaling.normals_to_scaled(normals))
 
 
+def draw_reported_normals(gd: GroupData, s: np.ndarray) -> np.ndarray:
+    """The true normals (3, m) of a draw in the frame of the reported positions: the
+    orthonormalised mean of its samples' :attr:`GroupData.reported_normals` (each run
+    and place has its own, through the PHANToM's kinematic error)."""
+    q, _ = np.linalg.qr(gd.reported_normals[s].mean(axis=0))
+    return q
+
+
 # -- draws -----------------------------------------------------------------------------------
 def draw_errors(groups: dict[str, GroupData], *, seed: int, sizes=SAMPLE_SIZES,
                 draws: int = N_DRAWS, configs=CONFIGS, quiet: bool = True) -> dict:
@@ -128,7 +138,8 @@ def draw_errors(groups: dict[str, GroupData], *, seed: int, sizes=SAMPLE_SIZES,
         est = c.estimator(gd.degree)
         shape = (len(sizes), draws)
         res = {key: np.full(shape, np.nan) for key in ("deviation", "angle_deg", "loglik",
-                                                        "loglik_true", "iterations")}
+                                                        "loglik_true", "iterations",
+                                                        "normal_reported_deg")}
         res["determined"] = np.zeros(shape, dtype=bool)
         t0 = time.perf_counter()
         for i in range(len(sizes)):
@@ -143,6 +154,9 @@ def draw_errors(groups: dict[str, GroupData], *, seed: int, sizes=SAMPLE_SIZES,
                 if c.form == "constraint":
                     res["loglik_true"][i, j] = fit.loglik_at(gd.normals)
                 res["determined"][i, j] = fit.determined_
+                if 0 < gd.degree < 3 and gd.reported_normals is not None and fit.determined_:
+                    res["normal_reported_deg"][i, j] = float(angular_error_deg(
+                        fit.normals_, draw_reported_normals(gd, s)))
         seconds[c.key] += time.perf_counter() - t0
         out[c.key][g] = res
     out["seconds"] = seconds
@@ -157,6 +171,8 @@ def _table_stats(res: dict, sizes) -> dict:
     s["mean_angle_deg"] = float(np.mean(res["angle_deg"][sel]))
     s["median_angle_deg"] = float(np.median(res["angle_deg"][sel]))
     s["undetermined"] = int((~res["determined"][sel]).sum())
+    rep = res["normal_reported_deg"][sel]
+    s["mean_normal_reported_deg"] = float(np.nanmean(rep)) if np.isfinite(rep).any() else None
     # the optimiser missed: the true frame scores higher under the criterion than the estimate
     missed = res["loglik_true"][sel] > res["loglik"][sel] + 1e-6 * np.abs(res["loglik"][sel])
     s["optimum_missed"] = int(missed.sum())
@@ -176,7 +192,11 @@ def summarize(groups: dict[str, GroupData], errs: dict, *, seed: int, sizes=SAMP
             tables[c.key][g] = {
                 "degree": groups[g].degree, **_table_stats(r, sizes),
                 "mean_angle_by_size": {int(n): float(np.mean(r["angle_deg"][i]))
-                                       for i, n in enumerate(sizes)}}
+                                       for i, n in enumerate(sizes)},
+                "mean_normal_reported_by_size": (
+                    {int(n): float(np.nanmean(r["normal_reported_deg"][i]))
+                     for i, n in enumerate(sizes)}
+                    if np.isfinite(r["normal_reported_deg"]).any() else None)}
     powell = {}
     if "powell-friction" in errs and "constraint-friction" in errs:
         for g in groups:
@@ -198,6 +218,9 @@ def summarize(groups: dict[str, GroupData], errs: dict, *, seed: int, sizes=SAMP
         "table_sizes": f">= {TABLE_MIN_SIZE}",
         "groups": {g: {"samples": len(gd), "degree": gd.degree,
                        "normals": gd.normals.T.round(6).tolist(),
+                       **({"reported_vs_physical_deg": float(angular_error_deg(
+                           draw_reported_normals(gd, np.arange(len(gd))), gd.normals))}
+                          if 0 < gd.degree < 3 and gd.reported_normals is not None else {}),
                        "fraction_with_all_contacts": float(np.mean(gd.contact == gd.degree))}
                    for g, gd in groups.items()},
         "tables": tables, "powell": powell,
@@ -282,9 +305,17 @@ def write_report(groups, errs, summary: dict, out_dir: Path) -> None:
     for c in CONFIGS:
         for g in ("plane", "line"):
             by = summary["tables"][c.key][g]["mean_angle_by_size"]
-            rows.append([c.label, g] + [_fmt(by[n], 3) for n in sizes])
-    page.table(rows, columns=["configuration", "group"] + [f"n={n}" for n in sizes],
-               caption="Mean angular error (deg, plain mean of the angles) by sample size.")
+            rows.append([c.label, g, "physical (strict)"] + [_fmt(by[n], 3) for n in sizes])
+            rb = summary["tables"][c.key][g].get("mean_normal_reported_by_size")
+            if rb:
+                rows.append([c.label, g, "reported frame (generous)"]
+                            + [_fmt(rb.get(n, rb.get(str(n))), 3) for n in sizes])
+    page.table(rows, columns=["configuration", "group", "truth"] + [f"n={n}" for n in sizes],
+               caption="Mean angular error (deg, plain mean of the angles) by sample size. "
+                       "Physical: the joint projection against the surfaces' physical "
+                       "normals (as tables 8.1-8.5). Reported frame: the estimated normals "
+                       "against each draw's normals in the frame of the reported positions "
+                       "(J^-T n through the PHANToM's kinematic error).")
     page.figure(_fig_vs_size(errs, sizes, ["stiffness-friction", "stiffness"],
                              ["friction compensated (fig 8.1)", "no compensation"],
                              title="Figure 8.1: stiffness estimation, angular error against "
@@ -308,7 +339,7 @@ def write_report(groups, errs, summary: dict, out_dir: Path) -> None:
                               "mean error Powell (deg)", "mean error Newton (deg)"],
                caption=f"Powell's method over three Euler angles from the Gram-Schmidt start "
                        f"(8.28), the thesis's solver (thesis: {THESIS_POWELL_STEPS} steps), "
-                       "against the library's batched Newton from the trace start, same draws. "
+                       "against the library's batched Newton from the trace and ratio starts, same draws. "
                        "'Worse' = a lower log-likelihood than Newton's frame: a local minimum.")
     page.table([[c.label] + [f"{summary['tables'][c.key][g]['optimum_missed']} / "
                              f"{summary['tables'][c.key][g]['draws']}" for g in ("plane", "line")]
@@ -337,13 +368,25 @@ def _differences(summary: dict) -> list[str]:
         "One and two contacts, constraint form: plane "
         f"{t['constraint-friction']['plane']['angle_deg']:.2f} deg, line "
         f"{t['constraint-friction']['line']['angle_deg']:.2f} deg compensated (thesis 1.2 and "
-        "0.5). The simulator now carries the error sources the thesis names (8.1.1.2): the "
-        "PHANToM's kinematic error (about 1 deg per entry of its linear part, and the "
-        "curvature identified from '1 mm over 80 mm'), a 1 % calibration error of the "
-        "sensor, and wood blocks out of level by 0-11 deg per run; the true normals of a "
-        "group are those of its first run, so the other runs' tilts enter as error, as "
-        "against the thesis's assumed true frame. Without these (earlier versions) the "
-        "errors were 1e-4 deg.",
+        "0.5), against the surfaces' physical normals (the thesis's 'assumed true P'; the "
+        "strict reading). The error is flat in n (table by size) because it is a bias of "
+        "the apparatus, not of the estimator: the simulated PHANToM reports position "
+        "through its kinematic error (about 1 deg per entry of its linear part and the "
+        "curvature identified from '1 mm over 80 mm', 8.1.1.2), so in the frame of the "
+        "reported positions the surfaces' normals are J^-T n, not n; these differ from the "
+        f"physical normals by {summary['groups']['plane'].get('reported_vs_physical_deg', float('nan')):.2f} deg "
+        f"(plane) and {summary['groups']['line'].get('reported_vs_physical_deg', float('nan')):.2f} deg "
+        "(line) -- the size of the flat error. Measured against the normals in the reported "
+        "frame (each draw's own: the mean of J^-T n over its samples, so every run and place "
+        "gets its own truth) the compensated normals are off by "
+        f"{t['constraint-friction']['plane']['mean_normal_reported_deg']:.2f} deg (plane) and "
+        f"{t['constraint-friction']['line']['mean_normal_reported_deg']:.2f} deg (line): the "
+        "generous reading (table by size, 'reported frame'). What remains on the plane is the "
+        "force frame, which the kinematic error does not rotate: one orthonormal frame "
+        "cannot fit both, and the estimate lies between them. The thesis names the same "
+        "chain ('1-2 deg of angular error') as the limit of its own truth. "
+        "(Earlier versions of this page said the runs' tilts differ; they do not: every "
+        "run's plane lies 8 deg out of level.)",
         "Stiffness form: the thesis found it poor without friction compensation (78 deg for one "
         "contact) and usable with it (6.3 deg). Ours: plane "
         f"{t['stiffness']['plane']['angle_deg']:.1f} deg without, "
@@ -360,17 +403,19 @@ def _differences(summary: dict) -> list[str]:
     ]
     v = t["velocity-friction"]["line"]
     out.append(
-        f"Velocity-based, line: {v['angle_deg']:.1f} deg (thesis 0.59). In "
-        f"{v['optimum_missed']} of {v['draws']} draws the true frame scores a higher "
-        "log-likelihood than the estimate (the solver missed the optimum, from the trace and "
-        "from the Gram-Schmidt start alike); in the others the criterion itself prefers the "
-        "wrong frame. On the line about 80 % of samples are slower than the friction filter's "
-        "3 mm/s, stick friction along the line passes the filter, and in velocity units "
-        "(1 mm/s) the motion along the line "
-        "is smaller than that friction in force units (10 mN): declaring the line's direction "
-        "constrained and the crease direction free explains the data better. The "
-        "position-based rows do not suffer: position along the line varies by thousands of "
-        "units.")
+        f"Velocity-based, line: {v['angle_deg']:.2f} deg against the physical normals, "
+        f"{v['mean_normal_reported_deg']:.2f} deg against the reported frame (thesis 0.59). "
+        "An earlier version reported 83 deg here: a defect of the solver, not of the "
+        "criterion. The hand sticks on the rough wood for more than half of each run (median "
+        "speed 0.1 mm/s), the friction filter passes stopped samples, and in normalised units "
+        "the stick friction along the line (sd 0.7 N = 70 units) outweighs the velocity along "
+        "it (27 mm/s = 27 units). The trace criterion's start (eigenvectors of Ixx - Iww) "
+        "then takes the line's direction for a normal and Newton stayed in that basin, while "
+        "the true frame scores a higher log-likelihood (e.g. -2450 against -2607 on run 0). "
+        "The estimator now also starts from the generalised eigenvectors of Ixx against Iww "
+        "(each direction's motion relative to its force; the exact optimum when both are "
+        "diagonal in one frame) and keeps the better end point; "
+        f"{v['optimum_missed']} of {v['draws']} draws still score the true frame higher.")
     if pw:
         it = ", ".join(f"{g} {v['iterations_median']:g} ({v['iterations_min']}-"
                        f"{v['iterations_max']})" for g, v in pw.items())
@@ -383,8 +428,8 @@ def _differences(summary: dict) -> list[str]:
             "takes each free direction from the smallest eigenvectors of the uncentred force "
             "information, and on the line the force into the crease varies less than the "
             "friction along the line, so the start's free direction points into the crease and "
-            "Powell's line searches stay in that basin. The library's Newton from the trace "
-            "criterion's closed-form start finds the global optimum on the same draws; the "
+            "Powell's line searches stay in that basin. The library's Newton from the trace and ratio "
+            "starts finds the global optimum on the same draws; the "
             "tables' constraint rows use it.")
     return out
 
