@@ -30,7 +30,7 @@ HEADLINES: dict[str, tuple[str, str]] = {
     'hf-recognition': ('the observer with and without context, HMM peer',
         'test 63 % without, 80 % with context (thesis 66 / 95 %; 8 channels 76 / 93 %); HMM peer 84 %'),
     'cartesian-estimation': ('Cartesian constraint estimation',
-        "constraint form plane 3.1 deg, line 2.5 deg (thesis 1.2, 0.5) under the PHANToM's kinematic and the sensor's calibration error; stiffness form fails on the line"),
+        "constraint form plane 3.1 deg, line 2.5 deg from the physical normals (thesis 1.2, 0.5), 0.80 / 0.16 deg in the frame of the reported positions (the PHANToM's kinematic error turns it); stiffness form fails on the line"),
     'polygon-estimation': ('planar polygon estimation',
         'B, A accurate from length/noise 100, BB 800 (thesis ~100, ~1000)'),
     'constraint-degree': ('degree of constraint',
