@@ -382,8 +382,8 @@ class CartesianConstraint:
     exploration_threshold : see :mod:`.exploration`.
     max_tilt_sd_deg : a frame with a larger angular standard error is undetermined.
 
-    Example
-    -------
+    Examples
+    --------
     >>> fit = CartesianConstraint().estimate(position, force)   # (n, 3) each, SI units
     >>> fit.degree_, fit.normals_, fit.angle_sd_deg_, fit.loglik_
     """
