@@ -93,4 +93,4 @@ reproduce: $(STAMP)
 	$(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache docs/_build
