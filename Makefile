@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SEED   ?= 1
 
-.PHONY: all env demo test stress fuzz bench reproduce clean
+.PHONY: all env demo test docs stress fuzz bench reproduce clean
 
 all: test
 
@@ -54,6 +54,23 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
+## Build the documentation site into docs/_build/html/index.html (Sphinx, numpydoc,
+## the verbs' help, the file formats, the API from the docstrings, and the examples,
+## which run).  The sources are copied into docs/_build/src and built there, so every
+## generated file lands under docs/_build (untracked); any warning fails the build.
+DOCS_STAMP := $(VENV)/.docs-installed
+$(DOCS_STAMP): pyproject.toml $(STAMP)
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/pip install -q -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	rm -rf docs/_build/src docs/_build/html
+	mkdir -p docs/_build/src
+	cp -R $$(ls -d docs/* | grep -v '^docs/_build$$') docs/_build/src/
+	ln -sfn ../../datasets_spec docs/_build/datasets_spec
+	MPLBACKEND=Agg $(BIN)/python -m sphinx -W --keep-going -q -b html docs/_build/src docs/_build/html
+	@echo "documentation: docs/_build/html/index.html"
+
 ## Results under kills and concurrent stages at full count: 100 SIGKILLs during results
 ## writes, 20 concurrent segment + label pairs, 10 interrupted stages; and one, two and
 ## three SIGINT/SIGTERM or a SIGKILL at random moments of acquire (140 runs), import (42)
@@ -76,4 +93,4 @@ reproduce: $(STAMP)
 	$(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache docs/_build

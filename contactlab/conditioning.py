@@ -61,7 +61,7 @@ __all__ = [
     "Differencer", "LowpassDecimator", "LogEnergy", "StrainConditioner", "VelocityEstimator",
 ]
 
-#: floor under |y_d| before the logarithm when no quantisation step is known
+#: floor under ``|y_d|`` before the logarithm when no quantisation step is known
 DEFAULT_LOG_FLOOR = 1e-12
 
 _INITIAL = ("steady", "zero")

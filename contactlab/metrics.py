@@ -24,6 +24,8 @@ __all__ = ["confusion_matrix"]
 def confusion_matrix(true, chosen, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
     """``(counts, rates)`` over classes ``0 .. n_classes - 1`` (see the module notes).
 
+    Returns
+    -------
     counts : (n, n) int64, ``counts[i, j]`` samples of true class i chosen as j.
     rates : (n, n) float, counts divided by the number of samples of true class i
         (undetermined choices included); NaN rows for classes without samples.

@@ -203,8 +203,8 @@ class ConstraintFit:
     information_ : (2k, 2k) joint information I (8.19), normalised units.
     explored_ : whether every direction had motion or force (exploration).
     unexplored_ : (k, u) directions lacking information (normalised units).
-    status_ : "ok" or "undetermined"; reason_ says why.
-    n_ : number of samples; iterations_ : solver iterations.
+    status_ : "ok" or "undetermined"; ``reason_`` says why.
+    n_ : number of samples; ``iterations_``: solver iterations.
     scaling : the :class:`~contactlab.constraints.scaling.Scaling` used.
     """
 
@@ -387,8 +387,8 @@ class CartesianConstraint:
     uncertainty : "hac" (default) or "iid": how the frame's standard error counts
         correlated samples (:meth:`_uncertainty`).
 
-    Example
-    -------
+    Examples
+    --------
     >>> fit = CartesianConstraint().estimate(position, force)   # (n, 3) each, SI units
     >>> fit.degree_, fit.normals_, fit.angle_sd_deg_, fit.loglik_
     """

@@ -233,10 +233,11 @@ class SquareRootKalman:
     noise_prior_count : pseudo-count of the initial ``noise_sqrt`` in the
         running estimate (``n`` of A.38 starts at ``noise_prior_count + 1``).
 
-    State (after :meth:`filter` / :meth:`update`)
-    ---------------------------------------------
-    theta_ : (B, p) ``theta(n+1|n)``;  theta_sqrt_ : (B, p, p) ``V_theta^{1/2}(n+1|n)``;
-    noise_sqrt_ : (B, m, m) the ``V_nu^{1/2}`` the next step will use;
+    Attributes
+    ----------
+    theta_ : (B, p) ``theta(n+1|n)`` after :meth:`filter` / :meth:`update`.
+    theta_sqrt_ : (B, p, p) ``V_theta^{1/2}(n+1|n)``.
+    noise_sqrt_ : (B, m, m) the ``V_nu^{1/2}`` the next step will use.
     n_samples_ : samples filtered since the start / :meth:`reset`.
     """
 

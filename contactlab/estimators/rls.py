@@ -217,8 +217,8 @@ class SquareRootRLS:
         least squares; the a priori errors are then NaN until the leading
         blocks of R are non-singular.
 
-    State (after :meth:`run` / :meth:`update`)
-    ------------------------------------------
+    Attributes
+    ----------
     factor_ : (B, p+1, p+1) augmented factor ``[[R, 0], [k~^T, e]]``.
     info_sqrt_ : (B, p, p) R (lower-triangular, ``I = R R^T``, A.11).
     reflection_ : (B, p) k~ (A.12).

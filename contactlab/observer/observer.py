@@ -243,6 +243,8 @@ class ObserverStep:
 class ObserverResult:
     """A whole trace: per-sample arrays, the events, and the final paths.
 
+    Attributes
+    ----------
     map_path : ``[(node name, start sample), ...]`` of the most probable path at
         the end (the MAP path with its event times).
     labels : (n,) node index per sample along ``map_path`` (retrospective).

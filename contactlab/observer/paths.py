@@ -48,6 +48,8 @@ class PathInfo:
 class ChangeEvent:
     """A change detected on a path, or a pruning step (``model is None``).
 
+    Attributes
+    ----------
     time : sample at which the detector crossed ``T^2`` (6.16).
     path, node, model : the spawning path's id, its node, the model (role) whose
         detector fired.

@@ -39,6 +39,8 @@ ROTATION_TOL = 1e-9      # rad: below this peak-to-peak the data hold no rotatio
 class PolygonNoise:
     """Measurement standard deviations defining the unit-free scaling (8.7-8.9).
 
+    Attributes
+    ----------
     velocity : translational velocity (length per sample)
     force : force
     length : the length unit linking rotation to translation: angular-velocity
@@ -79,6 +81,8 @@ class PolygonNoise:
 class PolygonEstimate:
     """A planar contact estimate.
 
+    Attributes
+    ----------
     contacts : estimated contacts (two contacts: one member of the family of
         equivalent mechanisms; compare with ``tableau``); empty for line-line
     parameters, standard_errors : named geometric parameters (angles in rad)

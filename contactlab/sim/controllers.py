@@ -245,7 +245,7 @@ class IntegralForceController:
     e.g. (100, -100, 200)); each holds until the next.  x_d' = Ki (f_d - f)
     with f estimated from the sensor (shell gravity compensated), and a PD loop
     tracks x_d.  ``integral_gain`` Ki (m/(N s)) sets the damper: free-space
-    speed = Ki |f_d|.  ``damping`` defaults to a damping ratio of 0.7 on the
+    speed = ``Ki |f_d|``.  ``damping`` defaults to a damping ratio of 0.7 on the
     tracking loop.
 
     ``stiffness`` (N/m) defaults to the cascade rule 1 / (4 Ki^2 m) (m the moving

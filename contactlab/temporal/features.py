@@ -42,6 +42,8 @@ def min_block(order: int, mean: bool) -> int:
 class BlockFeatures:
     """Features of K blocks of C channels (see the module notes).
 
+    Attributes
+    ----------
     orthogonal : (K, C, q) orthogonal parameters k (7.3), thesis order
         ``{mu, a_1, ...}`` when the model has a mean.
     coef : (K, C, q) natural AR parameters theta (A.13).

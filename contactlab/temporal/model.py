@@ -45,6 +45,8 @@ class TemporalModel:
     """One class (node) of one conditioned signal: per channel, the prior of the
     orthogonal parameters and the driving-noise variance (A.2.3, 7.2.2).
 
+    Attributes
+    ----------
     label : the class name.
     order, mean : AR(order) with a constant regressor if ``mean`` (q = order + mean
         parameters, thesis order ``{mu, a_1, ...}``).
