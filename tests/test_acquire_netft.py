@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+import time
 
 import numpy as np
 import pytest
@@ -154,6 +155,31 @@ def test_stream_that_stops_midway_is_an_error():
         (trial,) = source(fake.port, timeout_s=0.2).trials(n_trials=1, seed=0)
         with pytest.raises(DataError, match="stopped after 30 sequence numbers"):
             list(trial.chunks())
+
+
+def test_records_before_a_stall_reach_the_consumer_before_the_error():
+    # 130 records: one full chunk of 100 and 30 more that arrived before the stall
+    with FakeNetFT([record(0, o) for o in range(130)]) as fake:
+        (trial,) = source(fake.port, duration_s=1.0).trials(n_trials=1, seed=0)
+        got = []
+        with pytest.raises(DataError, match="stopped after 130 sequence numbers"):
+            for chunk in trial.chunks():
+                got.append(len(chunk["time"]))
+        assert got == [100, 30]
+
+
+def test_a_slow_consumer_is_not_a_wrong_rate():
+    # the consumer pauses 1.2 s on the first chunk (an observer loading its kernels):
+    # the records wait in the receive buffer, and the rate is judged only once the reader
+    # is caught up with the box
+    with FakeNetFT([record(0, o) for o in range(1500)], pace_hz=1000) as fake:
+        (trial,) = source(fake.port, duration_s=1.5).trials(n_trials=1, seed=0)
+        n = 0
+        for k, chunk in enumerate(trial.chunks()):
+            if k == 0:
+                time.sleep(1.2)
+            n += len(chunk["time"])
+        assert n == 1500
 
 
 def test_malformed_packet_is_one_line_error():

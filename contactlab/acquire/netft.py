@@ -225,6 +225,7 @@ class NetFTTrial:
         buffer: list[bytes] = []
         offsets: list[int] = []
         while last < n_target - 1:
+            asked = _time.monotonic()
             try:
                 packet = sock.recv(RECORD.size + 64)
             except socket.timeout:
@@ -234,11 +235,18 @@ class NetFTTrial:
                 if src.sample_count:          # the box sent what was asked; the tail is lost
                     stats["dropped_packets"] += n_target - 1 - last
                     break
+                if buffer:                    # what arrived before the stall is kept
+                    yield self._decode(buffer, offsets)
+                    buffer, offsets = [], []
                 raise self._error(f"packets from {self._where} stopped after {last + 1} "
                                   f"sequence numbers (none within {src.timeout_s:g} s)") from None
             except ConnectionRefusedError:
                 raise self._error(f"{self._where} refused the RDT request "
                                   "(no Net F/T listening there)") from None
+            # the receive buffer was empty (this packet was waited for): the reader is caught
+            # up, so the packets counted so far are all the box has sent -- the only moment
+            # the count measures the box's rate and not a slow consumer's lag
+            caught_up = _time.monotonic() - asked > 0.5 / src.rate_hz
             if len(packet) != RECORD.size:
                 raise self._error(f"malformed RDT packet from {self._where}: {len(packet)} "
                                   f"bytes, expected {RECORD.size}")
@@ -263,7 +271,8 @@ class NetFTTrial:
             last = offset
             buffer.append(packet)
             offsets.append(offset)
-            if not rate_checked and _time.monotonic() - wall0 >= RATE_CHECK_S:
+            if (not rate_checked and caught_up
+                    and _time.monotonic() - wall0 >= RATE_CHECK_S):
                 rate_checked = True
                 self._check_rate(last, _time.monotonic() - wall0)
             if len(buffer) >= CHUNK_RECORDS:

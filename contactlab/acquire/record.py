@@ -65,6 +65,25 @@ def record(source, *, out: str | Path, n_trials: int, seed: int, append: bool = 
             "seed": seed, "source": getattr(source, "name", type(source).__name__)}
 
 
+def finish_trial(trial, stream, *, truth: bool = True) -> None:
+    """Write what a source knows once its trial has ended into the trial being written:
+    its ground truth (``stream.ground_truth()``: labels and segments, and the simulator's
+    per-sample truth; skipped when ``truth`` is False) and its optional extra datasets of
+    one row per sample (hardware bookkeeping, ``stream.extra_datasets()``)."""
+    gt = stream.ground_truth() if truth else None
+    if gt:
+        gt = dict(gt)
+        extra = gt.pop("truth", None)
+        if "labels" in gt:
+            trial.set_ground_truth(**gt)
+        if extra:
+            trial.set_truth(**extra)
+    extra = getattr(stream, "extra_datasets", None)  # optional: hardware bookkeeping
+    for name, data in (extra() if extra else {}).items():
+        if len(data) == trial.n_samples:
+            trial.set_extra(name, data)
+
+
 def _record_trial(writer, stream, *, quiet: bool) -> None:
     info = stream.info
     trial = writer.add_trial(
@@ -80,17 +99,7 @@ def _record_trial(writer, stream, *, quiet: bool) -> None:
             progress.update(len(chunk["time"]))
     finally:
         progress.close()
-    truth = stream.ground_truth()
-    if truth:
-        truth = dict(truth)
-        extra = truth.pop("truth", None)
-        if "labels" in truth:
-            trial.set_ground_truth(**truth)
-        if extra:
-            trial.set_truth(**extra)
-    extra = getattr(stream, "extra_datasets", None)  # optional: hardware bookkeeping
-    for name, data in (extra() if extra else {}).items():
-        trial.set_extra(name, data)
+    finish_trial(trial, stream)
     attrs = {**info.attrs, **(stream.final_attrs() or {})}
     trial.set_attrs(attrs)
     trial.close()

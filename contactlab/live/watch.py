@@ -280,18 +280,9 @@ def _end_trial(tw: TrialWatch, stream, stage, emit, results, trial_writer, *, ok
           "path": [[n, tt(s)] for n, s in merged], "revised": bool(revised)})
     if trial_writer is None:
         return
-    truth = stream.ground_truth() if ok else None
-    if truth:
-        truth = dict(truth)
-        extra = truth.pop("truth", None)
-        if "labels" in truth:
-            trial_writer.set_ground_truth(**truth)
-        if extra:
-            trial_writer.set_truth(**extra)
-    extra = getattr(stream, "extra_datasets", None)
-    for name, data in (extra() if extra else {}).items():
-        if len(data) == trial_writer.n_samples:
-            trial_writer.set_extra(name, data)
+    from contactlab.acquire.record import finish_trial
+
+    finish_trial(trial_writer, stream, truth=ok)
     attrs = {**stream.info.attrs, **(stream.final_attrs() or {}), "watch_complete": ok}
     trial_writer.set_attrs(attrs)
     trial_writer.close()
