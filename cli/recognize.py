@@ -45,6 +45,12 @@ from contactlab.cli.inputs import checks_archive
                    "log p of the edge, where the graph's edge sets give probabilities (a "
                    "forward projection's or EM's); 'none': every allowed transition alike, as "
                    "in 6.4.  Graphs without probabilities are the same either way.")
+@click.option("--transient-max", "transient_max", type=float,
+              default=D.OBSERVER_TRANSIENT_MAX_S, show_default=True, metavar="SECONDS",
+              help="The longest a path stays in a transient (impact) node; then the samples "
+                   "after go to the node's successors, as after a detected change.  0: no "
+                   "limit (6.4 as written).  A stated default, about twice the longest impact "
+                   "labelled in the simulated hf training runs.")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
@@ -67,7 +73,7 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, transitions, label_map, trials, explain, no_write, csv_out, force, workers,
+              sides, transitions, transient_max, label_map, trials, explain, no_write, csv_out, force, workers,
               scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
@@ -119,6 +125,9 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         raise click.BadParameter(f"must be in (0, 1]; got {p_prune}", param_hint="'--prune'")
     if not gap > 0:
         raise click.BadParameter(f"must be > 0; got {gap}", param_hint="'--gap'")
+    if not transient_max >= 0:
+        raise click.BadParameter(f"must be >= 0; got {transient_max}",
+                                 param_hint="'--transient-max'")
     act = action
     if action is not None and action.lstrip("-").isdigit():
         act = int(action)
@@ -143,7 +152,8 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
                            write=not no_write and explain is None, label_map=lmap,
-                           transitions=transitions, keep=csv_out is not None)
+                           transitions=transitions, keep=csv_out is not None,
+                           transient_max_s=transient_max)
     if explain is not None:
         _explain(stage, archives, explain, csv_out, as_json)
         return

@@ -36,8 +36,9 @@ from __future__ import annotations
 import numpy as np
 
 from contactlab.observer.observer import Observer, SIDE_TESTS, observe
-from contactlab.observer.recognize import detection_delays, merge_path, trial_actions
-from contactlab.signals import relabel, trial_signals, truth_codes
+from contactlab.observer.recognize import (detection_delays, merge_path, observer_setup,
+                                          trial_actions)
+from contactlab.signals import relabel, truth_codes
 
 __all__ = ["explain_trial", "format_explanation", "EXPLAIN_WINDOW_S"]
 
@@ -133,9 +134,8 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
                   observer_kw: dict | None = None, label_map: dict | None = None,
                   window_s: float = EXPLAIN_WINDOW_S, path=None) -> dict:
     """The explanation of one trial's recognition (module notes) as a JSON-able dict."""
-    kw = dict(observer_kw or {})
+    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
     obs = Observer(graph, models, **kw)
-    data, index, fs = trial_signals(trial, obs.signals, reduce=reduce, path=path)
     data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in data.items()}
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act)
