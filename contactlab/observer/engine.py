@@ -151,8 +151,7 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
             al_r[nA] = rs[i]
             nA += 1
     # a transient node held for its longest duration ends (tmax): an alarm at the end
-    # of its duration, to every successor (a limited transient never restarts itself, so
-    # its one segment is its whole stay), and the path is dropped below
+    # of its duration, to every successor but itself, and the path is dropped below
     nA_det = nA
     for p in range(nP):
         tm = tmax[pnode[p]]
@@ -172,8 +171,8 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
         node = pnode[al_p[i]]
         for jj in range(n_succ[a1, node]):
             j = succ[a1, node, jj]
-            if j == node and tmax[node] > 0:
-                continue                         # a limited transient does not restart
+            if i >= nA_det and j == node:
+                continue                         # an ended transient goes on elsewhere
             seen = False
             for c in range(nC):
                 if c_j[c] == j and c_r[c] == r:

@@ -291,8 +291,9 @@ class Observer:
         limit, as in 6.4).  A path held that long ends there: the samples after it go to
         fresh successors of every other node the graph allows (started at the end of the
         duration from their best predecessor, as for a detected change) and the transient
-        path is dropped; a limited transient node does not restart itself (its one
-        segment is its whole stay).  An impact (5.1) is a transition feature of finite duration; a
+        path is dropped.  The limit is per segment: a detected change on the transient
+        path may still restart it (a second impact; on the switching suite forbidding
+        that cost 3 points).  An impact (5.1) is a transition feature of finite duration; a
         decay model whose level the estimator can track would otherwise hold a later
         contact indefinitely.
     transitions : ``"graph"`` (default): where the graph's edge set for the current action
@@ -757,8 +758,7 @@ class Observer:
             alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
                           for r in rs)
         # a transient node held for its longest duration ends: an alarm at the end of its
-        # duration to every successor (a limited transient never restarts itself, so its
-        # one segment is its whole stay); the path is dropped (below)
+        # duration to every successor but itself; the path is dropped (below)
         n_det = len(alarms)
         for pi, p in enumerate(self._paths):
             tm = int(self._tmax[p.node])
@@ -775,8 +775,8 @@ class Observer:
             a, js = by_start[r]
             node = self._paths[pi].node
             for j in self._successors(node, a):
-                if j == node and self._tmax[node] > 0:
-                    continue                    # a limited transient does not restart
+                if i >= n_det and j == node:
+                    continue                    # an ended transient goes on elsewhere
                 if (j, r) not in cands:
                     cands[(j, r)] = None
                     js.append(j)
