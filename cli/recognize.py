@@ -45,10 +45,22 @@ from contactlab.cli.inputs import checks_archive
                    "log p of the edge, where the graph's edge sets give probabilities (a "
                    "forward projection's or EM's); 'none': every allowed transition alike, as "
                    "in 6.4.  Graphs without probabilities are the same either way.")
+@click.option("--transient-max", "transient_max", type=float,
+              default=D.OBSERVER_TRANSIENT_MAX_S, show_default=True, metavar="SECONDS",
+              help="The longest a path stays in a transient (impact) node; then the samples "
+                   "after go to the node's successors, as after a detected change.  0: no "
+                   "limit (6.4 as written).  A stated default, about twice the longest impact "
+                   "labelled in the simulated hf training runs.")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
+@click.option("--explain", "explain", default=None, metavar="TRIAL",
+              help="Explain the recognition of one trial instead (nothing written): per true "
+                   "transition, what each detector of the path's models did at the change, "
+                   "the hypotheses started and pruned (and why), and how well each node's "
+                   "model explains the 0.25 s after it; and how the models alone label the "
+                   "true segments.  Needs ground truth named like the graph's nodes.")
 @click.option("--no-write", is_flag=True, help="Do not write results/recognize.")
 @click.option("--csv", "csv_out", default=None, metavar="OUT.csv",
               type=click.Path(dir_okay=False, path_type=Path),
@@ -61,8 +73,8 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, transitions, label_map, trials, no_write, csv_out, force, workers, scheduler,
-              as_json, quiet):
+              sides, transitions, transient_max, label_map, trials, explain, no_write, csv_out, force, workers,
+              scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -83,6 +95,8 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
       contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 --json
       contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 \\
           --no-write --csv wrist-path.csv
+      contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
+          --models graph-models.h5 --explain hf-000
 
     The defaults (T^2 8, q 2, the covariance-increase test plus a two-sided
     mean test) are the best settings found on the switching benchmark suite
@@ -111,6 +125,9 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         raise click.BadParameter(f"must be in (0, 1]; got {p_prune}", param_hint="'--prune'")
     if not gap > 0:
         raise click.BadParameter(f"must be > 0; got {gap}", param_hint="'--gap'")
+    if not transient_max >= 0:
+        raise click.BadParameter(f"must be >= 0; got {transient_max}",
+                                 param_hint="'--transient-max'")
     act = action
     if action is not None and action.lstrip("-").isdigit():
         act = int(action)
@@ -134,8 +151,12 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         raise click.UsageError("--force goes with --csv")
     stage = RecognizeStage(graph=g, models=models_file, action=act, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
-                           write=not no_write, label_map=lmap, transitions=transitions,
-                           keep=csv_out is not None)
+                           write=not no_write and explain is None, label_map=lmap,
+                           transitions=transitions, keep=csv_out is not None,
+                           transient_max_s=transient_max)
+    if explain is not None:
+        _explain(stage, archives, explain, csv_out, as_json)
+        return
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
     runs = {path: summary.pop("_runs", []) for path, summary in summaries.items()}
@@ -185,3 +206,29 @@ def _echo(archive, summary):
     if summary["written"]:
         click.echo(f"results written to {archive} (results/recognize)")
 
+
+
+def _explain(stage, archives, trial_id: str, csv_out, as_json: bool) -> None:
+    """``--explain TRIAL``: :func:`contactlab.observer.explain.explain_trial` on one trial."""
+    from contactlab.archive import open_archive
+    from contactlab.cli.common import echo_json
+    from contactlab.observer.explain import explain_trial, format_explanation
+
+    if len(archives) != 1:
+        raise click.UsageError("--explain reads one archive")
+    if csv_out is not None:
+        raise click.UsageError("--explain writes no --csv")
+    with open_archive(archives[0]) as arch:
+        if trial_id not in arch.trial_ids:
+            raise click.BadParameter(f"no trial {trial_id!r} in {archives[0]}",
+                                     param_hint="'--explain'")
+        trial = arch.trial(trial_id)
+        label_map, _ = stage._trial_label_map(trial)
+        ex = explain_trial(trial, stage.graph, stage.built, reduce=stage.models.reduce,
+                           action=stage.action, observer_kw=stage.observer_kw,
+                           label_map=label_map, path=archives[0])
+    if as_json:
+        echo_json(ex)
+        return
+    for line in format_explanation(ex):
+        click.echo(line)

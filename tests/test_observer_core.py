@@ -383,3 +383,68 @@ def test_first_orthogonal_parameter_is_the_level():
         y[t] = -3.0 + 0.5 * y[t - 1] + rng.normal()
     fit = estimate(ARModel(order=1, mean=True), y[:, None])
     assert fit.orthogonal[0, 0] == pytest.approx(y[1:].mean(), rel=1e-9)
+
+
+def _held_impact(seed):
+    """Rest (A), an impact at 300, then a contact 2 above the level the tight contact model
+    C knows: the adaptive decay model I tracks the contact and no test of it fires."""
+    P = {"A": (0.0, 0.5, 1.0), "C": (3.0, 0.5, 1.0)}
+    y = simulate([("A", 0), ("C", 300)], 1200, seed, params=P)
+    y[300:340] += 8 * np.exp(-np.arange(40) / 10)
+    y[300:] += 2.0
+
+    def models(temporal, impact):
+        out = {k: temporal(name=k, order=1, mean=True, theta_mean=[mu, a], theta_sqrt=[0.01, 0.01],
+                           noise_var=v, structure="plain") for k, (mu, a, v) in P.items()}
+        out["I"] = impact(name="I", theta_mean=[6.0, -0.05], theta_sqrt=[2.0, 0.05], noise_var=1.0)
+        return out
+
+    class GeneralImpact(ImpactFeature):
+        def kalman_spec(self, channels):
+            return None
+
+    g = parse_graph({"name": "t", "models": {"A": {"kind": "temporal"}, "C": {"kind": "temporal"},
+                                             "I": {"kind": "impact"}},
+                     "nodes": [{"name": "A", "models": "A", "initial": 1.0},
+                               {"name": "C", "models": "C"},
+                               {"name": "I", "models": "I", "transient": True}],
+                     "edges": ["A -> I", "I -> C", "C -> A", "A -> C"]})
+    return y, g, models(TemporalFeature, ImpactFeature), models(General, GeneralImpact)
+
+
+def _runs(history, node, n):
+    """(start, end) of each maximal run of ``node`` along a path history."""
+    out, bounds = [], [s for _, s in history[1:]] + [n]
+    for (nd, s), e in zip(history, bounds):
+        if nd == node:
+            if out and out[-1][1] == s:
+                out[-1] = (out[-1][0], e)
+            else:
+                out.append((s, e))
+    return out
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_transient_node_ends_after_its_longest_duration(seed):
+    """6.4 as written keeps an impact node whose decay model tracks the contact after it
+    to the end of the run; with ``transient_max`` no path stays in the transient node
+    longer, the contact after it is labelled C, and the compiled core and the general
+    form give the same results."""
+    y, g, fast_models, slow_models = _held_impact(seed)
+    n, tm = len(y), 60
+    held = observe(Observer(g, fast_models), y)
+    assert max(e - s for s, e in _runs(held.map_path, "I", n)) > 500      # the failure mode
+    core = Observer(g, fast_models, transient_max=tm)
+    fast = observe(core, y, chunk=257)
+    slow = observe(Observer(g, slow_models, transient_max=tm), y, chunk=257)
+    assert core._core is not None
+    assert_same_observer_results(fast, slow)
+    assert any(e.model == "I" for e in fast.events)
+    # the limit is per segment (a detected change may restart the impact, a second one)
+    for p in fast.paths:
+        bounds = [s for _, s in p.history[1:]] + [n]
+        assert all(e - s <= tm for (nd, s), e in zip(p.history, bounds) if nd == "I")
+    assert max(e - s for s, e in _runs(fast.map_path, "I", n)) < 3 * tm
+    assert np.all(fast.labels[300 + 3 * tm:] == g.node_names.index("C"))
+    with pytest.raises(ValueError, match="transient_max"):
+        Observer(g, fast_models, transient_max=0)

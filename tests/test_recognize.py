@@ -245,3 +245,38 @@ def test_recognize_transitions_option_weighs_edge_probabilities(files, tmp_path)
     r = run_cli("recognize", files["test"], "--graph", g, "--models", files["models"],
                 "--action", "go", "--transitions", "hmm", "--no-write")
     assert r.exit_code != 0 and "Traceback" not in r.output
+
+
+def test_explain_names_each_true_transition_and_why(files, tmp_path):
+    """--explain: one entry per true label change (counted from the plan), each detected
+    on clean switching; with detectors that can never cross, every change is reported
+    missed with no alarm although the detectors' statistics rise far past 8."""
+    import shutil
+    arc = tmp_path / "test.h5"
+    shutil.copy(files["test"], arc)
+    args = ("recognize", arc, "--graph", files["graph"], "--models", files["models"])
+    r = run_cli(*args, "--explain", "te0", "--json")
+    assert r.exit_code == 0, r.output
+    ex = one_json_object(r.stdout)
+    plan = TEST["te0"]
+    assert [(t["from"], t["to"]) for t in ex["transitions"]] == \
+        [(a[0], b[0]) for a, b in zip(plan[:-1], plan[1:])]
+    assert all(t["verdict"] == "detected" for t in ex["transitions"])
+    assert all(abs(t["delay"]) <= ex["window_samples"] for t in ex["transitions"])
+    # levels 2.3 apart: the models alone label every true segment, with a clear margin
+    assert ex["segment_accuracy"] == 1.0
+    assert all(s["margin"] > 10 for s in ex["segments"])
+    # nothing written by --explain
+    with open_archive(arc) as a:
+        assert "recognize" not in a.trial("te0").result_stages()
+    r = run_cli(*args, "--explain", "te0", "--json", "--threshold", "1e9")
+    ex = one_json_object(r.stdout)
+    assert len(ex["path"]) == 1
+    for t in ex["transitions"]:
+        assert t["verdict"] == "no alarm" and t["events"] == []
+        assert max(d["max"] for d in t["detectors"]) > 8
+        assert all(d["crossed"] is None for d in t["detectors"])
+    r = run_cli(*args, "--explain", "te0")
+    assert r.exit_code == 0 and "A -> C at" in r.output
+    r = run_cli(*args, "--explain", "nope")
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1

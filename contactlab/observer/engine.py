@@ -114,7 +114,7 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     of each new path for the caller's catch-up (``scr``: :func:`run_core`'s scratch
     arrays for the events).  Returns the number of new paths."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp) = cfg
+     nk_list, q_max, mp, tmax) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -150,6 +150,19 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
             al_k[nA] = umodel[u]
             al_r[nA] = rs[i]
             nA += 1
+    # a transient node held for its longest duration ends (tmax): an alarm at the end
+    # of its duration, to every successor but itself, and the path is dropped below
+    nA_det = nA
+    for p in range(nP):
+        tm = tmax[pnode[p]]
+        if tm > 0 and ta - pstart[p] >= tm:
+            for u in range(nU):
+                if upath[u] == p:
+                    al_p[nA] = p
+                    al_k[nA] = umodel[u]
+                    al_r[nA] = pstart[p] + tm
+                    nA += 1
+                    break
     # candidates (step 1) in alarm order, each from its best tracked predecessor
     nC = 0
     for i in range(nA):
@@ -158,6 +171,8 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
         node = pnode[al_p[i]]
         for jj in range(n_succ[a1, node]):
             j = succ[a1, node, jj]
+            if i >= nA_det and j == node:
+                continue                         # an ended transient goes on elsewhere
             seen = False
             for c in range(nC):
                 if c_j[c] == j and c_r[c] == r:
@@ -242,6 +257,8 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
         spt[cnt[C_SP], 0] = j
         spt[cnt[C_SP], 1] = r
         cnt[C_SP] += 1
+    for i in range(nA_det, nA):                  # the ended transients leave
+        pll[al_p[i]] = -np.inf
     # the event's alarms, spawned and merged (its record is completed by _prune)
     e = cnt[C_EV]
     evt[e, E_TA] = ta
@@ -267,7 +284,7 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     complete the event record; move the kept paths and their units to the front (``scr``:
     :func:`run_core`'s scratch arrays for the events)."""
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp) = cfg
+     nk_list, q_max, mp, tmax) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -573,7 +590,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     :func:`_step2_b` (their covariances).
     """
     (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp) = cfg
+     nk_list, q_max, mp, tmax) = cfg
     (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
      pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
     evt, alt, candt, keept, spt, mgt = ev
@@ -896,6 +913,9 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     ha[hr, pslot[p]] = pll[p]
                     if pll[p] < best - gap:
                         event = True
+                    tm = tmax[pnode[p]]
+                    if tm > 0 and t - pstart[p] >= tm:
+                        event = True
             # pass 3 of the two-parameter step, after the sample's bookkeeping
             _step2_covariances(nb, act, mid, ust)
             nb = 0
@@ -906,6 +926,10 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     for si in range(S):
                         if udf[u, si] > thr:
                             nA += 1
+                for p in range(nP):
+                    tm = tmax[pnode[p]]
+                    if tm > 0 and t - pstart[p] >= tm:
+                        nA += 1
                 nC = nA * deg
                 if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
                         and cnt[C_SLOTS] + nC <= ha.shape[1]
@@ -965,7 +989,7 @@ class Core:
 
     def __init__(self, *, specs: list[dict], node_kinds: list[list[int]], side_a, side_b,
                  side_src, threshold: float, gap: float, p_keep: float, max_paths: int | None,
-                 succ, n_succ, log_t):
+                 succ, n_succ, log_t, tmax=None):
         M = len(specs)
         kal = [s for s in specs if s["reg"] < REG_VELOCITY]
         direct = [s for s in specs if s["reg"] >= REG_VELOCITY]
@@ -1006,14 +1030,18 @@ class Core:
                         s["col"], s["channels"], s.get("mode", 0),
                         int(s.get("estimate_noise", False))] for s in specs], np.int64)
         mf = np.array([s.get("noise_prior_count", 0.0) for s in specs], np.float64)
+        # per node, the longest a transient node is held (samples; 0: no limit)
+        tmax = np.zeros(K, np.int64) if tmax is None else tmax
         self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
                     np.ascontiguousarray(side_b, np.float64),
                     np.ascontiguousarray(side_src, np.int64),
                     pst, float(threshold), float(gap), float(p_keep),
                     -1 if max_paths is None else int(max_paths),
                     np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
-                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax, mp)
+                    np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax, mp,
+                    np.ascontiguousarray(tmax, np.int64))
         self.S = len(side_src)
+        self._t_event = 0
         self.cnt = np.zeros(N_COUNTERS, np.int64)
         self._acts = None
 
@@ -1064,6 +1092,8 @@ class Core:
         c = self.cnt
         nP, nU = int(c[C_P]), int(c[C_U])
         nA = int((self.units_["df"][:nU] > self.cfg[6]).sum())
+        tmax = self.cfg[17][self.paths_["node"][:nP]]
+        nA += int(((tmax > 0) & (self._t_event - self.paths_["start"][:nP] >= tmax)).sum())
         nC = nA * self.deg
         if nP + nC > len(self.paths_["id"]):
             self._alloc_paths(_cap(nP + nC, 0))
@@ -1160,6 +1190,7 @@ class Core:
                             ev[3][:c[C_KEEP]], ev[4][:c[C_SP]], ev[5][:c[C_MG]])
             c[C_EV:] = 0
             pending = status == FULL
+            self._t_event = t
 
 
 @numba.njit(cache=True)

@@ -135,12 +135,14 @@ def _detector_row(df, last_zero, x, t):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  # pragma: no cover
+def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap, p_start,
+             p_tmax):  # pragma: no cover
     """Advance detectors (6.18) and path sums from row 0; stop at the first event.
 
-    Returns the row of the first event (a crossing or a path ``gap`` below the
-    best) after completing it, or ``n`` if none.  ``trace[i, p]`` receives the
-    path log-likelihoods after row i.
+    Returns the row of the first event (a crossing, a path ``gap`` below the
+    best, or a transient path held ``p_tmax`` samples since ``p_start``) after
+    completing it, or ``n`` if none.  ``trace[i, p]`` receives the path
+    log-likelihoods after row i.
     """
     n, U, S = xi.shape
     P = path_ll.shape[0]
@@ -155,6 +157,8 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap):  
         for p in range(P):
             trace[i, p] = path_ll[p]
             if path_ll[p] < best - gap:
+                event = True
+            if p_tmax[p] > 0 and t0 + i - p_start[p] >= p_tmax[p]:
                 event = True
         if event:
             return i
@@ -285,6 +289,15 @@ class Observer:
         ``sqrt(q - 1)``; the default, best on the switching suite) or ``"all"``.
     max_paths : optional beam width cap after pruning.
     initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
+    transient_max : the longest a path stays in a transient node (samples), or None (no
+        limit, as in 6.4).  A path held that long ends there: the samples after it go to
+        fresh successors of every other node the graph allows (started at the end of the
+        duration from their best predecessor, as for a detected change) and the transient
+        path is dropped.  The limit is per segment: a detected change on the transient
+        path may still restart it (a second impact; on the switching suite forbidding
+        that cost 3 points).  An impact (5.1) is a transition feature of finite duration; a
+        decay model whose level the estimator can track would otherwise hold a later
+        contact indefinitely.
     transitions : ``"graph"`` (default): where the graph's edge set for the current action
         carries transition probabilities (a forward projection's counts, 5.3.5, or EM's,
         10.1.3), a successor starts from its predecessor's log-likelihood plus
@@ -302,7 +315,8 @@ class Observer:
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
                  gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
-                 initial=None, transitions: str = D.OBSERVER_TRANSITIONS):
+                 initial=None, transitions: str = D.OBSERVER_TRANSITIONS,
+                 transient_max: int | None = None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
         if not change_size > 1:
@@ -317,8 +331,14 @@ class Observer:
             raise ValueError(f"max_paths must be >= 1; got {max_paths!r}")
         if transitions not in TRANSITIONS:
             raise ValueError(f"transitions must be one of {TRANSITIONS}; got {transitions!r}")
+        if transient_max is not None and int(transient_max) < 1:
+            raise ValueError(f"transient_max must be >= 1 sample; got {transient_max!r}")
         self.transitions = transitions
         self.graph = graph if initial is None else graph.with_initial(initial)
+        self.transient_max = None if transient_max is None else int(transient_max)
+        #: per node, the longest a transient node is held (samples; 0: no limit)
+        self._tmax = np.array([self.transient_max or 0 if n.transient else 0
+                               for n in self.graph.nodes], dtype=np.int64)
         self.nodes = node_models(self.graph, models)
         self.models = {name: models[name] for name in self.graph.models}
         self.threshold = float(threshold)
@@ -474,7 +494,7 @@ class Observer:
                           side_b=self._side_b, side_src=self._side_src,
                           threshold=self.threshold, gap=self.gap,
                           p_keep=self.p_prune * (1 - 1e-12), max_paths=self.max_paths,
-                          succ=succ, n_succ=n_succ, log_t=log_t)
+                          succ=succ, n_succ=n_succ, log_t=log_t, tmax=self._tmax)
         self._buf = {"*": RowBuffer(col, t0=0)}
         self._act = RowBuffer(1, t0=0, dtype=np.int64)
         self._started = True
@@ -590,7 +610,8 @@ class Observer:
                 r0 = cur - ws
                 trace = np.empty((we - cur, len(self._paths)))
                 stop = _advance(self._inc[r0:], self._xi[r0:], self._u_path, self._df, self._lz,
-                                self.threshold, self._ll, trace, cur, self.gap)
+                                self.threshold, self._ll, trace, cur, self.gap,
+                                *self._path_limits())
                 last = cur + min(stop + 1, we - cur)
                 self._write_hist(cur, trace[:last - cur])
                 upto = last if stop >= we - cur else last - 1
@@ -653,6 +674,11 @@ class Observer:
         M = np.zeros((nP, self.graph.n_nodes))
         M[np.arange(nP), nodes] = 1.0
         return _mixture(p["ll"][None, :nP], nodes, M)
+
+    def _path_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """(P,) start and longest hold (samples; 0: none) of the active paths."""
+        return (np.array([p.start for p in self._paths], dtype=np.int64),
+                self._tmax[self._path_arrays()[0]])
 
     def _probabilities(self, ll: np.ndarray):
         """(rows, K) node probabilities and (rows,) MAP node from path log-likelihoods."""
@@ -733,15 +759,26 @@ class Observer:
             self._lz[u] = ta
             alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
                           for r in rs)
+        # a transient node held for its longest duration ends: an alarm at the end of its
+        # duration to every successor but itself; the path is dropped (below)
+        n_det = len(alarms)
+        for pi, p in enumerate(self._paths):
+            tm = int(self._tmax[p.node])
+            if tm > 0 and ta - p.start >= tm:
+                u = int(np.flatnonzero(self._u_path == pi)[0])
+                alarms.append((pi, self._model_names[self._u_model[u]], p.start + tm))
         # candidates (step 1) with the maximisation over (node, start) (step 2)
         by_start: dict[int, tuple] = {}           # start -> (action, [successor nodes])
         cands: dict[tuple[int, int], tuple[float, Segment] | None] = {}   # in alarm order
-        for pi, _, r in alarms:
+        for i, (pi, _, r) in enumerate(alarms):
             if r not in by_start:
                 a = int(self._act.rows(r, r + 1)[0, 0])
                 by_start[r] = (None if a < 0 else a, [])
             a, js = by_start[r]
-            for j in self._successors(self._paths[pi].node, a):
+            node = self._paths[pi].node
+            for j in self._successors(node, a):
+                if i >= n_det and j == node:
+                    continue                    # an ended transient goes on elsewhere
                 if (j, r) not in cands:
                     cands[(j, r)] = None
                     js.append(j)
@@ -763,6 +800,8 @@ class Observer:
                     merged.append((self.graph.nodes[j].name, r))
             elif prev is not None:
                 new.append((j, r, init, prev))
+        for pi, _, _ in alarms[n_det:]:
+            self._ll[pi] = -math.inf
         n_units = len(self._u_path)
         if new:
             self._spawn(new, ta)

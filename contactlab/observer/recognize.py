@@ -149,8 +149,8 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
                     path=None, label_map: dict | None = None) -> TrialRecognition:
     """Run the observer over one archive trial (``models``: built model objects;
     ``label_map``: the trial's label names -> node names for the truth)."""
-    obs = Observer(graph, models, **(observer_kw or {}))
-    data, index, fs = trial_signals(trial, obs.signals, reduce=reduce, path=path)
+    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
+    obs = Observer(graph, models, **kw)
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     if act is not None and not isinstance(act, str) and np.ndim(act) == 1 \
             and np.any(np.asarray(act) < 0):
@@ -166,6 +166,19 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
     times = np.asarray(trial.time, np.float64)[index]
     fit = path_fit(graph, models, data, res.map_path, n=len(index))
     return TrialRecognition(trial.id, res, times, truth, fs, fit)
+
+
+def observer_setup(trial, graph: FeatureGraph, models: dict, observer_kw: dict | None,
+                   reduce: str, path=None):
+    """``(observer keywords, data, index, fs)`` of one trial: its streams for the graph's
+    models, and ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit)
+    turned into :class:`Observer`'s ``transient_max`` in samples at the trial's rate."""
+    kw = dict(observer_kw or {})
+    signals = sorted({models[m].signal for m in graph.models})
+    data, index, fs = trial_signals(trial, signals, reduce=reduce, path=path)
+    secs = kw.pop("transient_max_s", None)
+    kw["transient_max"] = max(1, int(round(secs * fs))) if secs else None
+    return kw, data, index, fs
 
 
 def bind_models(graph, models):
@@ -224,7 +237,8 @@ class RecognizeStage(Stage):
                  p_prune: float | None = None, gap: float = D.OBSERVER_GAP,
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None,
-                 transitions: str = D.OBSERVER_TRANSITIONS):
+                 transitions: str = D.OBSERVER_TRANSITIONS,
+                 transient_max_s: float | None = D.OBSERVER_TRANSIENT_MAX_S):
         self.graph, self.models, self.built = bind_models(graph, models)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         p_prune = p_prune or self.graph.p_prune or D.OBSERVER_PRUNE
@@ -234,9 +248,12 @@ class RecognizeStage(Stage):
                                 p_prune=p_prune, gap=gap, sides=sides, transitions=transitions)
         try:
             Observer(self.graph, self.built, **self.observer_kw)
+            if transient_max_s is not None and not transient_max_s >= 0:
+                raise ValueError(f"transient_max_s must be >= 0; got {transient_max_s!r}")
         except ValueError as exc:
             from contactlab.errors import UsageError
             raise UsageError(str(exc)) from None
+        self.observer_kw["transient_max_s"] = transient_max_s or None
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,
@@ -359,7 +376,8 @@ def recognize_archive(archive, *, graph, models, action=None,
                       sides: str | None = None, trials=None, delay_window: int = 50,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None,
-                      transitions: str = D.OBSERVER_TRANSITIONS) -> dict:
+                      transitions: str = D.OBSERVER_TRANSITIONS,
+                      transient_max_s: float | None = D.OBSERVER_TRANSIENT_MAX_S) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
 
     Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),
@@ -376,7 +394,7 @@ def recognize_archive(archive, *, graph, models, action=None,
     stage = RecognizeStage(graph=graph, models=models, action=action, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
                            delay_window=delay_window, write=write, keep=keep,
-                           transitions=transitions)
+                           transitions=transitions, transient_max_s=transient_max_s)
     return run_stage(stage, [archive], trials=trials, workers=workers, scheduler=scheduler,
                      quiet=quiet)[Path(archive)]
 
