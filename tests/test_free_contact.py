@@ -68,8 +68,8 @@ def test_recording_the_models_do_not_fit_is_warned(tmp_path):
     assert r.exit_code == 0, r.output
     out = one_json_object(r.stdout)
     (tid, trial), = out["trials"].items()
-    from contactlab.observer.fit import MISFIT
-    assert trial["fit"]["misfit"] and trial["fit"]["chi2_per_dof"] > 1.5 * MISFIT
+    from contactlab.observer.fit import MISFIT_MODEL
+    assert trial["fit"]["misfit"] and max(trial["fit"]["by_model"].values()) > MISFIT_MODEL
     warn = [ln for ln in r.stderr.splitlines() if ln.startswith("warning:")]
     assert len(warn) == 1 and "noisy.h5" in warn[0] and "fit none" in warn[0]
     assert out["warnings"] == [warn[0].removeprefix("warning: ")]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from contactlab.observer.fit import MISFIT, path_fit
+from contactlab.observer.fit import MISFIT, MISFIT_MODEL, path_fit
 from contactlab.observer.graph import parse_graph
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
 
@@ -73,3 +73,16 @@ def test_a_few_wild_samples_are_no_misfit_but_a_noisier_recording_is():
     assert abs(fit.overall - 1.0) < 0.1 and not fit.misfit
     noisy = path_fit(graph, _models(sigma), {"velocity": 4 * v}, [("still", 0)])
     assert noisy.misfit and noisy.overall == pytest.approx(16 * fit.overall, rel=1e-12)
+
+
+def test_one_model_far_off_is_a_misfit_though_the_path_overall_is_not():
+    # the path's other models fit; one node's model is 5x too narrow for its segment
+    graph = parse_graph(GRAPH)
+    rng = np.random.default_rng(6)
+    sigma = 1e-3
+    still = rng.normal(0.0, 5 * sigma, (300, 3))          # 25x F's chi-square
+    moving = rng.uniform(-0.01, 0.01, (3000, 3))           # M fits
+    fit = path_fit(graph, _models(sigma), {"velocity": np.r_[still, moving]},
+                   [("still", 0), ("moving", 300)])
+    assert fit.overall < MISFIT < MISFIT_MODEL < fit.by_model["F"]
+    assert fit.misfit and fit.worst == "F"

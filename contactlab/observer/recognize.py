@@ -362,9 +362,12 @@ class RecognizeStage(Stage):
 def misfit_warning(archive, trial_id: str, fit: dict) -> str:
     """The one-line warning for a trial whose data fit none of the graph's models
     (``fit``: :meth:`PathFit.to_dict`)."""
+    worst = fit["worst_model"]
+    level = (fit.get("by_model") or {}).get(worst)
     return (f"{archive}: trial {trial_id}: the measurements fit none of the graph's models "
-            f"(mean chi-square per degree of freedom {fit['chi2_per_dof']:.3g} along the "
-            f"recognised path, model {fit['worst_model']} worst; about 1 when they fit): the "
+            f"(chi-square per degree of freedom {fit['chi2_per_dof']:.3g} along the "
+            f"recognised path, model {worst} worst at "
+            f"{level if level is None else format(level, '.3g')}; about 1 when they fit): the "
             "recording is noisier than, or offset from, the data the models were trained on; "
             "train on recordings like it, or zero the force sensor")
 
