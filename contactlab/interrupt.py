@@ -37,8 +37,17 @@ from collections.abc import Callable
 
 _received: list[int] = []
 _state = {"active": 0, "deferred": 0, "raised": False, "held": 0, "quit": False,
-          "quitting": False}
+          "quitting": False, "child": False}
 _quit_actions: list[Callable[[], str | None]] = []
+
+
+def _forked() -> None:
+    """A forked worker inherits the handlers, not the files its parent is writing."""
+    _quit_actions.clear()
+    _state["child"] = True
+
+
+os.register_at_fork(after_in_child=_forked)
 
 
 class Terminated(KeyboardInterrupt):
@@ -106,8 +115,11 @@ def signal_line(signum: int) -> str:
 
 
 def _quit() -> None:
-    """Run the quit actions, say what they kept and exit with 128 + the first signal."""
+    """Run the quit actions, say what they kept and exit with 128 + the first signal
+    (a forked worker only exits: its parent says what was kept)."""
     _state["quitting"] = True
+    if _state["child"]:
+        os._exit(128 + int(_received[0]))
     lines = []
     for action in reversed(_quit_actions):
         try:
