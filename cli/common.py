@@ -107,7 +107,9 @@ def _exit_broken_pipe() -> None:
 
 def _exit_interrupted(signum: int) -> None:
     """One line and exit status 128 + signal number (130 for SIGINT, 143 for SIGTERM)."""
-    click.echo(f"{PROG}: {interrupt.signal_line(signum)}", err=True)
+    with interrupt.held():  # a signal now finds the line said (and says it once)
+        click.echo(f"{PROG}: {interrupt.signal_line(signum)}", err=True)
+        interrupt.reported()
     sys.exit(128 + int(signum))
 
 

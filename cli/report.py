@@ -30,7 +30,9 @@ def report(archive, out, trials, force, as_json, quiet):
     After 'contactlab recognize' the report adds what was recognised and how
     well: the share of labelled points marked correctly beside two chance
     levels (always the most frequent true node; uniform), the pooled confusion
-    and each trial's path; the same line is printed.
+    and each trial's path; the same line is printed. The report is written
+    aside and moved into OUT whole, so a failure (a full disk, Ctrl-C) leaves
+    OUT as it was.
 
     \b
     Examples:

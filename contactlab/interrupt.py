@@ -37,8 +37,17 @@ from collections.abc import Callable
 
 _received: list[int] = []
 _state = {"active": 0, "deferred": 0, "raised": False, "held": 0, "quit": False,
-          "quitting": False}
+          "quitting": False, "child": False, "reported": False}
 _quit_actions: list[Callable[[], str | None]] = []
+
+
+def _forked() -> None:
+    """A forked worker inherits the handlers, not the files its parent is writing."""
+    _quit_actions.clear()
+    _state["child"] = True
+
+
+os.register_at_fork(after_in_child=_forked)
 
 
 class Terminated(KeyboardInterrupt):
@@ -99,6 +108,11 @@ def held():
             _quit()
 
 
+def reported() -> None:
+    """The run has said how it ends (its last line): a later signal quits silently."""
+    _state["reported"] = True
+
+
 def signal_line(signum: int) -> str:
     """``"interrupted (SIGINT)"``, ``"terminated (SIGTERM)"``: what the run ends with."""
     name = signal.Signals(signum).name
@@ -106,8 +120,11 @@ def signal_line(signum: int) -> str:
 
 
 def _quit() -> None:
-    """Run the quit actions, say what they kept and exit with 128 + the first signal."""
+    """Run the quit actions, say what they kept and exit with 128 + the first signal
+    (a forked worker only exits: its parent says what was kept)."""
     _state["quitting"] = True
+    if _state["child"] or _state["reported"]:  # nothing left to say
+        os._exit(128 + int(_received[0]))
     lines = []
     for action in reversed(_quit_actions):
         try:
@@ -180,7 +197,7 @@ def signals_as_interrupt(*, exiting: bool = False):
             _state["active"] -= 1
         return
     _received.clear()
-    _state.update(active=1, raised=False, quit=False, quitting=False)
+    _state.update(active=1, raised=False, quit=False, quitting=False, reported=False)
     previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
     previous_hook = sys.unraisablehook
     sys.unraisablehook = _unraisable(previous_hook)
