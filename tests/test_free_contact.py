@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from contactlab.archive import open_archive
 from contactlab.peers.force_threshold import ForceThreshold
 from contactlab.synthetic.free_contact import free_contact_recording
 
@@ -139,3 +140,20 @@ def test_graph_sides_is_validated_and_used_by_default():
     assert parse_graph({**doc, "sides": "both"}).sides == "both"
     with pytest.raises(DataError, match="sides"):
         parse_graph({**doc, "sides": "sideways"})
+
+
+def test_explain_runs_on_the_constraint_and_velocity_models(tmp_path):
+    """recognize --explain on a free-contact recording: its models give a chi-square
+    only (no innovation sum), which the explanation reads like the observer does."""
+    train = _archive(tmp_path, "quiet", 11, 100.0)
+    test = _archive(tmp_path, "other", 13, 100.0)
+    models = tmp_path / "m.h5"
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", MAP,
+                "--out", models, "-q")
+    assert r.exit_code == 0, r.output
+    with open_archive(test) as a:
+        tid = a.trial_ids[0]
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "-q",
+                "--label-map", MAP, "--no-write", "--explain", tid)
+    assert r.exit_code == 0, r.output
+    assert "marked correctly" in r.stdout and "detector C0/increase" in r.stdout

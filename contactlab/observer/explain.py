@@ -56,8 +56,10 @@ def _fresh(model, x: np.ndarray, a: int, b: int):
     state = model.init_state(starts, x.shape[1])
     ll, stat = model.run(state, x[a0 - int(model.lag):b], t0=a0, starts=starts)
     ll = np.asarray(ll, np.float64).reshape(b - a0, -1)[:, 0]
-    stat = np.asarray(stat, np.float64).reshape(b - a0, -1, 2)[:, 0]
-    return ll, stat
+    stat = np.asarray(stat, np.float64)
+    if stat.ndim == 2:      # a model that gives the chi-square only: no innovation sum,
+        stat = np.stack([stat, np.zeros_like(stat)], axis=-1)   # as the observer's banks
+    return ll, stat.reshape(b - a0, -1, 2)[:, 0]
 
 
 def _node_ll(graph, models, data, node: str, a: int, b: int) -> float:
