@@ -156,4 +156,4 @@ def test_explain_runs_on_the_constraint_and_velocity_models(tmp_path):
     r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "-q",
                 "--label-map", MAP, "--no-write", "--explain", tid)
     assert r.exit_code == 0, r.output
-    assert "marked correctly" in r.stdout and "detector C0/increase" in r.stdout
+    assert "points marked correctly" in r.stdout and "detector CI/increase" in r.stdout
