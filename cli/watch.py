@@ -123,7 +123,9 @@ def _check_signals(stage, source) -> None:
     from contactlab.live.conditioner import LiveConditioner
     from contactlab.observer.observer import Observer
 
-    obs = Observer(stage.graph, stage.built, **stage.observer_kw)
+    from contactlab.observer.recognize import observer_keywords
+
+    obs = Observer(stage.graph, stage.built, **observer_keywords(stage.observer_kw, 250.0))
     LiveConditioner(obs.signals, rate_hz=1000.0, fields=source.fields,
                     reduce=stage.models.reduce,
                     source=f"--source {source.name}")

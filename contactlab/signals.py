@@ -52,7 +52,8 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "source_of", "default_signal", "resolve_signal", "lowpass", "condition", "condition_array",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
            "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
-           "compensate_friction", "phase_stream", "PHASE", "PHASE_CUTOFF_HZ"]
+           "compensate_friction", "velocity_noise_level", "phase_stream", "PHASE",
+           "PHASE_CUTOFF_HZ"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -350,19 +351,27 @@ def phase_stream(trial, path=None) -> np.ndarray:
     return np.ascontiguousarray(lfilter(b, a, x, axis=0, zi=zi)[0])
 
 
-def compensate_friction(force, velocity) -> np.ndarray:
-    """Force (n, 3) with its component along the velocity (n, 3) removed (8.29), where
-    the finger moves: at a speed above three times the velocity's white-noise level,
-    estimated from the same stream (:func:`contactlab.constraints.noise.raw_noise_sd`,
-    median over the axes; the estimators' rule of three accuracies, with the accuracy
-    measured, not assumed).  Slower samples pass unchanged (the direction of a still
-    finger's velocity is its noise; the thesis is silent, our choice)."""
-    from contactlab.constraints.friction import friction_filter
+def velocity_noise_level(velocity) -> float:
+    """The white-noise level of a velocity stream (n, 3): the median over the axes of
+    :func:`contactlab.constraints.noise.raw_noise_sd` (0 with fewer than 5 samples)."""
     from contactlab.constraints.noise import raw_noise_sd
 
     v = np.asarray(velocity, dtype=np.float64)
     sd = raw_noise_sd(v) if len(v) >= 5 else np.full(v.shape[1], np.nan)
-    level = float(np.nanmedian(sd)) if np.isfinite(sd).any() else 0.0
+    return float(np.nanmedian(sd)) if np.isfinite(sd).any() else 0.0
+
+
+def compensate_friction(force, velocity, *, level: float | None = None) -> np.ndarray:
+    """Force (n, 3) with its component along the velocity (n, 3) removed (8.29), where
+    the finger moves: at a speed above three times the velocity's white-noise ``level``,
+    by default estimated from the same stream (:func:`velocity_noise_level`; the
+    estimators' rule of three accuracies, with the accuracy measured, not assumed).
+    Slower samples pass unchanged (the direction of a still finger's velocity is its
+    noise; the thesis is silent, our choice)."""
+    from contactlab.constraints.friction import friction_filter
+
+    v = np.asarray(velocity, dtype=np.float64)
+    level = velocity_noise_level(v) if level is None else float(level)
     return friction_filter(force, v, min_speed=3.0 * level)
 
 

@@ -1,5 +1,7 @@
 """A user's wrench-and-position recording: import a CSV, train free-contact, recognise."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -69,8 +71,8 @@ def test_recording_the_models_do_not_fit_is_warned(tmp_path):
     assert r.exit_code == 0, r.output
     out = one_json_object(r.stdout)
     (tid, trial), = out["trials"].items()
-    from contactlab.observer.fit import MISFIT_MODEL
-    assert trial["fit"]["misfit"] and max(trial["fit"]["by_model"].values()) > MISFIT_MODEL
+    from contactlab.observer.fit import MISFIT
+    assert trial["fit"]["misfit"] and max(trial["fit"]["by_model"].values()) > MISFIT
     warn = [ln for ln in r.stderr.splitlines() if ln.startswith("warning:")]
     assert len(warn) == 1 and "noisy.h5" in warn[0] and "fit none" in warn[0]
     assert out["warnings"] == [warn[0].removeprefix("warning: ")]
@@ -156,4 +158,5 @@ def test_explain_runs_on_the_constraint_and_velocity_models(tmp_path):
     r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "-q",
                 "--label-map", MAP, "--no-write", "--explain", tid)
     assert r.exit_code == 0, r.output
-    assert "points marked correctly" in r.stdout and "detector CI/increase" in r.stdout
+    assert "points marked correctly" in r.stdout
+    assert re.search(r"detector (C0|C1|CI|M)/increase: [-0-9.]+ at the change", r.stdout)

@@ -213,3 +213,38 @@ def test_netft_fake_stalls_reconnects_and_keeps_the_recording(wrist):
     r2 = _run("recognize", "netft.h5", "--trial", "netft01", "--graph", "wrench.toml",
               "--models", "wm.h5", "--no-write", "--json", cwd=wrist)
     assert json.loads(r2.stdout)["trials"]["netft01"]["merged_path"] == first["path"]
+
+
+def test_live_friction_compensation_uses_the_first_second_noise_level():
+    """contact-compensated live: the contact stream of the batch form with 8.29's filter
+    at the velocity noise level of the recording's first second (the batch form measures
+    it on the whole recording), in any split into chunks."""
+    from types import SimpleNamespace
+
+    from contactlab.live.conditioner import COMPENSATION_WARMUP_S, LiveConditioner
+    from contactlab.signals import compensate_friction, trial_signals, velocity_noise_level
+    from contactlab.synthetic.free_contact import free_contact_recording
+
+    rec = free_contact_recording(seed=3, fs=100.0, cycles=3)
+    t, n = rec.times, len(rec.times)
+    wrench = np.c_[rec.force, np.zeros((n, 3))]
+    trial = SimpleNamespace(id="x", rate_hz=100.0, time=t, strain=None, wrench=wrench,
+                            position=rec.position, velocity=None, labels=None,
+                            label_names=None, action=None, command=None)
+    batch, _, fs = trial_signals(trial, ("contact", "velocity"))
+    level = velocity_noise_level(batch["velocity"][:int(round(COMPENSATION_WARMUP_S * fs))])
+    want = batch["contact"].copy()
+    want[:, 3:] = compensate_friction(want[:, 3:], batch["velocity"], level=level)
+    rng = np.random.default_rng(1)
+    lc = LiveConditioner(("contact-compensated",), rate_hz=100.0, fields=["wrench", "position"])
+    parts, a = [], 0
+    while a < n:
+        b = a + int(rng.integers(1, 80))
+        parts.append(lc.process({"time": t[a:b], "wrench": wrench[a:b],
+                                 "position": rec.position[a:b]})[0])
+        a = b
+    parts.append(lc.finish()[0])
+    assert all(set(p) == {"contact-compensated"} for p in parts)
+    got = np.concatenate([p["contact-compensated"] for p in parts
+                          if len(p["contact-compensated"])])
+    np.testing.assert_array_equal(got, want)

@@ -20,8 +20,10 @@ Two batch quantities need the whole recording and are taken from its start inste
   converter's step appears within milliseconds in noisy quantised strains, so the
   floor is the batch one, to the rounding of the differences it is the least of;
   unquantised strains have a floor far below any difference);
-* the friction compensation's noise level (``contact-compensated``), which is not
-  offered live: such a graph is refused.
+* the friction compensation's noise level (``contact-compensated``): live it is
+  measured on the first :data:`COMPENSATION_WARMUP_S` seconds (held back until then),
+  offline on the whole recording, so the compensated force can differ where the speed
+  is near three times that level.
 
 At the end of the input, :meth:`LiveConditioner.finish` returns the last samples
 the batch form gives (a derived velocity clamped at the record's end, as there).
@@ -35,10 +37,15 @@ from contactlab.conditioning import (Differencer, LogEnergy, LowpassDecimator,
                                      quantisation_floor)
 from contactlab.errors import UsageError
 from contactlab.signals import (COMPENSATED, CONTACT_SIGNALS, PHASE, PHASE_CUTOFF_HZ, SIGNALS,
-                                cutoff_for, factor_for, hf_block_for, source_of)
+                                compensate_friction, cutoff_for, factor_for, hf_block_for,
+                                source_of, velocity_noise_level)
 
 __all__ = ["LiveConditioner", "needed_fields", "FLOOR_WARMUP_S"]
 
+#: seconds of conditioned samples held back at the start of a recording to measure the
+#: velocity's noise level for the friction compensation (8.29; offline it is measured on
+#: the whole recording, so a live path may differ from the offline one there)
+COMPENSATION_WARMUP_S = 1.0
 #: strain held back at the start to find y_h's log floor: this many seconds, and at
 #: least :data:`FLOOR_WARMUP_ROWS` rows
 FLOOR_WARMUP_S = 0.25
@@ -133,10 +140,12 @@ class LiveConditioner:
         self.block = hf_block_for(self.fs)
         self.reduce = reduce
         fields = set(fields)
-        if COMPENSATED in self.signals:
-            raise UsageError(f"the {COMPENSATED!r} signal needs the whole recording's velocity "
-                             "noise: it is not computed live (use a graph whose constraint "
-                             "models read 'contact')")
+        # the friction compensation needs the velocity at the conditioned samples; it is
+        # computed for it when the graph's models do not read it themselves
+        self._drop = ()
+        if COMPENSATED in self.signals and "velocity" not in self.signals:
+            self.signals += ("velocity",)
+            self._drop = ("velocity",)
         for s, need in needed_fields(self.signals, has_position="position" in fields).items():
             missing = [f for f in need if f not in fields]
             if s == "velocity" and "velocity" in fields:
@@ -172,6 +181,8 @@ class LiveConditioner:
         self._act = _Pending()
         self._last_cmd = None
         self._last_time = _Pending()
+        self._comp_level = None                   # the velocity's noise level, once known
+        self._comp_hold: list = []
         return self
 
     @property
@@ -202,7 +213,7 @@ class LiveConditioner:
             self._floor = quantisation_floor(strain)
             chunk = {k: np.concatenate([np.asarray(c[k]) for c in held]) for k in held[0]}
         self._absorb(chunk)
-        return self._emit(final=False)
+        return self._compensated(self._emit(final=False), final=False)
 
     def finish(self) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray | None]:
         """The end of the recording: what is left (held rows, the clamped tail)."""
@@ -211,10 +222,42 @@ class LiveConditioner:
             strain = np.concatenate([np.asarray(c["strain"], np.float64) for c in held])
             self._floor = quantisation_floor(strain)
             self._absorb({k: np.concatenate([np.asarray(c[k]) for c in held]) for k in held[0]})
-        return self._emit(final=True)
+        return self._compensated(self._emit(final=True), final=True)
+
+    def _compensated(self, out, *, final: bool):
+        """``out`` with the friction compensation applied to its contact-compensated
+        stream: the velocity's noise level is taken from the first
+        :data:`COMPENSATION_WARMUP_S` seconds, whose samples are held back until then."""
+        if COMPENSATED not in self.signals:
+            return out
+        if self._comp_level is None:
+            if len(out[1]):
+                self._comp_hold.append(out)
+            held = sum(len(o[1]) for o in self._comp_hold)
+            first = int(round(COMPENSATION_WARMUP_S * self.fs / self.factor))
+            if held < first and not final:
+                return self._empty()
+            hold, self._comp_hold = self._comp_hold, []
+            if not hold:
+                return self._empty()
+            data = {s: np.concatenate([o[0][s] for o in hold]) for s in hold[0][0]}
+            acts = [o[3] for o in hold]
+            out = (data, np.concatenate([o[1] for o in hold]),
+                   np.concatenate([o[2] for o in hold]),
+                   None if any(a is None for a in acts) else np.concatenate(acts))
+            self._comp_level = velocity_noise_level(data["velocity"][:first, :3])
+        data = dict(out[0])
+        if len(out[1]):
+            c = data[COMPENSATED].copy()
+            c[:, 3:6] = compensate_friction(c[:, 3:6], data["velocity"][:, :3],
+                                            level=self._comp_level)
+            data[COMPENSATED] = c
+        for s in self._drop:
+            data.pop(s, None)
+        return (data, *out[1:])
 
     def _empty(self):
-        data = {s: np.zeros((0, 1)) for s in self.signals}
+        data = {s: np.zeros((0, 1)) for s in self.signals if s not in self._drop}
         return data, np.zeros(0, np.int64), np.zeros(0), None
 
     def _filter(self, key: str, make):

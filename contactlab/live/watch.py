@@ -185,7 +185,11 @@ def _watch_trial(stream, source, stage, emit, lat, stats, results, writer, probs
             arrival = _time.monotonic()
             if tw is None:
                 info = stream.info
-                obs = Observer(stage.graph, stage.built, **stage.observer_kw)
+                from contactlab.observer.recognize import observer_keywords
+                from contactlab.signals import factor_for
+
+                fs = info.rate_hz / factor_for(info.rate_hz)
+                obs = Observer(stage.graph, stage.built, **observer_keywords(stage.observer_kw, fs))
                 cond = LiveConditioner(obs.signals, rate_hz=info.rate_hz, fields=source.fields,
                                        reduce=stage.models.reduce, source=source.name)
                 tw = TrialWatch(info.trial_id, info.rate_hz, obs, cond, keep=writer is not None)

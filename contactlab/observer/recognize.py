@@ -173,12 +173,19 @@ def observer_setup(trial, graph: FeatureGraph, models: dict, observer_kw: dict |
     """``(observer keywords, data, index, fs)`` of one trial: its streams for the graph's
     models, and ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit)
     turned into :class:`Observer`'s ``transient_max`` in samples at the trial's rate."""
-    kw = dict(observer_kw or {})
     signals = sorted({models[m].signal for m in graph.models})
     data, index, fs = trial_signals(trial, signals, reduce=reduce, path=path)
+    return observer_keywords(observer_kw, fs), data, index, fs
+
+
+def observer_keywords(observer_kw: dict | None, fs: float) -> dict:
+    """:class:`Observer`'s keywords from a stage's ``observer_kw`` at the conditioned rate
+    ``fs``: ``transient_max_s`` (seconds; 0 or None: no limit) becomes ``transient_max``
+    in samples."""
+    kw = dict(observer_kw or {})
     secs = kw.pop("transient_max_s", None)
     kw["transient_max"] = max(1, int(round(secs * fs))) if secs else None
-    return kw, data, index, fs
+    return kw
 
 
 def bind_models(graph, models):
