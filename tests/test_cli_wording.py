@@ -60,6 +60,6 @@ def test_label_map_hint_never_suggests_label_0_and_train_names_what_it_fitted(tm
     assert r.exit_code == 0, r.output
     lines = r.output.splitlines()
     free = next(x for x in lines if x.startswith("free: constraint"))
-    assert free.startswith("free: constraint degree 0 (normals none), signal contact, from ")
+    assert free.startswith("free: constraint degree 0 (normals none), signal contact-compensated, from ")
     assert free.endswith(" labelled free")
     assert " on contact" not in r.output

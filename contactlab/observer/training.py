@@ -153,9 +153,18 @@ class GraphModels:
 
     @classmethod
     def load(cls, path) -> "GraphModels":
-        """Read a models file (also a plain ``contactlab train`` one: no impacts, no reduce)."""
-        from contactlab.temporal import ModelSet
+        """Read a models file (also a plain ``contactlab train`` one: no impacts, no reduce).
 
+        A file HDF5 cannot read (damaged bytes in a dataset or an attribute) is a
+        one-line DataError naming it, like every other mistake in it."""
+        try:
+            return cls._load(path)
+        except OSError as exc:
+            raise DataError(f"damaged models file: HDF5 cannot read it ({exc})",
+                            file=str(path)) from None
+
+    @classmethod
+    def _load(cls, path) -> "GraphModels":
         ms = _load_model_set(path)
         impacts: dict = {}
         reduce = "none"

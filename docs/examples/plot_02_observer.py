@@ -27,7 +27,7 @@ import numpy as np
 
 from contactlab import Observer, build_models, load_graph, observe
 from contactlab.observer.kinematics import fit_kinematic_models
-from contactlab.signals import lowpass
+from contactlab.signals import compensate_friction, lowpass
 from contactlab.synthetic.free_contact import free_contact_recording
 
 FS = 250.0                                 # the observer's rate (7.1): no decimation
@@ -36,11 +36,13 @@ test = free_contact_recording(seed=12, fs=FS, cycles=4)
 
 
 def streams(rec):
-    """The graph's two signals: ``contact`` (position then force, (n, 6)) and
-    ``velocity`` (the first difference of the position times the rate, (n, 3))."""
+    """The graph's two signals: ``contact-compensated`` (position then force, (n, 6),
+    the force's friction along the velocity removed, 8.29) and ``velocity`` (the first
+    difference of the position times the rate, (n, 3))."""
     p = rec.position
     v = lowpass(np.diff(p, axis=0, prepend=p[:1]) * rec.fs, fs=rec.fs)
-    return {"contact": np.concatenate([p, rec.force], axis=1), "velocity": v}
+    f = compensate_friction(rec.force, v)
+    return {"contact-compensated": np.concatenate([p, f], axis=1), "velocity": v}
 
 
 # %%

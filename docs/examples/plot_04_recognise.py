@@ -31,7 +31,7 @@ import pandas as pd
 import contactlab
 from contactlab import Observer, build_models, load_graph, observe
 from contactlab.observer.kinematics import fit_kinematic_models
-from contactlab.signals import lowpass
+from contactlab.signals import compensate_friction, lowpass
 from contactlab.synthetic.free_contact import free_contact_recording
 
 
@@ -68,10 +68,13 @@ print(f"{name}: {len(force)} labelled samples at {fs:.1f} Hz")
 # %%
 # The graph's signals and a split in time
 # ---------------------------------------
-# ``contact`` is the position then the force (n, 6); ``velocity`` the first
-# difference of the position times the rate, through the 7.1 lowpass.
-data = {"contact": np.concatenate([position, force], axis=1),
-        "velocity": lowpass(np.diff(position, axis=0, prepend=position[:1]) * fs, fs=fs)}
+# ``contact-compensated`` is the position then the force (n, 6) with the force's
+# friction along the velocity removed (8.29); ``velocity`` the first difference of
+# the position times the rate, through the 7.1 lowpass.
+velocity = lowpass(np.diff(position, axis=0, prepend=position[:1]) * fs, fs=fs)
+data = {"contact-compensated": np.concatenate(
+            [position, compensate_friction(force, velocity)], axis=1),
+        "velocity": velocity}
 # train on the samples before the middle free phase, test on the rest
 free = np.flatnonzero(nodes == "free")
 split = int(free[np.searchsorted(free, len(nodes) // 2)])
