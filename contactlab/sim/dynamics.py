@@ -132,6 +132,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -307,6 +308,134 @@ class Apparatus:
     @property
     def shell_mode_hz(self) -> float:
         return math.sqrt(self.sensor_stiffness / self.shell_mass) / (2.0 * math.pi)
+
+
+# ---------------- the integrator's inputs, as named records (numba accepts named tuples) --------
+
+
+class Mechanics(NamedTuple):
+    """The robot + sensor + fingertip masses and the sensor's spring (module docstring)."""
+
+    robot_mass: float            # mr: the whole robot, kg
+    shell_mass: float            # mf: the fingertip shell, kg
+    sensor_stiffness: float      # ks, N/m
+    sensor_damping: float        # bs, N s/m
+    radius: float                # fingertip radius, m
+    origin_offset: float         # distance of the sensor origin from the sphere centre, m
+    gravity: float               # m/s^2
+    servo_rate: float            # Hz
+
+
+class Drive(NamedTuple):
+    """The robot's drive: its losses, the force DAC, the structure and the motors (module
+    docstring, "The PHANToM's own losses", "The drive's structure", "Motors")."""
+
+    friction: float              # fr: kinetic backdrive friction, N
+    damping: float               # br: viscous back-EMF damping, N s/m
+    static_friction: float       # frs: breakaway friction, N
+    brush_table: np.ndarray      # kinetic-friction multiplier over a shaft revolution
+    presliding_stiffness: float  # kb, N/m (0: rigid stick)
+    presliding_damping: float    # cb, N s/m
+    force_resolution: float      # f_res: the force DAC's step, N
+    rotor_mass: float            # m_rot: the rotors reflected to the tip, kg
+    cable_stiffness: float       # kc (0: rigid cables), N/m
+    cable_damping: float         # cc, N s/m
+    link_tip_mass: float         # m_tip, kg
+    link_stiffness: float        # kl (0: rigid link), N/m
+    link_damping: float          # cl, N s/m
+    commutation_events: int      # n_comm per revolution (0: ideal motors)
+    motor_gain: float            # shaft rad per tip metre
+    commutation_phase: np.ndarray  # (3,) shaft angle offsets, rad
+
+
+class Texture(NamedTuple):
+    """Every material's texture modes (:func:`contactlab.sim.materials.texture_modes`, one row a
+    material): height modes' wavenumbers, amplitudes (followed and bridged) and phases, friction
+    modes' wavenumbers, amplitudes and phases, the lay envelope's table and its parameters."""
+
+    h_k1: np.ndarray
+    h_k2: np.ndarray
+    h_amp: np.ndarray
+    h_bamp: np.ndarray
+    h_phase: np.ndarray
+    m_k1: np.ndarray
+    m_k2: np.ndarray
+    m_amp: np.ndarray
+    m_phase: np.ndarray
+    e_tab: np.ndarray
+    e_par: np.ndarray
+
+
+class Surfaces(NamedTuple):
+    """The environment's planes (:meth:`contactlab.sim.environment.Environment.pack`): ``geo``
+    one row a plane with the columns ``environment.GEO_*``, the two materials of each plane
+    (either side of its split), ``props`` one row a material with the columns
+    ``environment.PROP_*``, and the materials' textures."""
+
+    n_planes: int
+    geo: np.ndarray
+    mat_ids: np.ndarray
+    props: np.ndarray
+    texture: Texture
+
+
+class Servo(NamedTuple):
+    """The controller, one row a servo tick (:class:`contactlab.sim.controllers.ServoArrays`),
+    the amplifiers' noise, and what the servo measures (sensor module docstring, Encoders)."""
+
+    kind: int
+    kp: np.ndarray
+    bp: np.ndarray
+    ki: np.ndarray
+    xd: np.ndarray
+    vd: np.ndarray
+    fff: np.ndarray
+    fd: np.ndarray
+    hold: np.ndarray
+    noise: np.ndarray            # (ticks, 3) amplifiers' random force, N
+    feedback: int                # controllers.FEEDBACK code (1: the true state)
+    encoder_resolution: float    # m
+    velocity_filter: np.ndarray  # biquad (b0, b1, b2, a1, a2)
+    kin_a: np.ndarray            # kinematic error, linear part (3, 3)
+    kin_q: np.ndarray            # kinematic error, quadratic part (3, 3, 3)
+
+
+class Start(NamedTuple):
+    """Initial positions and velocities of the robot and the shell, m and m/s (3,)."""
+
+    robot_position: np.ndarray
+    robot_velocity: np.ndarray
+    shell_position: np.ndarray
+    shell_velocity: np.ndarray
+
+
+class Labelling(NamedTuple):
+    """What the ground truth's impact labels use (simulate._impact_intervals) and the contact
+    numerics shared with them."""
+
+    ring_tau: float              # lowpass time constant of the ringing measure, s
+    impact_speed: float          # approach speed that makes a gained contact an impact, m/s
+    loss_force: float            # normal force whose loss is an impact, N
+    tangential_ratio: float      # tangential / normal contact stiffness
+    margin: float                # contact search margin, m
+
+
+class Outputs(NamedTuple):
+    """What :func:`integrate` returns, one row an output sample."""
+
+    robot_position: np.ndarray
+    robot_velocity: np.ndarray
+    shell_position: np.ndarray
+    shell_velocity: np.ndarray
+    wrench: np.ndarray           # (n, 6) sensor wrench at its origin
+    control_wrench: np.ndarray
+    desired_position: np.ndarray
+    active: np.ndarray           # (n, planes) in contact
+    slipping: np.ndarray
+    material: np.ndarray         # (n, planes) material under the finger (-1: none)
+    contact_force: np.ndarray    # (n, planes, 3) averaged over the sample interval
+    event: np.ndarray            # 1: impact, 2: loaded loss of contact
+    ring: np.ndarray             # peak ringing within the sample, N
 
 
 @numba.njit(cache=True, fastmath=_FAST)
@@ -487,31 +616,25 @@ def _ratchet(mu, slope):
     return r if r > 0.0 else 0.0
 
 
+
 @numba.njit(cache=True, fastmath=_FAST)
-def integrate(n_out, n_sub, dt,
-              # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
-              # drive structure (module docstring, "The drive's structure"): the motors' rotors'
-              # reflected mass, the capstan cables' stiffness and damping (kc = 0: rigid cables),
-              # the link's tip mass, the link's bending stiffness and damping (kl = 0: rigid link)
-              m_rot, kc, cc, m_tip, kl, cl,
-              # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
-              n_comm, motor_gain, comm_phase,
-              # environment
-              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar,
-              # controller (per servo tick)
-              kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
-              # servo measurement: encoder resolution, velocity filter (b0, b1, b2, a1, a2)
-              feedback, enc_res, vfilt, kin_a, kin_q,
-              # initial state
-              xr0, vr0, x0, v0,
-              # labelling
-              tau_ring, v_impact, f_loss, ts_ratio, margin):
+def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
 
-    Returns per output sample: states, sensor wrench, controller output and
+    ``mech`` :class:`Mechanics`, ``drive`` :class:`Drive`, ``surf`` :class:`Surfaces`,
+    ``servo`` :class:`Servo`, ``start`` :class:`Start`, ``lab`` :class:`Labelling`.  Returns
+    the :class:`Outputs`, per output sample: states, sensor wrench, controller output and
     ground truth.  See :func:`contactlab.sim.simulate.simulate` for meanings.
     """
+    (mr, mf, ks, bs, radius, offset, grav, servo_rate) = mech
+    (fr, br, frs, brush_tab, kb, cb, f_res, m_rot, kc, cc, m_tip, kl, cl, n_comm, motor_gain,
+     comm_phase) = drive
+    n_planes, geo, mat_ids, props, tex = surf
+    hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar = tex
+    (kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise, feedback, enc_res, vfilt,
+     kin_a, kin_q) = servo
+    xr0, vr0, x0, v0 = start
+    tau_ring, v_impact, f_loss, ts_ratio, margin = lab
     npl = max(n_planes, 1)
     nk = xd_arr.shape[0]
     # outputs
@@ -893,4 +1016,4 @@ def integrate(n_out, n_sub, dt,
                     pc0 = x[0] - radius * geo[p, 0]
                     s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
                     o_mat[j, p] = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-    return (o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
+    return Outputs(o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
