@@ -617,6 +617,158 @@ def _ratchet(mu, slope):
 
 
 
+# ---------------- the integrator's state, as named records of arrays ----------------------------
+
+
+class _Bodies(NamedTuple):
+    # positions and velocities (3,) of the drive (xr: the rotors, where the motors' force, the
+    # friction and the encoders act), the arm behind the cables (xa), the link's tip (xl,
+    # carrying the sensor's base) and the shell (x); a rigid cable or link merges its bodies
+    xr: np.ndarray
+    vr: np.ndarray
+    xa: np.ndarray
+    va: np.ndarray
+    xl: np.ndarray
+    vl: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+
+
+class _Chain(NamedTuple):
+    # constants of the step derived from the records: gravity, its compensation, the drive's
+    # chain (module docstring, "The drive's structure")
+    gvec: np.ndarray
+    gcomp: np.ndarray
+    has_cable: bool
+    has_link: bool
+    m_d: float
+    m_a: float
+
+
+class _ServoState(NamedTuple):
+    # what the servo sees (sensor module docstring, Encoders): the encoder-quantised robot
+    # position and its first difference, lowpassed by a biquad (state vz1, vz2), both at the
+    # servo rate; the desired position (integral force controller state xi_int, held x_hold)
+    # and the motor command wr
+    xm: np.ndarray
+    xm_prev: np.ndarray
+    vm: np.ndarray
+    vz1: np.ndarray
+    vz2: np.ndarray
+    xi_int: np.ndarray
+    x_hold: np.ndarray
+    xd_now: np.ndarray
+    wr: np.ndarray
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
+    """One servo tick (module docstring, "Servo" and "Motors"): what the encoders and the
+    velocity filter report, the desired position (held, tracked, or integrated from the force
+    error by the integral force controller) and the motor command.  Returns ``holding``."""
+    servo_rate = mech.servo_rate
+    vfilt = servo.velocity_filter
+    xm, vm = sv.xm, sv.vm
+    for a in range(3):
+        xm[a] = _quantise(_reported(b.xr, a, servo.kin_a, servo.kin_q), servo.encoder_resolution)
+        dv = (xm[a] - sv.xm_prev[a]) * servo_rate
+        sv.xm_prev[a] = xm[a]
+        vm[a] = vfilt[0] * dv + sv.vz1[a]
+        sv.vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + sv.vz2[a]
+        sv.vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
+    if servo.feedback == 1:
+        for a in range(3):
+            xm[a] = b.xr[a]
+            vm[a] = b.vr[a]
+    fs_now = mech.sensor_stiffness * (b.x - b.xl) + mech.sensor_damping * (b.v - b.vl)
+    xd_now = sv.xd_now
+    if servo.hold[k] != 0:
+        if not holding:
+            holding = True
+            sv.x_hold[:] = xm
+        for a in range(3):
+            xd_now[a] = sv.x_hold[a]
+        vdk = np.zeros(3)
+    else:
+        holding = False
+        vdk = servo.vd[k].copy()
+        if servo.kind == 1:
+            f_app = -fs_now + mech.shell_mass * chain.gvec
+            for a in range(3):
+                sv.xi_int[a] += servo.ki[a] * (servo.fd[k, a] - f_app[a]) / servo_rate
+                xd_now[a] = sv.xi_int[a] + servo.xd[k, a]
+        else:
+            for a in range(3):
+                xd_now[a] = servo.xd[k, a]
+    for a in range(3):
+        # the motor command leaves the force DAC in steps of f_res (its error is a
+        # function of the command: constant while the command is) and the current
+        # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
+        sv.wr[a] = _quantise(servo.kp[a] * (xd_now[a] - xm[a]) + servo.bp[a] * (vdk[a] - vm[a])
+                             + servo.fff[k, a] + chain.gcomp[a], drive.force_resolution) + servo.noise[k, a]
+    return holding
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path):
+    """The PHANToM's own losses on the drive (module docstring): viscous back-EMF damping
+    (implicitly), then the backdrive friction -- elasto-plastic with its pre-sliding
+    compliance, or as a rigid set-valued law (if the friction impulse available in the step can
+    stop the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse); static
+    breakaway while stuck, kinetic friction times the brush/cable ripple of the shaft angle
+    while sliding.  Updates ``vr`` and the bristle ``zb``; returns (stuck, path travelled)."""
+    br = drive.damping
+    fr = drive.friction
+    frs = drive.static_friction
+    kb = drive.presliding_stiffness
+    cb = drive.presliding_damping
+    if br > 0.0:
+        for a in range(3):
+            vr[a] /= 1.0 + dt * br / m_d
+    if fr > 0.0:
+        brush_tab = drive.brush_table
+        nb = brush_tab.shape[0]
+        ub = (drive.motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
+        ib = int(ub)
+        fb = ub - ib
+        ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
+        sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+        if kb > 0.0:
+            # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
+            # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
+            # while inside the static limit (stuck) and is clipped to the kinetic value
+            # (with the brush ripple) while sliding; it re-sticks when the trial force
+            # falls back inside the kinetic limit
+            for a in range(3):
+                zb[a] += dt * vr[a]
+                ftr[a] = -kb * zb[a] - cb * vr[a]
+            mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
+            fk = fr * ripple
+            if mag > (frs if rstuck else fk):
+                rstuck = False
+                sc = fk / mag
+                for a in range(3):
+                    ftr[a] *= sc
+                    zb[a] = -ftr[a] / kb
+            else:
+                rstuck = True
+            for a in range(3):
+                vr[a] += dt * ftr[a] / m_d
+        elif rstuck and sp <= dt * frs / m_d:
+            vr[:] = 0.0
+        else:
+            cap = dt * fr * ripple / m_d
+            if sp <= cap:
+                vr[:] = 0.0
+                rstuck = True
+            else:
+                rstuck = False
+                for a in range(3):
+                    vr[a] *= 1.0 - cap / sp
+        r_path += dt * math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+    return rstuck, r_path
+
+
 @numba.njit(cache=True, fastmath=_FAST)
 def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
@@ -691,6 +843,9 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
         vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
         vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + vz2[a]
     xd_now = xr0.copy()
+    chain = _Chain(gvec, gcomp, has_cable, has_link, m_d, m_a)
+    b = _Bodies(xr, vr, xa, va, xl, vl, x, v)
+    sv = _ServoState(xm, xm_prev, vm, vz1, vz2, xi_int, x_hold, xd_now, wr)
     rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
     r_path = 0.0
     zb = np.zeros(3)             # pre-sliding (bristle) deflection of the drive's friction
@@ -732,42 +887,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
             k = nk - 1
         if k != last_k:
             last_k = k
-            for a in range(3):
-                xm[a] = _quantise(_reported(xr, a, kin_a, kin_q), enc_res)
-                dv = (xm[a] - xm_prev[a]) * servo_rate
-                xm_prev[a] = xm[a]
-                vm[a] = vfilt[0] * dv + vz1[a]
-                vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + vz2[a]
-                vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
-            if feedback == 1:
-                for a in range(3):
-                    xm[a] = xr[a]
-                    vm[a] = vr[a]
-            fs_now = ks * (x - xl) + bs * (v - vl)
-            if hold_arr[k] != 0:
-                if not holding:
-                    holding = True
-                    x_hold[:] = xm
-                for a in range(3):
-                    xd_now[a] = x_hold[a]
-                vdk = np.zeros(3)
-            else:
-                holding = False
-                vdk = vd_arr[k].copy()
-                if kind == 1:
-                    f_app = -fs_now + mf * gvec
-                    for a in range(3):
-                        xi_int[a] += ki[a] * (fd_arr[k, a] - f_app[a]) / servo_rate
-                        xd_now[a] = xi_int[a] + xd_arr[k, a]
-                else:
-                    for a in range(3):
-                        xd_now[a] = xd_arr[k, a]
-            for a in range(3):
-                # the motor command leaves the force DAC in steps of f_res (its error is a
-                # function of the command: constant while the command is) and the current
-                # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
-                wr[a] = _quantise(kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a]
-                                  + gcomp[a], f_res) + noise[k, a]
+            holding = _servo_tick(k, holding, mech, drive, servo, chain, b, sv)
 
         # ---------------- contacts ---------------------------------------
         fc_tot[:] = 0.0
@@ -929,55 +1049,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
             if has_link:
                 vl[a] += dt * ((fs[a] - flnk[a]) / m_tip + gvec[a])
             v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
-        # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
-        # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
-        # as a rigid set-valued law (if the friction impulse available in the step can stop
-        # the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse)
-        if br > 0.0:
-            for a in range(3):
-                vr[a] /= 1.0 + dt * br / m_d
-        # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
-        # shaft angle while sliding: module docstring, "Motors")
-        if fr > 0.0:
-            nb = brush_tab.shape[0]
-            ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
-            ib = int(ub)
-            fb = ub - ib
-            ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
-            sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-            if kb > 0.0:
-                # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
-                # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
-                # while inside the static limit (stuck) and is clipped to the kinetic value
-                # (with the brush ripple) while sliding; it re-sticks when the trial force
-                # falls back inside the kinetic limit
-                for a in range(3):
-                    zb[a] += dt * vr[a]
-                    ftr[a] = -kb * zb[a] - cb * vr[a]
-                mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
-                fk = fr * ripple
-                if mag > (frs if rstuck else fk):
-                    rstuck = False
-                    sc = fk / mag
-                    for a in range(3):
-                        ftr[a] *= sc
-                        zb[a] = -ftr[a] / kb
-                else:
-                    rstuck = True
-                for a in range(3):
-                    vr[a] += dt * ftr[a] / m_d
-            elif rstuck and sp <= dt * frs / m_d:
-                vr[:] = 0.0
-            else:
-                cap = dt * fr * ripple / m_d
-                if sp <= cap:
-                    vr[:] = 0.0
-                    rstuck = True
-                else:
-                    rstuck = False
-                    for a in range(3):
-                        vr[a] *= 1.0 - cap / sp
-            r_path += dt * math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+        rstuck, r_path = _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path)
         # linearly implicit correction of the stiff contact springs
         for p in range(n_planes):
             if not active[p]:
