@@ -661,6 +661,159 @@ class _ServoState(NamedTuple):
     wr: np.ndarray
 
 
+class _Contacts(NamedTuple):
+    # per plane: in contact, sticking, the tangential spring's displacement, the last normal
+    # force, the implicit parts of the normal and tangential springs, the normal, the
+    # velocities before the explicit step; the total contact force and friction torque
+    active: np.ndarray
+    stick: np.ndarray
+    tdisp: np.ndarray
+    last_fn: np.ndarray
+    kn_imp: np.ndarray
+    cn_imp: np.ndarray
+    kt_imp: np.ndarray
+    ct_imp: np.ndarray
+    nrm: np.ndarray
+    vn_old: np.ndarray
+    vt_old: np.ndarray
+    fc_tot: np.ndarray
+    ft_torque: np.ndarray
+
+
+class _TextureCache(NamedTuple):
+    # per plane (:func:`_texture_cached`): (material id, s1, s2, steps since the exact
+    # evaluation), each mode's (sin, cos) of its phase, and each material's largest wavenumber
+    key: np.ndarray
+    sh: np.ndarray
+    ch: np.ndarray
+    sm: np.ndarray
+    cm: np.ndarray
+    kmax: np.ndarray
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
+    """Every plane's contact force on the shell at this step (module docstring, "Contacts" and
+    "Friction"): where the sphere touches the plane and the texture there (blended across a
+    texture boundary), the Hertz + Hunt-Crossley normal force, the stick/slip state machine of
+    the tangential spring; their sum and the friction torque about the centre in ``cs``, the
+    explicit part of each plane's force added to its output ``o_fc[j]``.  Returns the contact
+    event (0, 1: impact, 2: loaded loss)."""
+    geo, mat_ids, props, tex = surf.geo, surf.mat_ids, surf.props, surf.texture
+    active, stick, tdisp = cs.active, cs.stick, cs.tdisp
+    cs.fc_tot[:] = 0.0
+    cs.ft_torque[:] = 0.0
+    event = 0
+    for p in range(surf.n_planes):
+        cs.kn_imp[p] = 0.0; cs.cn_imp[p] = 0.0; cs.kt_imp[p] = 0.0; cs.ct_imp[p] = 0.0
+        n0 = geo[p, 0]; n1 = geo[p, 1]; n2 = geo[p, 2]
+        dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, 3]
+        was = active[p]
+        fn = 0.0
+        ok = dist < radius + lab.margin
+        pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
+        if ok:
+            if (pc0 < geo[p, 10] or pc1 < geo[p, 11] or pc2 < geo[p, 12]
+                    or pc0 > geo[p, 13] or pc1 > geo[p, 14] or pc2 > geo[p, 15]):
+                ok = False
+        delta = 0.0
+        if ok:
+            s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
+            s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
+            mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
+            h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tc.key, tc.sh, tc.ch, tc.sm, tc.cm, tc.kmax,
+            tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
+            edge_width = geo[p, 17]
+            xs = (s1 - geo[p, 16]) / edge_width
+            if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
+                # the sphere straddles the texture boundary: blend the followed heights
+                ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
+                hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
+                lam, dlam = _smoothstep(xs + 0.5)
+                h = (1.0 - lam) * ha + lam * hb
+                g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
+                g2 = (1.0 - lam) * g2a + lam * g2b
+            delta = radius + h - dist
+            if delta <= 0.0:
+                ok = False
+        if not ok:
+            if was:
+                active[p] = False
+                if cs.last_fn[p] > lab.loss_force:
+                    event = 2
+            cs.last_fn[p] = 0.0
+            continue
+        vn = n0 * v[0] + n1 * v[1] + n2 * v[2]
+        if not was:
+            active[p] = True
+            stick[p] = True
+            tdisp[p, :] = 0.0
+            if -vn > lab.impact_speed:
+                event = 1
+        cs.nrm[p, 0] = n0; cs.nrm[p, 1] = n1; cs.nrm[p, 2] = n2
+        vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
+        hdot = (g1 * (geo[p, 4] * vt0 + geo[p, 5] * vt1 + geo[p, 6] * vt2)
+                + g2 * (geo[p, 7] * vt0 + geo[p, 8] * vt1 + geo[p, 9] * vt2))
+        ddot = -vn + hdot
+        sq = math.sqrt(delta)
+        kh = props[mid, 0]
+        alpha = props[mid, 1]
+        kloc = 1.5 * kh * sq
+        cn = 1.5 * alpha * kh * delta * sq
+        fn = kh * delta * sq + cn * ddot
+        if fn < 0.0:
+            fn = 0.0
+            cn = 0.0
+        cs.kn_imp[p] = kloc
+        cs.cn_imp[p] = cn
+        # friction
+        fac = 1.0 + mu_f
+        if fac < 0.0:
+            fac = 0.0
+        mus = props[mid, 2] * fac
+        muk = props[mid, 3] * fac
+        # keep the tangential spring in the current tangent plane
+        dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
+        tdisp[p, 0] += (vt0 * dt - dn * n0)
+        tdisp[p, 1] += (vt1 * dt - dn * n1)
+        tdisp[p, 2] += (vt2 * dt - dn * n2)
+        kt = lab.tangential_ratio * kloc
+        ct = lab.tangential_ratio * cn
+        ft0 = -kt * tdisp[p, 0] - ct * vt0
+        ft1 = -kt * tdisp[p, 1] - ct * vt1
+        ft2 = -kt * tdisp[p, 2] - ct * vt2
+        mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+        if mag > 0.0:
+            # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|,
+            # plus the tilt of the contact normal on the followed height (the sphere's arcs
+            # over the lay ridges): the same ratchet geometry
+            e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
+            e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
+            slope = (b1 + g1) * e1 + (b2 + g2) * e2
+            mus = _ratchet(mus, slope)
+            muk = _ratchet(muk, slope)
+        lim = (mus if stick[p] else muk) * fn
+        if mag > lim:
+            stick[p] = False
+            sc = muk * fn / mag
+            ft0 *= sc; ft1 *= sc; ft2 *= sc
+            if kt > 0.0:
+                tdisp[p, 0] = -ft0 / kt; tdisp[p, 1] = -ft1 / kt; tdisp[p, 2] = -ft2 / kt
+        else:
+            stick[p] = True
+            cs.kt_imp[p] = kt
+            cs.ct_imp[p] = ct
+        cs.last_fn[p] = fn
+        f0 = fn * n0 + ft0; f1 = fn * n1 + ft1; f2 = fn * n2 + ft2
+        cs.fc_tot[0] += f0; cs.fc_tot[1] += f1; cs.fc_tot[2] += f2
+        # torque of friction about the sphere centre: (-R n) x F_t
+        cs.ft_torque[0] += -radius * (n1 * ft2 - n2 * ft1)
+        cs.ft_torque[1] += -radius * (n2 * ft0 - n0 * ft2)
+        cs.ft_torque[2] += -radius * (n0 * ft1 - n1 * ft0)
+        o_fc[j, p, 0] += f0 / n_sub; o_fc[j, p, 1] += f1 / n_sub; o_fc[j, p, 2] += f2 / n_sub
+    return event
+
+
 @numba.njit(cache=True, fastmath=_FAST, inline="always")
 def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
     """One servo tick (module docstring, "Servo" and "Motors"): what the encoders and the
@@ -876,6 +1029,10 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
         for jj in range(mk1.shape[1]):
             kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
 
+    cs = _Contacts(active, stick, tdisp, last_fn, kn_imp, cn_imp, kt_imp, ct_imp, nrm, vn_old, vt_old,
+                   fc_tot, ft_torque)
+    tc = _TextureCache(tcache, tsh, tch, tsm, tcm, kmax)
+
     n_steps = n_out * n_sub
     for i in range(n_steps):
         t = i * dt
@@ -889,120 +1046,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
             last_k = k
             holding = _servo_tick(k, holding, mech, drive, servo, chain, b, sv)
 
-        # ---------------- contacts ---------------------------------------
-        fc_tot[:] = 0.0
-        ft_torque[:] = 0.0
-        event = 0
-        for p in range(n_planes):
-            kn_imp[p] = 0.0; cn_imp[p] = 0.0; kt_imp[p] = 0.0; ct_imp[p] = 0.0
-            n0 = geo[p, 0]; n1 = geo[p, 1]; n2 = geo[p, 2]
-            dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, 3]
-            was = active[p]
-            fn = 0.0
-            ok = dist < radius + margin
-            pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
-            if ok:
-                if (pc0 < geo[p, 10] or pc1 < geo[p, 11] or pc2 < geo[p, 12]
-                        or pc0 > geo[p, 13] or pc1 > geo[p, 14] or pc2 > geo[p, 15]):
-                    ok = False
-            delta = 0.0
-            if ok:
-                s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
-                s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
-                mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-                h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tcache, tsh, tch, tsm, tcm, kmax,
-                                                          hk1, hk2, hamp, hbamp, hph,
-                                                      mk1, mk2, mamp, mph, etab, epar)
-                edge_width = geo[p, 17]
-                xs = (s1 - geo[p, 16]) / edge_width
-                if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
-                    # the sphere straddles the texture boundary: blend the followed heights
-                    ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph, etab, epar)
-                    hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph, etab, epar)
-                    lam, dlam = _smoothstep(xs + 0.5)
-                    h = (1.0 - lam) * ha + lam * hb
-                    g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
-                    g2 = (1.0 - lam) * g2a + lam * g2b
-                delta = radius + h - dist
-                if delta <= 0.0:
-                    ok = False
-            if not ok:
-                if was:
-                    active[p] = False
-                    if last_fn[p] > f_loss:
-                        event = 2
-                last_fn[p] = 0.0
-                continue
-            vn = n0 * v[0] + n1 * v[1] + n2 * v[2]
-            if not was:
-                active[p] = True
-                stick[p] = True
-                tdisp[p, :] = 0.0
-                if -vn > v_impact:
-                    event = 1
-            nrm[p, 0] = n0; nrm[p, 1] = n1; nrm[p, 2] = n2
-            vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
-            hdot = (g1 * (geo[p, 4] * vt0 + geo[p, 5] * vt1 + geo[p, 6] * vt2)
-                    + g2 * (geo[p, 7] * vt0 + geo[p, 8] * vt1 + geo[p, 9] * vt2))
-            ddot = -vn + hdot
-            sq = math.sqrt(delta)
-            kh = props[mid, 0]
-            alpha = props[mid, 1]
-            kloc = 1.5 * kh * sq
-            cn = 1.5 * alpha * kh * delta * sq
-            fn = kh * delta * sq + cn * ddot
-            if fn < 0.0:
-                fn = 0.0
-                cn = 0.0
-            kn_imp[p] = kloc
-            cn_imp[p] = cn
-            # friction
-            fac = 1.0 + mu_f
-            if fac < 0.0:
-                fac = 0.0
-            mus = props[mid, 2] * fac
-            muk = props[mid, 3] * fac
-            # keep the tangential spring in the current tangent plane
-            dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
-            tdisp[p, 0] += (vt0 * dt - dn * n0)
-            tdisp[p, 1] += (vt1 * dt - dn * n1)
-            tdisp[p, 2] += (vt2 * dt - dn * n2)
-            kt = ts_ratio * kloc
-            ct = ts_ratio * cn
-            ft0 = -kt * tdisp[p, 0] - ct * vt0
-            ft1 = -kt * tdisp[p, 1] - ct * vt1
-            ft2 = -kt * tdisp[p, 2] - ct * vt2
-            mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
-            if mag > 0.0:
-                # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|
-                e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
-                e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
-                # plus the tilt of the contact normal on the followed height (the sphere's
-                # arcs over the lay ridges): the same ratchet geometry
-                slope = (b1 + g1) * e1 + (b2 + g2) * e2
-                mus = _ratchet(mus, slope)
-                muk = _ratchet(muk, slope)
-            lim = (mus if stick[p] else muk) * fn
-            if mag > lim:
-                stick[p] = False
-                sc = muk * fn / mag
-                ft0 *= sc; ft1 *= sc; ft2 *= sc
-                if kt > 0.0:
-                    tdisp[p, 0] = -ft0 / kt; tdisp[p, 1] = -ft1 / kt; tdisp[p, 2] = -ft2 / kt
-            else:
-                stick[p] = True
-                kt_imp[p] = kt
-                ct_imp[p] = ct
-            last_fn[p] = fn
-            f0 = fn * n0 + ft0; f1 = fn * n1 + ft1; f2 = fn * n2 + ft2
-            fc_tot[0] += f0; fc_tot[1] += f1; fc_tot[2] += f2
-            # torque of friction about the sphere centre: (-R n) x F_t
-            ft_torque[0] += -radius * (n1 * ft2 - n2 * ft1)
-            ft_torque[1] += -radius * (n2 * ft0 - n0 * ft2)
-            ft_torque[2] += -radius * (n0 * ft1 - n1 * ft0)
-            o_fc[j, p, 0] += f0 / n_sub; o_fc[j, p, 1] += f1 / n_sub; o_fc[j, p, 2] += f2 / n_sub
+        event = _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc)
 
         # ---------------- sensor ----------------------------------------
         for a in range(3):
