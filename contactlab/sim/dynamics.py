@@ -922,6 +922,84 @@ def _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path):
     return rstuck, r_path
 
 
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _drive_forces(dt, mf, drive, chain, b, fs, fc_tot, wr, fcab, flnk):
+    """The explicit velocity step of every body: the motors deliver the commanded force times
+    the commutation ripple of their shaft angle (module docstring, "Motors"), each body passes
+    on to the one before it the cable's, the link's or (rigid) the sensor's force."""
+    gvec = chain.gvec
+    kc = drive.cable_stiffness; cc = drive.cable_damping
+    kl = drive.link_stiffness; cl = drive.link_damping
+    xr, vr, xa, va, xl, vl = b.xr, b.vr, b.xa, b.va, b.xl, b.vl
+    for a in range(3):
+        fm = wr[a]
+        if drive.commutation_events > 0:
+            fm *= commutation_gain(drive.motor_gain * xr[a] + drive.commutation_phase[a],
+                                   drive.commutation_events)
+        flnk[a] = kl * (xl[a] - xa[a]) + cl * (vl[a] - va[a]) if chain.has_link else fs[a]
+        fcab[a] = kc * (xa[a] - xr[a]) + cc * (va[a] - vr[a]) if chain.has_cable else flnk[a]
+        vr[a] += dt * ((fm + fcab[a]) / chain.m_d + gvec[a])
+        if chain.has_cable:
+            va[a] += dt * ((flnk[a] - fcab[a]) / chain.m_a + gvec[a])
+        if chain.has_link:
+            vl[a] += dt * ((fs[a] - flnk[a]) / drive.link_tip_mass + gvec[a])
+        b.v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _implicit_contacts(j, dt, n_sub, mf, n_planes, v, cs, o_fc):
+    """The linearly implicit correction of the stiff contact springs (normal, and tangential
+    while sticking) along their directions (module docstring, "Integrator"), its impulse added
+    to the recorded contact force so that impulses are exact."""
+    nrm = cs.nrm
+    for p in range(n_planes):
+        if not cs.active[p]:
+            continue
+        if cs.kn_imp[p] > 0.0:
+            d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
+            dnew = (mf * d + dt * cs.cn_imp[p] * cs.vn_old[p]) / (mf + dt * dt * cs.kn_imp[p] + dt * cs.cn_imp[p])
+            for a in range(3):
+                v[a] += (dnew - d) * nrm[p, a]
+                o_fc[j, p, a] += (dnew - d) * nrm[p, a] * mf / dt / n_sub
+        if cs.kt_imp[p] > 0.0:
+            d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
+            den = mf + dt * dt * cs.kt_imp[p] + dt * cs.ct_imp[p]
+            for a in range(3):
+                vt = v[a] - d * nrm[p, a]
+                vtn = (mf * vt + dt * cs.ct_imp[p] * cs.vt_old[p, a]) / den
+                v[a] += vtn - vt
+                o_fc[j, p, a] += (vtn - vt) * mf / dt / n_sub
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _record(j, b, fs, r_os, sv, cs, n_planes, out):
+    """Point-sample the state into output row ``j`` (the interval's first step)."""
+    for a in range(3):
+        out.robot_position[j, a] = b.xr[a]; out.robot_velocity[j, a] = b.vr[a]
+        out.shell_position[j, a] = b.x[a]; out.shell_velocity[j, a] = b.v[a]
+        out.wrench[j, a] = fs[a]
+        out.control_wrench[j, a] = sv.wr[a]; out.desired_position[j, a] = sv.xd_now[a]
+    # torque at the sensor origin: r_os x w_m + friction torque about the centre
+    ft_torque = cs.ft_torque
+    out.wrench[j, 3] = r_os[1] * fs[2] - r_os[2] * fs[1] + ft_torque[0]
+    out.wrench[j, 4] = r_os[2] * fs[0] - r_os[0] * fs[2] + ft_torque[1]
+    out.wrench[j, 5] = r_os[0] * fs[1] - r_os[1] * fs[0] + ft_torque[2]
+    for p in range(n_planes):
+        out.active[j, p] = cs.active[p]
+        out.slipping[j, p] = cs.active[p] and not cs.stick[p]
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _record_material(j, x, radius, surf, active, o_mat):
+    """The material under the finger, per plane, into output row ``j``."""
+    geo = surf.geo
+    for p in range(surf.n_planes):
+        if active[p]:
+            pc0 = x[0] - radius * geo[p, 0]
+            s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
+            o_mat[j, p] = surf.mat_ids[p, 0] if s1 < geo[p, 16] else surf.mat_ids[p, 1]
+
+
 @numba.njit(cache=True, fastmath=_FAST)
 def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
@@ -1032,6 +1110,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     cs = _Contacts(active, stick, tdisp, last_fn, kn_imp, cn_imp, kt_imp, ct_imp, nrm, vn_old, vt_old,
                    fc_tot, ft_torque)
     tc = _TextureCache(tcache, tsh, tch, tsm, tcm, kmax)
+    out = Outputs(o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
 
     n_steps = n_out * n_sub
     for i in range(n_steps):
@@ -1058,18 +1137,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
         if event > o_event[j]:
             o_event[j] = event
         if first:
-            for a in range(3):
-                o_xr[j, a] = xr[a]; o_vr[j, a] = vr[a]; o_x[j, a] = x[a]; o_v[j, a] = v[a]
-                o_w[j, a] = fs[a]
-                o_wr[j, a] = wr[a]; o_xd[j, a] = xd_now[a]
-            # torque at the sensor origin: r_os x w_m + friction torque about the centre
-            o_w[j, 3] = r_os[1] * fs[2] - r_os[2] * fs[1] + ft_torque[0]
-            o_w[j, 4] = r_os[2] * fs[0] - r_os[0] * fs[2] + ft_torque[1]
-            o_w[j, 5] = r_os[0] * fs[1] - r_os[1] * fs[0] + ft_torque[2]
-            for p in range(n_planes):
-                o_act[j, p] = active[p]
-                o_slip[j, p] = active[p] and not stick[p]
-        # material under the finger, per plane (recorded for the whole interval's first step)
+            _record(j, b, fs, r_os, sv, cs, n_planes, out)
         # ---------------- integrate --------------------------------------
         for p in range(n_planes):
             if active[p]:
@@ -1077,22 +1145,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
                 vn_old[p] = d
                 for a in range(3):
                     vt_old[p, a] = v[a] - d * nrm[p, a]
-        for a in range(3):
-            # the motors deliver the commanded force times the commutation ripple of their
-            # current shaft angle (module docstring, "Motors")
-            fm = wr[a]
-            if n_comm > 0:
-                fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
-            # the force each body passes on to the one before it: the cable's, the link's, or
-            # (rigid) the sensor's
-            flnk[a] = kl * (xl[a] - xa[a]) + cl * (vl[a] - va[a]) if has_link else fs[a]
-            fcab[a] = kc * (xa[a] - xr[a]) + cc * (va[a] - vr[a]) if has_cable else flnk[a]
-            vr[a] += dt * ((fm + fcab[a]) / m_d + gvec[a])
-            if has_cable:
-                va[a] += dt * ((flnk[a] - fcab[a]) / m_a + gvec[a])
-            if has_link:
-                vl[a] += dt * ((fs[a] - flnk[a]) / m_tip + gvec[a])
-            v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
+        _drive_forces(dt, mf, drive, chain, b, fs, fc_tot, wr, fcab, flnk)
         rstuck, r_path = _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path)
         # linearly implicit correction of the stiff contact springs
         for p in range(n_planes):
@@ -1127,9 +1180,6 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
                 vl[a] = va[a]
             x[a] += dt * v[a]
         if first:
-            for p in range(n_planes):
-                if active[p]:
-                    pc0 = x[0] - radius * geo[p, 0]
-                    s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
-                    o_mat[j, p] = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-    return Outputs(o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
+            # the material under the finger, per plane, after the interval's first step
+            _record_material(j, x, radius, surf, active, o_mat)
+    return out
