@@ -947,31 +947,6 @@ def _drive_forces(dt, mf, drive, chain, b, fs, fc_tot, wr, fcab, flnk):
 
 
 @numba.njit(cache=True, fastmath=_FAST, inline="always")
-def _implicit_contacts(j, dt, n_sub, mf, n_planes, v, cs, o_fc):
-    """The linearly implicit correction of the stiff contact springs (normal, and tangential
-    while sticking) along their directions (module docstring, "Integrator"), its impulse added
-    to the recorded contact force so that impulses are exact."""
-    nrm = cs.nrm
-    for p in range(n_planes):
-        if not cs.active[p]:
-            continue
-        if cs.kn_imp[p] > 0.0:
-            d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
-            dnew = (mf * d + dt * cs.cn_imp[p] * cs.vn_old[p]) / (mf + dt * dt * cs.kn_imp[p] + dt * cs.cn_imp[p])
-            for a in range(3):
-                v[a] += (dnew - d) * nrm[p, a]
-                o_fc[j, p, a] += (dnew - d) * nrm[p, a] * mf / dt / n_sub
-        if cs.kt_imp[p] > 0.0:
-            d = v[0] * nrm[p, 0] + v[1] * nrm[p, 1] + v[2] * nrm[p, 2]
-            den = mf + dt * dt * cs.kt_imp[p] + dt * cs.ct_imp[p]
-            for a in range(3):
-                vt = v[a] - d * nrm[p, a]
-                vtn = (mf * vt + dt * cs.ct_imp[p] * cs.vt_old[p, a]) / den
-                v[a] += vtn - vt
-                o_fc[j, p, a] += (vtn - vt) * mf / dt / n_sub
-
-
-@numba.njit(cache=True, fastmath=_FAST, inline="always")
 def _record(j, b, fs, r_os, sv, cs, n_planes, out):
     """Point-sample the state into output row ``j`` (the interval's first step)."""
     for a in range(3):
@@ -1000,6 +975,74 @@ def _record_material(j, x, radius, surf, active, o_mat):
             o_mat[j, p] = surf.mat_ids[p, 0] if s1 < geo[p, 16] else surf.mat_ids[p, 1]
 
 
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _texture_cache(npl, tex):
+    """An empty :class:`_TextureCache` for ``npl`` planes (material -1 forces an exact first call)."""
+    hk1, hk2, mk1, mk2 = tex.h_k1, tex.h_k2, tex.m_k1, tex.m_k2
+    key = np.zeros((npl, 4))
+    key[:, 0] = -1.0
+    kmax = np.zeros(hk1.shape[0])
+    for mm in range(hk1.shape[0]):
+        for jj in range(hk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(hk1[mm, jj]) + abs(hk2[mm, jj]))
+        for jj in range(mk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
+    return _TextureCache(key, np.zeros((npl, hk1.shape[1])), np.zeros((npl, hk1.shape[1])),
+                         np.zeros((npl, mk1.shape[1])), np.zeros((npl, mk1.shape[1])), kmax)
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _outputs(n_out, npl):
+    return Outputs(np.zeros((n_out, 3)), np.zeros((n_out, 3)), np.zeros((n_out, 3)), np.zeros((n_out, 3)),
+                   np.zeros((n_out, 6)), np.zeros((n_out, 3)), np.zeros((n_out, 3)),
+                   np.zeros((n_out, npl), np.bool_), np.zeros((n_out, npl), np.bool_),
+                   -np.ones((n_out, npl), np.int64), np.zeros((n_out, npl, 3)), np.zeros(n_out, np.int64),
+                   np.zeros(n_out))
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _initial_state(mech, drive, servo, start, npl):
+    """The chain's constants, the bodies at rest (each spring of the drive stretched by the
+    weight it carries), the servo's state at rest on the initial velocity, no contact; the
+    cable's and the link's forces."""
+    xr0, vr0 = start.robot_position, start.robot_velocity
+    mr, mf = mech.robot_mass, mech.shell_mass
+    m_rot, m_tip = drive.rotor_mass, drive.link_tip_mass
+    kc, kl = drive.cable_stiffness, drive.link_stiffness
+    gvec = np.array([0.0, 0.0, -mech.gravity])
+    gcomp = -(mr + mf) * gvec
+    has_cable = kc > 0.0
+    has_link = kl > 0.0
+    m_arm = mr - (m_rot if has_cable else 0.0) - (m_tip if has_link else 0.0)
+    m_d = m_rot if has_cable else (m_arm if has_link else mr)
+    m_a = m_arm if has_link else mr - m_rot
+    chain = _Chain(gvec, gcomp, has_cable, has_link, m_d, m_a)
+    xa = xr0.copy(); va = vr0.copy()
+    if has_cable:
+        for a in range(3):
+            xa[a] += (mr - m_rot + mf) * gvec[a] / kc
+    xl = xa.copy(); vl = va.copy()
+    if has_link:
+        for a in range(3):
+            xl[a] += (m_tip + mf) * gvec[a] / kl
+    bodies = _Bodies(xr0.copy(), vr0.copy(), xa, va, xl, vl, start.shell_position.copy(),
+                     start.shell_velocity.copy())
+    vfilt = servo.velocity_filter
+    sv = _ServoState(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                     xr0.copy(), xr0.copy(), xr0.copy(), np.zeros(3))
+    for a in range(3):
+        sv.xm_prev[a] = _quantise(_reported(xr0 - vr0 / mech.servo_rate, a, servo.kin_a, servo.kin_q),
+                                  servo.encoder_resolution)
+        # filter state at rest on the initial velocity (steady state of the biquad)
+        sv.vm[a] = vr0[a]
+        sv.vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
+        sv.vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + sv.vz2[a]
+    cs = _Contacts(np.zeros(npl, np.bool_), np.ones(npl, np.bool_), np.zeros((npl, 3)), np.zeros(npl),
+                   np.zeros(npl), np.zeros(npl), np.zeros(npl), np.zeros(npl), np.zeros((npl, 3)),
+                   np.zeros(npl), np.zeros((npl, 3)), np.zeros(3), np.zeros(3))
+    return chain, bodies, sv, cs, np.zeros(3), np.zeros(3)
+
+
 @numba.njit(cache=True, fastmath=_FAST)
 def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
@@ -1009,108 +1052,31 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     the :class:`Outputs`, per output sample: states, sensor wrench, controller output and
     ground truth.  See :func:`contactlab.sim.simulate.simulate` for meanings.
     """
-    (mr, mf, ks, bs, radius, offset, grav, servo_rate) = mech
-    (fr, br, frs, brush_tab, kb, cb, f_res, m_rot, kc, cc, m_tip, kl, cl, n_comm, motor_gain,
-     comm_phase) = drive
-    n_planes, geo, mat_ids, props, tex = surf
-    hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar = tex
-    (kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise, feedback, enc_res, vfilt,
-     kin_a, kin_q) = servo
-    xr0, vr0, x0, v0 = start
-    tau_ring, v_impact, f_loss, ts_ratio, margin = lab
+    mf, ks, bs, radius, servo_rate = (mech.shell_mass, mech.sensor_stiffness, mech.sensor_damping,
+                                      mech.radius, mech.servo_rate)
+    n_planes = surf.n_planes
+    vr0 = start.robot_velocity
     npl = max(n_planes, 1)
-    nk = xd_arr.shape[0]
-    # outputs
-    o_xr = np.zeros((n_out, 3)); o_vr = np.zeros((n_out, 3))
-    o_x = np.zeros((n_out, 3)); o_v = np.zeros((n_out, 3))
-    o_w = np.zeros((n_out, 6))
-    o_wr = np.zeros((n_out, 3)); o_xd = np.zeros((n_out, 3))
-    o_act = np.zeros((n_out, npl), np.bool_)
-    o_slip = np.zeros((n_out, npl), np.bool_)
-    o_mat = -np.ones((n_out, npl), np.int64)
-    o_fc = np.zeros((n_out, npl, 3))
-    o_event = np.zeros(n_out, np.int64)
-    o_ring = np.zeros(n_out)
-
-    xr = xr0.copy(); vr = vr0.copy(); x = x0.copy(); v = v0.copy()
-    gvec = np.array([0.0, 0.0, -grav])
-    gcomp = -(mr + mf) * gvec
-    # the drive's structure (module docstring, "The drive's structure"): a chain of up to three
-    # bodies, the drive (xr: the rotors, where the motors' force, the friction and the encoders
-    # act), the arm (xa) behind the capstan cables kc, the link's tip (xl, carrying the sensor's
-    # base) behind the link's bending spring kl; a rigid cable or link merges its two bodies
-    has_cable = kc > 0.0
-    has_link = kl > 0.0
-    m_arm = mr - (m_rot if has_cable else 0.0) - (m_tip if has_link else 0.0)
-    m_d = m_rot if has_cable else (m_arm if has_link else mr)
-    m_a = m_arm if has_link else mr - m_rot
-    # at rest each spring is stretched by the weight it carries
-    xa = xr0.copy(); va = vr0.copy()
-    if has_cable:
-        for a in range(3):
-            xa[a] += (mr - m_rot + mf) * gvec[a] / kc
-    xl = xa.copy(); vl = va.copy()
-    if has_link:
-        for a in range(3):
-            xl[a] += (m_tip + mf) * gvec[a] / kl
-    fcab = np.zeros(3)
-    flnk = np.zeros(3)
-    wr = np.zeros(3)
-    xi_int = xr0.copy()          # integral force controller state (desired position)
-    x_hold = xr0.copy()
+    nk = servo.xd.shape[0]
+    out = _outputs(n_out, npl)
+    o_fc, o_mat, o_event, o_ring = out.contact_force, out.material, out.event, out.ring
+    chain, b, sv, cs, fcab, flnk = _initial_state(mech, drive, servo, start, npl)
+    tc = _texture_cache(npl, surf.texture)
+    xr, vr, xa, va, xl, vl, x, v = b
+    m_d, has_cable, has_link = chain.m_d, chain.has_cable, chain.has_link
+    wr = sv.wr
+    active, nrm, vn_old, vt_old = cs.active, cs.nrm, cs.vn_old, cs.vt_old
+    kn_imp, cn_imp, kt_imp, ct_imp = cs.kn_imp, cs.cn_imp, cs.kt_imp, cs.ct_imp
     holding = False
     last_k = -1
-    # what the servo sees (sensor module docstring, Encoders): the encoder-quantised robot
-    # position and its first difference, lowpassed by a biquad, both at the servo rate
-    xm = np.zeros(3)
-    xm_prev = np.zeros(3)
-    vm = np.zeros(3)
-    vz1 = np.zeros(3)
-    vz2 = np.zeros(3)
-    for a in range(3):
-        xm_prev[a] = _quantise(_reported(xr0 - vr0 / servo_rate, a, kin_a, kin_q), enc_res)
-        # filter state at rest on the initial velocity (steady state of the biquad)
-        vm[a] = vr0[a]
-        vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
-        vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + vz2[a]
-    xd_now = xr0.copy()
-    chain = _Chain(gvec, gcomp, has_cable, has_link, m_d, m_a)
-    b = _Bodies(xr, vr, xa, va, xl, vl, x, v)
-    sv = _ServoState(xm, xm_prev, vm, vz1, vz2, xi_int, x_hold, xd_now, wr)
     rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
     r_path = 0.0
     zb = np.zeros(3)             # pre-sliding (bristle) deflection of the drive's friction
     ftr = np.zeros(3)
-    vn_old = np.zeros(npl)
-    vt_old = np.zeros((npl, 3))
-    active = np.zeros(npl, np.bool_)
-    stick = np.ones(npl, np.bool_)
-    tdisp = np.zeros((npl, 3))
-    last_fn = np.zeros(npl)
-    kn_imp = np.zeros(npl); cn_imp = np.zeros(npl); kt_imp = np.zeros(npl); ct_imp = np.zeros(npl)
-    nrm = np.zeros((npl, 3))
     fs = ks * (x - xl) + bs * (v - vl)
     f_lp = fs.copy()
-    a_lp = dt / (tau_ring + dt)
-    fc_tot = np.zeros(3)
-    ft_torque = np.zeros(3)
-    r_os = np.array([0.0, 0.0, -offset])
-    # per-plane texture phase cache (_texture_cached): material -1 forces an exact first call
-    tcache = np.zeros((npl, 4))
-    tcache[:, 0] = -1.0
-    tsh = np.zeros((npl, hk1.shape[1])); tch = np.zeros((npl, hk1.shape[1]))
-    tsm = np.zeros((npl, mk1.shape[1])); tcm = np.zeros((npl, mk1.shape[1]))
-    kmax = np.zeros(hk1.shape[0])
-    for mm in range(hk1.shape[0]):
-        for jj in range(hk1.shape[1]):
-            kmax[mm] = max(kmax[mm], abs(hk1[mm, jj]) + abs(hk2[mm, jj]))
-        for jj in range(mk1.shape[1]):
-            kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
-
-    cs = _Contacts(active, stick, tdisp, last_fn, kn_imp, cn_imp, kt_imp, ct_imp, nrm, vn_old, vt_old,
-                   fc_tot, ft_torque)
-    tc = _TextureCache(tcache, tsh, tch, tsm, tcm, kmax)
-    out = Outputs(o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
+    a_lp = dt / (lab.ring_tau + dt)
+    r_os = np.array([0.0, 0.0, -mech.origin_offset])
 
     n_steps = n_out * n_sub
     for i in range(n_steps):
@@ -1145,9 +1111,11 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
                 vn_old[p] = d
                 for a in range(3):
                     vt_old[p, a] = v[a] - d * nrm[p, a]
-        _drive_forces(dt, mf, drive, chain, b, fs, fc_tot, wr, fcab, flnk)
+        _drive_forces(dt, mf, drive, chain, b, fs, cs.fc_tot, wr, fcab, flnk)
         rstuck, r_path = _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path)
-        # linearly implicit correction of the stiff contact springs
+        # linearly implicit correction of the stiff contact springs (module docstring,
+        # "Integrator"); kept in this loop: as a helper of its own the compiler's fast-math
+        # reassociation rounds its products differently (tests/test_sim_checksums.py)
         for p in range(n_planes):
             if not active[p]:
                 continue
