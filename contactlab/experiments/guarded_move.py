@@ -31,7 +31,6 @@ on the stuck and the sliding runs of the surface (:func:`floor_rates`).
 from __future__ import annotations
 
 import json
-import shutil
 import time
 import tomllib
 from pathlib import Path
@@ -51,6 +50,7 @@ from contactlab.progress import bar
 from contactlab.report.page import ReportPage
 from contactlab.signals import trial_signals
 from contactlab.stages import run_stage
+from contactlab.experiments.scratch import scratch_dir
 
 SPEC = "guarded-move"
 EXPECTED = ("0", "1", "2", "1", "3")          # 9.1.1
@@ -140,10 +140,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     from contactlab.acquire.simulated import record_spec
 
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
     graph = guarded_graph()
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=4 + len(ROTATIONS), desc="guarded-move", quiet=quiet,
                  unit="step") as pbar:
             train = record_spec(SPEC, tmp / "train.h5", seed=seed)
@@ -190,8 +188,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, rot, gm, (signals, signals_ss), still, rates, secs, graph,
                            facts, (fixed, rates_fixed), stick, out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 #: the apparatus facts about the 9.1.1 signals (contactlab.experiments.apparatus_facts)

@@ -29,6 +29,7 @@ from contactlab.observer.em import baum_welch, graph_chain, learned_edges, viter
 from contactlab.observer.graph import load_graph, parse_graph  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.experiments.scratch import scratch_dir  # noqa: E402
 
 THESIS_TRACE = "57 52 108 108 109 109 109 90 81 81 71 116 5"
 TRIALS = 20                     # 9.2: "20 experimental trials from 57 under action 1"
@@ -107,11 +108,7 @@ def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
     """Simulate and train (:func:`tracking_setup`) and follow every trial from its action's
     start: per trial the :func:`track_trial` record, with the graph's transition
     probabilities (``trials``) and without (``free_transitions``, as in 6.4)."""
-    import shutil
-
-    tmp = Path(out_dir) / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         graph, models, trained, test, fp = tracking_setup(
             doc, fp, tmp, seed, n_trials=n_trials, impact_constraint=impact_constraint)
         out, out_free = [], []
@@ -124,8 +121,6 @@ def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
                     out_free.append(track_from_action(trial, graph, models, trained, fp, transitions="none"))
                     pbar.update(1)
         return {"graph": graph, "trials": out, "free_transitions": out_free}
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
