@@ -142,6 +142,7 @@ import numpy as np
 _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 from contactlab.sim import constants as C
+from contactlab.sim.controllers import ServoArrays
 
 
 def _mode_hz(k: float, m1: float, m2: float) -> float:
@@ -380,20 +381,11 @@ class Surfaces(NamedTuple):
 
 
 class Servo(NamedTuple):
-    """The controller, one row a servo tick (:class:`contactlab.sim.controllers.ServoArrays`),
-    the amplifiers' noise, and what the servo measures (sensor module docstring, Encoders)."""
+    """The controller, one row a servo tick, the amplifiers' noise, and what the servo
+    measures (sensor module docstring, Encoders)."""
 
-    kind: int
-    kp: np.ndarray
-    bp: np.ndarray
-    ki: np.ndarray
-    xd: np.ndarray
-    vd: np.ndarray
-    fff: np.ndarray
-    fd: np.ndarray
-    hold: np.ndarray
+    controller: ServoArrays
     noise: np.ndarray            # (ticks, 3) amplifiers' random force, N
-    feedback: int                # controllers.FEEDBACK code (1: the true state)
     encoder_resolution: float    # m
     velocity_filter: np.ndarray  # biquad (b0, b1, b2, a1, a2)
     kin_a: np.ndarray            # kinematic error, linear part (3, 3)
@@ -819,6 +811,7 @@ def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
     """One servo tick (module docstring, "Servo" and "Motors"): what the encoders and the
     velocity filter report, the desired position (held, tracked, or integrated from the force
     error by the integral force controller) and the motor command.  Returns ``holding``."""
+    ctl = servo.controller
     servo_rate = mech.servo_rate
     vfilt = servo.velocity_filter
     xm, vm = sv.xm, sv.vm
@@ -829,13 +822,13 @@ def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
         vm[a] = vfilt[0] * dv + sv.vz1[a]
         sv.vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + sv.vz2[a]
         sv.vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
-    if servo.feedback == 1:
+    if ctl.feedback == 1:
         for a in range(3):
             xm[a] = b.xr[a]
             vm[a] = b.vr[a]
     fs_now = mech.sensor_stiffness * (b.x - b.xl) + mech.sensor_damping * (b.v - b.vl)
     xd_now = sv.xd_now
-    if servo.hold[k] != 0:
+    if ctl.hold[k] != 0:
         if not holding:
             holding = True
             sv.x_hold[:] = xm
@@ -844,21 +837,21 @@ def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
         vdk = np.zeros(3)
     else:
         holding = False
-        vdk = servo.vd[k].copy()
-        if servo.kind == 1:
+        vdk = ctl.vd[k].copy()
+        if ctl.kind == 1:
             f_app = -fs_now + mech.shell_mass * chain.gvec
             for a in range(3):
-                sv.xi_int[a] += servo.ki[a] * (servo.fd[k, a] - f_app[a]) / servo_rate
-                xd_now[a] = sv.xi_int[a] + servo.xd[k, a]
+                sv.xi_int[a] += ctl.ki[a] * (ctl.fd[k, a] - f_app[a]) / servo_rate
+                xd_now[a] = sv.xi_int[a] + ctl.xd[k, a]
         else:
             for a in range(3):
-                xd_now[a] = servo.xd[k, a]
+                xd_now[a] = ctl.xd[k, a]
     for a in range(3):
         # the motor command leaves the force DAC in steps of f_res (its error is a
         # function of the command: constant while the command is) and the current
         # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
-        sv.wr[a] = _quantise(servo.kp[a] * (xd_now[a] - xm[a]) + servo.bp[a] * (vdk[a] - vm[a])
-                             + servo.fff[k, a] + chain.gcomp[a], drive.force_resolution) + servo.noise[k, a]
+        sv.wr[a] = _quantise(ctl.kp[a] * (xd_now[a] - xm[a]) + ctl.bp[a] * (vdk[a] - vm[a])
+                             + ctl.fff[k, a] + chain.gcomp[a], drive.force_resolution) + servo.noise[k, a]
     return holding
 
 
@@ -1057,7 +1050,7 @@ def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
     n_planes = surf.n_planes
     vr0 = start.robot_velocity
     npl = max(n_planes, 1)
-    nk = servo.xd.shape[0]
+    nk = servo.controller.xd.shape[0]
     out = _outputs(n_out, npl)
     o_fc, o_mat, o_event, o_ring = out.contact_force, out.material, out.event, out.ring
     chain, b, sv, cs, fcab, flnk = _initial_state(mech, drive, servo, start, npl)

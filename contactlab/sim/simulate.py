@@ -172,8 +172,7 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
                   float(app.motor_rad_per_m), comm_phase)
     surf = Surfaces(pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
                     Texture(*(pk[f] for f in Texture._fields)))
-    servo = Servo(sa.kind, sa.kp, sa.bp, sa.ki, sa.xd, sa.vd, sa.fff, sa.fd, sa.hold, noise,
-                  int(getattr(sa, "feedback", 0)), float(enc.resolution), vfilt, kin_a, kin_q)
+    servo = Servo(sa, noise, float(enc.resolution), vfilt, kin_a, kin_q)
     labels = Labelling(ring_tau, C.IMPACT_MIN_APPROACH_SPEED, f_loss, C.TANGENTIAL_STIFFNESS_RATIO,
                        C.CONTACT_MARGIN)
     out = integrate(n_out, n_sub, dt, mech, drive, surf, servo, Start(xr0, v0.copy(), x0, v0.copy()), labels)
