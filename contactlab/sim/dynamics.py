@@ -2,9 +2,17 @@
 
 One module on purpose: :func:`integrate` is one compiled (numba) time-stepping
 loop over one state -- robot, shell, every contact's stick/slip spring, the
-servo -- and the small compiled helpers it inlines (texture heights, the brush
-ripple, commutation, quantisation) are read beside it; the apparatus constants
-it runs with are the :class:`Apparatus` above it.
+servo -- and the compiled helpers it inlines are read beside it: the servo tick
+(:func:`_servo_tick`), the contact forces with their friction (:func:`_contact_forces`),
+the drive's forces and losses (:func:`_drive_forces`, :func:`_drive_friction`), the
+output sampling, and the small ones (texture heights, the brush ripple, commutation,
+quantisation).  Its inputs are named records (:class:`Mechanics`, :class:`Drive`,
+:class:`Surfaces` with their :class:`Texture`, :class:`Servo`, :class:`Start`,
+:class:`Labelling`), its state named records of arrays, its result :class:`Outputs`; the
+apparatus constants it runs with are the :class:`Apparatus` above it.  The helpers are
+inlined into the loop (``inline="always"``): the kernels' fast-math lets the compiler
+reassociate, and helpers compiled apart round differently; tests/test_sim_checksums.py
+holds the results to the bit.
 
 Model (thesis 4.6-4.8, 4.12).  Two point masses in R^3:
 
