@@ -151,6 +151,8 @@ _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 from contactlab.sim import constants as C
 from contactlab.sim.controllers import ServoArrays
+from contactlab.sim.environment import (GEO_EDGE, GEO_LOWER, GEO_NORMAL, GEO_OFFSET, GEO_SPLIT, GEO_U, GEO_UPPER,
+                                        GEO_V, PROP_ALPHA, PROP_HERTZ, PROP_MU_KINETIC, PROP_MU_STATIC)
 
 
 def _mode_hz(k: float, m1: float, m2: float) -> float:
@@ -699,36 +701,40 @@ def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
     the tangential spring; their sum and the friction torque about the centre in ``cs``, the
     explicit part of each plane's force added to its output ``o_fc[j]``.  Returns the contact
     event (0, 1: impact, 2: loaded loss)."""
-    geo, mat_ids, props, tex = surf.geo, surf.mat_ids, surf.props, surf.texture
+    geo, mat_ids, props = surf.geo, surf.mat_ids, surf.props
+    hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar = surf.texture
     active, stick, tdisp = cs.active, cs.stick, cs.tdisp
     cs.fc_tot[:] = 0.0
     cs.ft_torque[:] = 0.0
     event = 0
     for p in range(surf.n_planes):
         cs.kn_imp[p] = 0.0; cs.cn_imp[p] = 0.0; cs.kt_imp[p] = 0.0; cs.ct_imp[p] = 0.0
-        n0 = geo[p, 0]; n1 = geo[p, 1]; n2 = geo[p, 2]
-        dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, 3]
+        n0 = geo[p, GEO_NORMAL]; n1 = geo[p, GEO_NORMAL + 1]; n2 = geo[p, GEO_NORMAL + 2]
+        dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, GEO_OFFSET]
         was = active[p]
         fn = 0.0
         ok = dist < radius + lab.margin
         pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
         if ok:
-            if (pc0 < geo[p, 10] or pc1 < geo[p, 11] or pc2 < geo[p, 12]
-                    or pc0 > geo[p, 13] or pc1 > geo[p, 14] or pc2 > geo[p, 15]):
+            if (pc0 < geo[p, GEO_LOWER] or pc1 < geo[p, GEO_LOWER + 1] or pc2 < geo[p, GEO_LOWER + 2]
+                    or pc0 > geo[p, GEO_UPPER] or pc1 > geo[p, GEO_UPPER + 1] or pc2 > geo[p, GEO_UPPER + 2]):
                 ok = False
         delta = 0.0
         if ok:
-            s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
-            s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
-            mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-            h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tc.key, tc.sh, tc.ch, tc.sm, tc.cm, tc.kmax,
-            tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
-            edge_width = geo[p, 17]
-            xs = (s1 - geo[p, 16]) / edge_width
+            s1 = geo[p, GEO_U] * pc0 + geo[p, GEO_U + 1] * pc1 + geo[p, GEO_U + 2] * pc2
+            s2 = geo[p, GEO_V] * pc0 + geo[p, GEO_V + 1] * pc1 + geo[p, GEO_V + 2] * pc2
+            mid = mat_ids[p, 0] if s1 < geo[p, GEO_SPLIT] else mat_ids[p, 1]
+            h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tc.key, tc.sh, tc.ch, tc.sm,
+                                                      tc.cm, tc.kmax, hk1, hk2, hamp, hbamp, hph,
+                                                      mk1, mk2, mamp, mph, etab, epar)
+            edge_width = geo[p, GEO_EDGE]
+            xs = (s1 - geo[p, GEO_SPLIT]) / edge_width
             if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
                 # the sphere straddles the texture boundary: blend the followed heights
-                ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
-                hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, tex.h_k1, tex.h_k2, tex.h_amp, tex.h_bamp, tex.h_phase, tex.m_k1, tex.m_k2, tex.m_amp, tex.m_phase, tex.e_tab, tex.e_par)
+                ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                   mk1, mk2, mamp, mph, etab, epar)
+                hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                   mk1, mk2, mamp, mph, etab, epar)
                 lam, dlam = _smoothstep(xs + 0.5)
                 h = (1.0 - lam) * ha + lam * hb
                 g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
@@ -752,12 +758,12 @@ def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
                 event = 1
         cs.nrm[p, 0] = n0; cs.nrm[p, 1] = n1; cs.nrm[p, 2] = n2
         vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
-        hdot = (g1 * (geo[p, 4] * vt0 + geo[p, 5] * vt1 + geo[p, 6] * vt2)
-                + g2 * (geo[p, 7] * vt0 + geo[p, 8] * vt1 + geo[p, 9] * vt2))
+        hdot = (g1 * (geo[p, GEO_U] * vt0 + geo[p, GEO_U + 1] * vt1 + geo[p, GEO_U + 2] * vt2)
+                + g2 * (geo[p, GEO_V] * vt0 + geo[p, GEO_V + 1] * vt1 + geo[p, GEO_V + 2] * vt2))
         ddot = -vn + hdot
         sq = math.sqrt(delta)
-        kh = props[mid, 0]
-        alpha = props[mid, 1]
+        kh = props[mid, PROP_HERTZ]
+        alpha = props[mid, PROP_ALPHA]
         kloc = 1.5 * kh * sq
         cn = 1.5 * alpha * kh * delta * sq
         fn = kh * delta * sq + cn * ddot
@@ -770,8 +776,8 @@ def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
         fac = 1.0 + mu_f
         if fac < 0.0:
             fac = 0.0
-        mus = props[mid, 2] * fac
-        muk = props[mid, 3] * fac
+        mus = props[mid, PROP_MU_STATIC] * fac
+        muk = props[mid, PROP_MU_KINETIC] * fac
         # keep the tangential spring in the current tangent plane
         dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
         tdisp[p, 0] += (vt0 * dt - dn * n0)
@@ -787,8 +793,8 @@ def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
             # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|,
             # plus the tilt of the contact normal on the followed height (the sphere's arcs
             # over the lay ridges): the same ratchet geometry
-            e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
-            e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
+            e1 = -(geo[p, GEO_U] * ft0 + geo[p, GEO_U + 1] * ft1 + geo[p, GEO_U + 2] * ft2) / mag
+            e2 = -(geo[p, GEO_V] * ft0 + geo[p, GEO_V + 1] * ft1 + geo[p, GEO_V + 2] * ft2) / mag
             slope = (b1 + g1) * e1 + (b2 + g2) * e2
             mus = _ratchet(mus, slope)
             muk = _ratchet(muk, slope)
@@ -971,9 +977,10 @@ def _record_material(j, x, radius, surf, active, o_mat):
     geo = surf.geo
     for p in range(surf.n_planes):
         if active[p]:
-            pc0 = x[0] - radius * geo[p, 0]
-            s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
-            o_mat[j, p] = surf.mat_ids[p, 0] if s1 < geo[p, 16] else surf.mat_ids[p, 1]
+            pc0 = x[0] - radius * geo[p, GEO_NORMAL]
+            s1 = (geo[p, GEO_U] * pc0 + geo[p, GEO_U + 1] * (x[1] - radius * geo[p, GEO_NORMAL + 1])
+                  + geo[p, GEO_U + 2] * (x[2] - radius * geo[p, GEO_NORMAL + 2]))
+            o_mat[j, p] = surf.mat_ids[p, 0] if s1 < geo[p, GEO_SPLIT] else surf.mat_ids[p, 1]
 
 
 @numba.njit(cache=True, fastmath=_FAST, inline="always")
