@@ -38,18 +38,18 @@ def _recognise(test, graph, gm):
 
 def _maze(d: Path) -> dict:
     from contactlab.archive import open_archive
-    from contactlab.experiments.maze import track, tracking_setup
     from contactlab.maze import build_partitions
     from contactlab.maze.projection import maze_graph
+    from contactlab.maze.tracking import track_from_action, tracking_setup
     from contactlab.observer.paths import count_changes
 
     doc, _, fp = maze_graph(parts=build_partitions())
     graph, models, trained, test, fp = tracking_setup(doc, fp, d, seed=1, n_trials=6)
     with open_archive(test) as arch:
         trials = [arch.trial(t) for t in arch.trial_ids]
-        track(trials[0], graph, models, trained, fp)                # compiled kernels loaded
+        track_from_action(trials[0], graph, models, trained, fp)                # compiled kernels loaded
         t0 = time.perf_counter()
-        recs = [track(t, graph, models, trained, fp) for t in trials]
+        recs = [track_from_action(t, graph, models, trained, fp) for t in trials]
         dt = time.perf_counter() - t0
     dur = sum(len(r["times"]) / r["fs"] for r in recs)
     events = sum(count_changes(r["result"].events) for r in recs)

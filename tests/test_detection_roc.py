@@ -95,3 +95,10 @@ def test_mc_kernels_count_what_the_public_detectors_do():
     assert d.n_discarded[0] == (~ok).sum()
     if ok.any():
         assert d.mean[0] == pytest.approx(np.mean(t_first[ok] - burn + 1))
+
+
+def test_siegmund_threshold_inverts_the_false_alarm_time():
+    for s in (0.5, 1.0, 2.0):
+        for t2 in (2.0, 10.0, 30.0):
+            tf = roc.siegmund_false_alarm_time(t2, s=s)
+            assert roc.siegmund_threshold_for_false_alarm_time(tf, s=s) == pytest.approx(t2, rel=1e-9)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from contactlab.errors import DataError
-from contactlab.experiments.guarded_move import guarded_graph, reduce_impacts, score_path
+from contactlab.experiments.guarded_move import EXPECTED, guarded_graph
+from contactlab.observer.path_scoring import reduce_impacts, score_path
 from contactlab.observer.graph import parse_graph
 from contactlab.observer.kinematics import fit_kinematic_models
 
@@ -42,21 +43,21 @@ def test_list_of_labels_only_for_kinematic_models():
 
 
 def test_score_path():
-    assert score_path(list("01213"))["strict"]
+    assert score_path(list("01213"), EXPECTED)["strict"]
     # an impact during free motion and during the contact is tolerated (9.1.1)
-    s = score_path(list("0121212131313"))
+    s = score_path(list("0121212131313"), EXPECTED)
     assert s["correct"] and not s["strict"] and not s["distractor"]
     # leaving the surface for free motion is not
-    assert not score_path(list("012131213"))["correct"]
+    assert not score_path(list("012131213"), EXPECTED)["correct"]
     # a distractor contact is wrong, and flagged
-    s = score_path(list("01214"))
+    s = score_path(list("01214"), EXPECTED)
     assert not s["correct"] and s["distractor"]
-    assert not score_path(list("0123"))["correct"]
+    assert not score_path(list("0123"), EXPECTED)["correct"]
     assert reduce_impacts(list("3131")) == ["3", "1"]
     # fig 9.1's reading: the free motion as expected, and the run ends on the surface
-    assert score_path(list("012131213"))["final"] and score_path(list("0121413"))["final"]
-    assert not score_path(list("012141"))["final"] and not score_path(list("01214"))["final"]
-    assert not score_path(list("01313"))["final"] and not score_path(list("0121312"))["final"]
+    assert score_path(list("012131213"), EXPECTED)["final"] and score_path(list("0121413"), EXPECTED)["final"]
+    assert not score_path(list("012141"), EXPECTED)["final"] and not score_path(list("01214"), EXPECTED)["final"]
+    assert not score_path(list("01313"), EXPECTED)["final"] and not score_path(list("0121312"), EXPECTED)["final"]
 
 
 def test_rotated_graph():

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+from scipy.optimize import brentq
 from scipy.special import erfc
 
 from contactlab.detection.cusum import cusum_step
@@ -78,6 +79,14 @@ def siegmund_false_alarm_time(threshold, *, s):
 def siegmund_detection_delay(threshold, *, s):
     """Wald's ``t_D`` with ``T^2 -> T^2 + 2 rho s`` (Siegmund's overshoot correction)."""
     return wald_detection_delay(np.asarray(threshold, dtype=float) + 2 * RHO * np.asarray(s), s=s)
+
+
+def siegmund_threshold_for_false_alarm_time(false_alarm_time: float, *, s: float) -> float:
+    """The Page-Hinkley threshold ``T^2`` whose :func:`siegmund_false_alarm_time` equals
+    ``false_alarm_time`` (samples), for a change of size ``s``: the approximation inverted
+    (Brent's method on its logarithm over ``T^2`` in [1e-3, 200])."""
+    return brentq(lambda t2: np.log(siegmund_false_alarm_time(t2, s=s)) - np.log(false_alarm_time),
+                  1e-3, 200.0)
 
 
 # -- lowpass theory --------------------------------------------------------------------

@@ -31,7 +31,6 @@ on the stuck and the sliding runs of the surface (:func:`floor_rates`).
 from __future__ import annotations
 
 import json
-import shutil
 import time
 import tomllib
 from pathlib import Path
@@ -44,12 +43,14 @@ from contactlab.fileio import write_text_atomic
 from contactlab.observer.draw import plot_node_path
 from contactlab.observer.graph import FeatureGraph, bundled_graphs, parse_graph
 from contactlab.observer.models.composite import build_models
+from contactlab.observer.path_scoring import score_path
 from contactlab.observer.recognize import RecognizeStage, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
 from contactlab.signals import trial_signals
 from contactlab.stages import run_stage
+from contactlab.experiments.scratch import scratch_dir
 
 SPEC = "guarded-move"
 EXPECTED = ("0", "1", "2", "1", "3")          # 9.1.1
@@ -108,45 +109,6 @@ def stick_slip_graph(rotate_deg: float | None = None, *, compensated: bool = Tru
     return parse_graph(doc, source=str(path))
 
 
-def reduce_impacts(nodes, impact: str = "1") -> list[str]:
-    """A merged node sequence without impact excursions that return to where they left
-    (``a -> impact -> a`` becomes ``a``), repeated until none is left."""
-    seq = list(nodes)
-    changed = True
-    while changed:
-        changed = False
-        out: list[str] = []
-        i = 0
-        while i < len(seq):
-            if (out and seq[i] == impact and i + 1 < len(seq) and seq[i + 1] == out[-1]):
-                i += 2
-                changed = True
-                continue
-            if out and out[-1] == seq[i]:
-                i += 1
-                continue
-            out.append(seq[i])
-            i += 1
-        seq = out
-    return seq
-
-
-def score_path(merged_nodes, expected=EXPECTED) -> dict:
-    """``strict``: the merged path is exactly ``expected``; ``correct``: it is after
-    :func:`reduce_impacts`; ``final``: after :func:`reduce_impacts` it starts with
-    ``expected`` but its last node and ends in that node (the thesis's fig 9.1 run, counted
-    correct, "initially selects feature 4 ... but quickly returns to the correct feature,
-    number 3" after an impact during the contact); ``distractor``: it visits a node outside
-    ``expected``."""
-    nodes = list(merged_nodes)
-    red = reduce_impacts(nodes)
-    head = list(expected[:-1])
-    return {"strict": nodes == list(expected),
-            "correct": red == list(expected),
-            "final": red[:len(head)] == head and bool(nodes) and nodes[-1] == expected[-1],
-            "distractor": any(n not in expected for n in nodes)}
-
-
 def recognize_runs(archive, graph: FeatureGraph, models, *, trials=None,
                    quiet: bool = True, label_map=None, same=None) -> dict:
     """The observer over every run of ``archive`` (truth: the archive's labels mapped onto
@@ -157,7 +119,7 @@ def recognize_runs(archive, graph: FeatureGraph, models, *, trials=None,
                            label_map=LABEL_NODES if label_map is None else label_map)
     res = run_stage(stage, [archive], trials=trials, quiet=quiet)[Path(archive)]
     for e in res["trials"].values():
-        e["score"] = score_path(_surface_path(e["merged_path"], same or {}))
+        e["score"] = score_path(_surface_path(e["merged_path"], same or {}), EXPECTED)
     return res
 
 
@@ -178,10 +140,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     from contactlab.acquire.simulated import record_spec
 
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
     graph = guarded_graph()
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=4 + len(ROTATIONS), desc="guarded-move", quiet=quiet,
                  unit="step") as pbar:
             train = record_spec(SPEC, tmp / "train.h5", seed=seed)
@@ -228,8 +188,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, rot, gm, (signals, signals_ss), still, rates, secs, graph,
                            facts, (fixed, rates_fixed), stick, out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 #: the apparatus facts about the 9.1.1 signals (contactlab.experiments.apparatus_facts)

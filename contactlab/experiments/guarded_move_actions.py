@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 import time
 import tomllib
 from pathlib import Path
@@ -34,6 +33,7 @@ from contactlab.observer.recognize import merge_path, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
+from contactlab.experiments.scratch import scratch_dir
 
 SPEC = "guarded-move-actions"
 THESIS = {"correct": 20, "trials": 20, "angles": (-10.0, 45.0)}
@@ -72,9 +72,7 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     from contactlab.acquire.simulated import record_spec
 
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=4, desc=SPEC, quiet=quiet, unit="step") as pbar:
             train = record_spec(SPEC, tmp / "train.h5", seed=seed)
             test = record_spec(SPEC, tmp / "test.h5", seed=seed + 1)
@@ -92,8 +90,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
             sig = typical_run(test, res["actions"])
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, angles, sig, secs, graph, out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 # ---------------------------------------------------------------------------

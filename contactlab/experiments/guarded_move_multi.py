@@ -33,7 +33,6 @@ where their finger actually went.
 from __future__ import annotations
 
 import json
-import shutil
 import time
 import tomllib
 from pathlib import Path
@@ -49,6 +48,7 @@ from contactlab.observer.recognize import merge_path, typical_run
 from contactlab.observer.training import train_graph
 from contactlab.progress import bar
 from contactlab.report.page import ReportPage
+from contactlab.experiments.scratch import scratch_dir
 
 SPEC = "guarded-move-multi"
 THESIS_SEQUENCE = ("0", "1", "8", "2", "3", "9", "4", "5", "10", "6")
@@ -130,9 +130,7 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     from contactlab.archive import open_archive
 
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=6, desc=SPEC, quiet=quiet, unit="step") as pbar:
             train = record_spec(SPEC, tmp / "train.h5", seed=seed)
             test = record_spec(SPEC, tmp / "test.h5", seed=seed + 1)
@@ -159,8 +157,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
             sig = typical_run(test, res["force"])
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, expl, sig, secs, out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 # ---------------------------------------------------------------------------

@@ -27,7 +27,6 @@ are simulated through the acquire path into ``out_dir/tmp`` (deleted after).
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import matplotlib.pyplot as plt  # noqa: E402
@@ -43,6 +42,7 @@ from contactlab.temporal.energy import normal_confusion_mc, normal_params  # noq
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.experiments.scratch import scratch_dir  # noqa: E402
 
 SPEC = "hf-train"
 BLOCK = 100            # 7.3: "segmented into units of 100 measurements"
@@ -121,9 +121,7 @@ def predicted_confusion(k, labels, *, seed: int) -> dict:
 def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     """Simulate the 15 training runs, fit the models, write the page and results.json."""
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=3, desc="hf-models", quiet=quiet, unit="step") as pbar:
             arc = record_spec(SPEC, tmp / f"{SPEC}.h5", seed=seed)
             problems = [str(p) for p in validate_archive(arc)]
@@ -139,8 +137,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
         pcc = predicted_confusion(check["k"], check["labels"], seed=seed)
         return _report(feats, pc, pc3, pcc, check, impacts, problems, out_dir=out_dir,
                        seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 # ---------------------------------------------------------------------------

@@ -27,7 +27,6 @@ hf-models), log floor at half the quantisation step.  The 8-channel variant
 from __future__ import annotations
 
 import json
-import shutil
 import time
 from pathlib import Path
 
@@ -45,6 +44,7 @@ from contactlab.observer.training import train_graph  # noqa: E402
 from contactlab.peers.hmm import fit_hmm, labelled_points  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.experiments.scratch import scratch_dir  # noqa: E402
 
 GRAPHS = bundled_graphs()["hf-context"].parent
 STATES = ("H0", "H1", "H2", "H3")
@@ -92,11 +92,9 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     from contactlab.acquire.simulated import record_spec
 
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
     cf = load_graph(GRAPHS / "hf-context-free.toml")
     ctx = load_graph(GRAPHS / "hf-context.toml")
-    try:
+    with scratch_dir(out_dir) as tmp:
         with bar(total=7, desc="hf-recognition", quiet=quiet, unit="step") as pbar:
             train = record_spec("hf-train", tmp / "hf-train.h5", seed=seed)
             test = record_spec("hf-test", tmp / "hf-test.h5", seed=seed + 1)
@@ -125,8 +123,6 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, secs, check, hmm, hmm_res, models["mean"], te_pts, cf, ctx,
                            out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 # ---------------------------------------------------------------------------

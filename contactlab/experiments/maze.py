@@ -18,25 +18,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from contactlab.acquire.record import record  # noqa: E402
-from contactlab.acquire.sim import SimSource  # noqa: E402
-from contactlab.acquire.simulated import record_spec  # noqa: E402
-from contactlab.acquire.spec import load_spec  # noqa: E402
 from contactlab.archive import open_archive  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.maze import build_partitions, damper_paths  # noqa: E402
 from contactlab.maze.measure import measure, node_loglik  # noqa: E402
-from contactlab.maze.projection import (SHIPPED, feature_traces, graph_document, maze_graph,  # noqa: E402
-                                        with_missed_impacts, with_traces)
-from contactlab.maze.tracking import labels_present, measured_traces, observer_graph, track_trial  # noqa: E402
+from contactlab.maze.projection import SHIPPED, feature_traces, maze_graph  # noqa: E402
+from contactlab.maze.tracking import (GOAL, START, TRAIN_RETURNS, TRAIN_TRIALS, track_from_action,  # noqa: E402
+                                      tracking_setup)
 from contactlab.observer.em import baum_welch, graph_chain, learned_edges, viterbi  # noqa: E402
 from contactlab.observer.graph import load_graph, parse_graph  # noqa: E402
-from contactlab.observer.recognize import bind_models  # noqa: E402
-from contactlab.observer.training import train_graph  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.experiments.scratch import scratch_dir  # noqa: E402
 
-START, GOAL = 25, 29            # the tail's end corner ("57") and the right leg's end corner ("5")
 THESIS_TRACE = "57 52 108 108 109 109 109 90 81 81 71 116 5"
 TRIALS = 20                     # 9.2: "20 experimental trials from 57 under action 1"
 ANGLE_JITTER_DEG = 0.5          # datasets_spec/maze.toml: force_angle_deg
@@ -44,15 +38,6 @@ STEP_M = 2.5e-4
 STEPS = 700
 MEAN_DWELL = 20.0               # samples: the chain's initial stay probability 1 - 1/20
 EM_ITER = 12
-SPEC = "maze"
-TRAIN_TRIALS = 8                # simulated training runs (action 1) for the observer's models: the
-                                # drive's vibration in free motion differs from run to run (the brushes'
-                                # friction ripple, contactlab.sim.constants.BRUSH_WAVELENGTH_MIN; the
-                                # force's rms in the channel 1.6x between runs of seed 1), and 4 runs
-                                # left the louder ones outside the trained free model (seed 1: 3 trials
-                                # lost at the start, read as the tail's left wall)
-TRAIN_RETURNS = 1               # and of the return under action 5 (the spec's last group)
-ACTION_START_S = 1.5            # datasets_spec/maze.toml: action 1 (or 5) starts at 1.5 s
 
 
 def _collapse(seq):
@@ -118,50 +103,12 @@ def _track(graph, parts, paths, traces, action, rng, chain):
     return out
 
 
-def tracking_setup(doc, fp, tmp: Path, seed: int, *, n_trials: int | None = None,
-                   impact_constraint: str = "floor"):
-    """Simulate the maze spec's trials (seed ``seed``) into ``tmp/test.h5`` and training
-    runs (``seed + 1``), and train the observer graph
-    (:func:`contactlab.maze.tracking.observer_graph`): ``(graph, models, trained, test,
-    fp)``, the models built for the observer, the trained :class:`GraphModels`, the test
-    archive's path and the projection with the training runs' edges added."""
-    train = record_spec(SPEC, tmp / "train.h5", seed=seed + 1, n_trials=TRAIN_TRIALS)
-    # 9.2 added connections from measurements of the routes it tracked, the return
-    # too: the spec's action-5 run, simulated with the training seed
-    spec = load_spec(SPEC)
-    back = sum(g.trials for g in spec.groups[:-1])
-    record(SimSource(spec, first=back), out=train, n_trials=TRAIN_RETURNS, seed=seed + 1,
-           append=True, quiet=True, log=lambda m: None)
-    test = record_spec(SPEC, tmp / "test.h5", seed=seed, n_trials=n_trials)
-    # 9.2's extra connections from measurements: the training runs' own node sequences;
-    # and impacts that may be missed (9.1.2)
-    traces, impacts = measured_traces(train, fp.partitions)
-    fp = with_missed_impacts(with_traces(fp, traces, impacts))
-    graph = parse_graph(observer_graph(graph_document(fp), fp, labels_present(train),
-                                       impact_constraint=impact_constraint))
-    graph, trained, models = bind_models(graph, train_graph(train, graph))
-    return graph, models, trained, test, fp
-
-
-def track(trial, graph, models, trained, fp, **kw) -> dict:
-    """:func:`track_trial` from the trial's action start, in the node its action starts from."""
-    back = str(trial.attrs.get("group", "")).startswith("action-5")
-    rec = track_trial(trial, graph, models, fp, start_s=ACTION_START_S,
-                      start_node=str(GOAL if back else START), reduce=trained.reduce, **kw)
-    rec["back"] = back
-    return rec
-
-
 def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
                    n_trials: int | None = None, impact_constraint: str = "floor") -> dict:
     """Simulate and train (:func:`tracking_setup`) and follow every trial from its action's
     start: per trial the :func:`track_trial` record, with the graph's transition
     probabilities (``trials``) and without (``free_transitions``, as in 6.4)."""
-    import shutil
-
-    tmp = Path(out_dir) / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         graph, models, trained, test, fp = tracking_setup(
             doc, fp, tmp, seed, n_trials=n_trials, impact_constraint=impact_constraint)
         out, out_free = [], []
@@ -170,12 +117,10 @@ def observe_trials(doc, fp, out_dir: Path, seed: int, *, quiet: bool = True,
             with bar(total=len(ids), desc="maze observer", quiet=quiet, unit="trial") as pbar:
                 for tid in ids:
                     trial = arch.trial(tid)
-                    out.append(track(trial, graph, models, trained, fp))
-                    out_free.append(track(trial, graph, models, trained, fp, transitions="none"))
+                    out.append(track_from_action(trial, graph, models, trained, fp))
+                    out_free.append(track_from_action(trial, graph, models, trained, fp, transitions="none"))
                     pbar.update(1)
         return {"graph": graph, "trials": out, "free_transitions": out_free}
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:

@@ -24,7 +24,6 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.optimize import brentq  # noqa: E402
 
 from contactlab.detection import roc  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
@@ -168,12 +167,6 @@ def _find(rows, **key):
     return None
 
 
-def _siegmund_t2_for_tf(tf: float, s: float) -> float:
-    """The PH threshold whose Siegmund t_F equals ``tf``."""
-    return brentq(lambda t2: np.log(roc.siegmund_false_alarm_time(t2, s=s)) - np.log(tf),
-                  1e-3, 200.0)
-
-
 def _operating_point(mc) -> dict:
     p = THESIS_POINT
     ph = _find(mc["ph"], s=p["s"], T2=p["ph_T2"])
@@ -194,7 +187,7 @@ def _equal_tf_comparison(mc, *, rng, n_runs) -> list[dict]:
     if not rows:
         return []
     s = np.array([r["s"] for r in rows])
-    t2 = np.array([_siegmund_t2_for_tf(r["tF"], r["s"]) for r in rows])
+    t2 = np.array([roc.siegmund_threshold_for_false_alarm_time(r["tF"], s=r["s"]) for r in rows])
     zero = roc.ph_delay_mc(s=s, threshold=t2, rng=rng, n_runs=n_runs)
     steady = roc.ph_delay_mc(s=s, threshold=t2, rng=rng, n_runs=n_runs, burn_in=_ph_burn_in(s))
     return [{"s": r["s"], "a": r["a"], "tF": r["tF"], "lp_tD": r["tD"],

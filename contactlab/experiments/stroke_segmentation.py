@@ -66,6 +66,7 @@ from contactlab.peers.ruptures_ar import (  # noqa: E402
 from contactlab.signals import condition  # noqa: E402
 from contactlab.acquire.spec import load_spec  # noqa: E402
 from contactlab.detection.increments import variance_increments  # noqa: E402
+from contactlab.estimators import estimate_ar  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -156,17 +157,9 @@ def per_boundary_hits(trials, found: dict, *, tolerance_s: float = TOLERANCE_S) 
 # ---------------------------------------------------------------------------
 # texture contrast (why the texture boundary needs low thresholds)
 # ---------------------------------------------------------------------------
-def ar_residual_variance(y, *, order: int = ORDER) -> np.ndarray:
-    """Per-channel residual variance of a least-squares AR(order) fit with intercept."""
-    y = np.asarray(y, float).reshape(len(y), -1)
-    n = len(y)
-    out = []
-    for c in range(y.shape[1]):
-        x = np.column_stack([y[order - k - 1:n - k - 1, c] for k in range(order)]
-                            + [np.ones(n - order)])
-        coef, *_ = np.linalg.lstsq(x, y[order:, c], rcond=None)
-        out.append(np.mean((y[order:, c] - x @ coef) ** 2))
-    return np.asarray(out)
+def _ar_variance(y) -> np.ndarray:
+    # per-channel driving-noise variance of an AR(ORDER) fit with a mean (7.1)
+    return estimate_ar(y, order=ORDER, mean=True).variance
 
 
 def detectability(v_before, v_after, *, q: float = CHANGE_SIZE, threshold: float) -> dict:
@@ -225,9 +218,9 @@ def texture_contrast(trial, seg) -> dict | None:
     out = {"boundary_s": b}
     for key, y, times in (("conditioned", trial["y"], trial["times"]),
                           ("raw", trial["raw"], trial["raw_time"])):
-        vb = ar_residual_variance(y[window(times, b - w, b - g)])
-        va = ar_residual_variance(y[window(times, b + g, b + w)])
-        vr = ar_residual_variance(y[window(times, 0.05, rest_end - 0.05)])
+        vb = _ar_variance(y[window(times, b - w, b - g)])
+        va = _ar_variance(y[window(times, b + g, b + w)])
+        vr = _ar_variance(y[window(times, 0.05, rest_end - 0.05)])
         out[key] = {"rough_over_smooth": (vb / va).tolist(),
                     "rough_over_rest": float(np.mean(vb / vr)),
                     "smooth_over_rest": float(np.mean(va / vr)),
@@ -241,7 +234,7 @@ def texture_contrast(trial, seg) -> dict | None:
     y = trial["y"]
     mb = y[window(trial["times"], b - w, b - g)].mean(axis=0)
     ma = y[window(trial["times"], b + g, b + w)].mean(axis=0)
-    sd = np.sqrt(ar_residual_variance(y[window(trial["times"], b - w, b - g)]))
+    sd = np.sqrt(_ar_variance(y[window(trial["times"], b - w, b - g)]))
     out["mean_step_in_residual_sd"] = float(np.max(np.abs(ma - mb) / sd))
     return out
 

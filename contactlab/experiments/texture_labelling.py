@@ -26,7 +26,6 @@ rough wood / polished aluminium), 8 simulated trials each, recorded through the
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import matplotlib.pyplot as plt  # noqa: E402
@@ -43,6 +42,7 @@ from contactlab.temporal.energy import normal_confusion_1d, normal_params  # noq
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.progress import progress  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
+from contactlab.experiments.scratch import scratch_dir  # noqa: E402
 
 BLOCK = 100            # 7.2.2: "subdivided into sections of length 100"
 ORDER = 2              # 7.2.2: "a second order autoregressive model", eq. 7.1 (no mean)
@@ -160,16 +160,12 @@ def _plain(v):
 def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     """Simulate both samples, label them, write the page and ``results.json``."""
     out_dir = Path(out_dir)
-    tmp = out_dir / "tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
-    try:
+    with scratch_dir(out_dir) as tmp:
         results = {}
         for name in progress(list(SAMPLES), total=len(SAMPLES), desc="texture-labelling",
                              quiet=quiet, unit="sample"):
             results[name] = _sample(name, tmp, seed=seed, quiet=quiet)
         return _report(results, out_dir=out_dir, seed=seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _sample(name: str, tmp: Path, *, seed: int, quiet: bool) -> dict:

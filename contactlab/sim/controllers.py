@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -113,9 +114,12 @@ class Exploration:
         return on * self.amplitude * np.sin(w * t), on * self.amplitude * w * np.cos(w * t)
 
 
-@dataclass
-class ServoArrays:
-    """Per-servo-tick controller description consumed by the integrator."""
+class ServoArrays(NamedTuple):
+    """Per-servo-tick controller description consumed by the integrator (a named tuple, so
+    that the compiled integrator takes it as it is): the controller's kind (``KIND_*``), its
+    gains per axis (kp, bp, ki), per tick the desired position and velocity, the force
+    feedforward, the desired force and whether to hold the position, and what it feeds back
+    (:data:`FEEDBACK`)."""
 
     kind: int
     kp: np.ndarray

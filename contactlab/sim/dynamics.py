@@ -2,9 +2,17 @@
 
 One module on purpose: :func:`integrate` is one compiled (numba) time-stepping
 loop over one state -- robot, shell, every contact's stick/slip spring, the
-servo -- and the small compiled helpers it inlines (texture heights, the brush
-ripple, commutation, quantisation) are read beside it; the apparatus constants
-it runs with are the :class:`Apparatus` above it.
+servo -- and the compiled helpers it inlines are read beside it: the servo tick
+(:func:`_servo_tick`), the contact forces with their friction (:func:`_contact_forces`),
+the drive's forces and losses (:func:`_drive_forces`, :func:`_drive_friction`), the
+output sampling, and the small ones (texture heights, the brush ripple, commutation,
+quantisation).  Its inputs are named records (:class:`Mechanics`, :class:`Drive`,
+:class:`Surfaces` with their :class:`Texture`, :class:`Servo`, :class:`Start`,
+:class:`Labelling`), its state named records of arrays, its result :class:`Outputs`; the
+apparatus constants it runs with are the :class:`Apparatus` above it.  The helpers are
+inlined into the loop (``inline="always"``): the kernels' fast-math lets the compiler
+reassociate, and helpers compiled apart round differently; tests/test_sim_checksums.py
+holds the results to the bit.
 
 Model (thesis 4.6-4.8, 4.12).  Two point masses in R^3:
 
@@ -132,6 +140,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -141,6 +150,9 @@ import numpy as np
 _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 from contactlab.sim import constants as C
+from contactlab.sim.controllers import ServoArrays
+from contactlab.sim.environment import (GEO_EDGE, GEO_LOWER, GEO_NORMAL, GEO_OFFSET, GEO_SPLIT, GEO_U, GEO_UPPER,
+                                        GEO_V, PROP_ALPHA, PROP_HERTZ, PROP_MU_KINETIC, PROP_MU_STATIC)
 
 
 def _mode_hz(k: float, m1: float, m2: float) -> float:
@@ -307,6 +319,125 @@ class Apparatus:
     @property
     def shell_mode_hz(self) -> float:
         return math.sqrt(self.sensor_stiffness / self.shell_mass) / (2.0 * math.pi)
+
+
+# ---------------- the integrator's inputs, as named records (numba accepts named tuples) --------
+
+
+class Mechanics(NamedTuple):
+    """The robot + sensor + fingertip masses and the sensor's spring (module docstring)."""
+
+    robot_mass: float            # mr: the whole robot, kg
+    shell_mass: float            # mf: the fingertip shell, kg
+    sensor_stiffness: float      # ks, N/m
+    sensor_damping: float        # bs, N s/m
+    radius: float                # fingertip radius, m
+    origin_offset: float         # distance of the sensor origin from the sphere centre, m
+    gravity: float               # m/s^2
+    servo_rate: float            # Hz
+
+
+class Drive(NamedTuple):
+    """The robot's drive: its losses, the force DAC, the structure and the motors (module
+    docstring, "The PHANToM's own losses", "The drive's structure", "Motors")."""
+
+    friction: float              # fr: kinetic backdrive friction, N
+    damping: float               # br: viscous back-EMF damping, N s/m
+    static_friction: float       # frs: breakaway friction, N
+    brush_table: np.ndarray      # kinetic-friction multiplier over a shaft revolution
+    presliding_stiffness: float  # kb, N/m (0: rigid stick)
+    presliding_damping: float    # cb, N s/m
+    force_resolution: float      # f_res: the force DAC's step, N
+    rotor_mass: float            # m_rot: the rotors reflected to the tip, kg
+    cable_stiffness: float       # kc (0: rigid cables), N/m
+    cable_damping: float         # cc, N s/m
+    link_tip_mass: float         # m_tip, kg
+    link_stiffness: float        # kl (0: rigid link), N/m
+    link_damping: float          # cl, N s/m
+    commutation_events: int      # n_comm per revolution (0: ideal motors)
+    motor_gain: float            # shaft rad per tip metre
+    commutation_phase: np.ndarray  # (3,) shaft angle offsets, rad
+
+
+class Texture(NamedTuple):
+    """Every material's texture modes (:func:`contactlab.sim.materials.texture_modes`, one row a
+    material): height modes' wavenumbers, amplitudes (followed and bridged) and phases, friction
+    modes' wavenumbers, amplitudes and phases, the lay envelope's table and its parameters."""
+
+    h_k1: np.ndarray
+    h_k2: np.ndarray
+    h_amp: np.ndarray
+    h_bamp: np.ndarray
+    h_phase: np.ndarray
+    m_k1: np.ndarray
+    m_k2: np.ndarray
+    m_amp: np.ndarray
+    m_phase: np.ndarray
+    e_tab: np.ndarray
+    e_par: np.ndarray
+
+
+class Surfaces(NamedTuple):
+    """The environment's planes (:meth:`contactlab.sim.environment.Environment.pack`): ``geo``
+    one row a plane with the columns ``environment.GEO_*``, the two materials of each plane
+    (either side of its split), ``props`` one row a material with the columns
+    ``environment.PROP_*``, and the materials' textures."""
+
+    n_planes: int
+    geo: np.ndarray
+    mat_ids: np.ndarray
+    props: np.ndarray
+    texture: Texture
+
+
+class Servo(NamedTuple):
+    """The controller, one row a servo tick, the amplifiers' noise, and what the servo
+    measures (sensor module docstring, Encoders)."""
+
+    controller: ServoArrays
+    noise: np.ndarray            # (ticks, 3) amplifiers' random force, N
+    encoder_resolution: float    # m
+    velocity_filter: np.ndarray  # biquad (b0, b1, b2, a1, a2)
+    kin_a: np.ndarray            # kinematic error, linear part (3, 3)
+    kin_q: np.ndarray            # kinematic error, quadratic part (3, 3, 3)
+
+
+class Start(NamedTuple):
+    """Initial positions and velocities of the robot and the shell, m and m/s (3,)."""
+
+    robot_position: np.ndarray
+    robot_velocity: np.ndarray
+    shell_position: np.ndarray
+    shell_velocity: np.ndarray
+
+
+class Labelling(NamedTuple):
+    """What the ground truth's impact labels use (simulate._impact_intervals) and the contact
+    numerics shared with them."""
+
+    ring_tau: float              # lowpass time constant of the ringing measure, s
+    impact_speed: float          # approach speed that makes a gained contact an impact, m/s
+    loss_force: float            # normal force whose loss is an impact, N
+    tangential_ratio: float      # tangential / normal contact stiffness
+    margin: float                # contact search margin, m
+
+
+class Outputs(NamedTuple):
+    """What :func:`integrate` returns, one row an output sample."""
+
+    robot_position: np.ndarray
+    robot_velocity: np.ndarray
+    shell_position: np.ndarray
+    shell_velocity: np.ndarray
+    wrench: np.ndarray           # (n, 6) sensor wrench at its origin
+    control_wrench: np.ndarray
+    desired_position: np.ndarray
+    active: np.ndarray           # (n, planes) in contact
+    slipping: np.ndarray
+    material: np.ndarray         # (n, planes) material under the finger (-1: none)
+    contact_force: np.ndarray    # (n, planes, 3) averaged over the sample interval
+    event: np.ndarray            # 1: impact, 2: loaded loss of contact
+    ring: np.ndarray             # peak ringing within the sample, N
 
 
 @numba.njit(cache=True, fastmath=_FAST)
@@ -487,58 +618,413 @@ def _ratchet(mu, slope):
     return r if r > 0.0 else 0.0
 
 
-@numba.njit(cache=True, fastmath=_FAST)
-def integrate(n_out, n_sub, dt,
-              # apparatus
-              mr, mf, ks, bs, radius, offset, grav, servo_rate, fr, br, frs, brush_tab, kb, cb, f_res,
-              # drive structure (module docstring, "The drive's structure"): the motors' rotors'
-              # reflected mass, the capstan cables' stiffness and damping (kc = 0: rigid cables),
-              # the link's tip mass, the link's bending stiffness and damping (kl = 0: rigid link)
-              m_rot, kc, cc, m_tip, kl, cl,
-              # motors: commutation events per rev, shaft rad per tip metre, angle offsets (3,)
-              n_comm, motor_gain, comm_phase,
-              # environment
-              n_planes, geo, mat_ids, props, hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar,
-              # controller (per servo tick)
-              kind, kp, bp, ki, xd_arr, vd_arr, fff_arr, fd_arr, hold_arr, noise,
-              # servo measurement: encoder resolution, velocity filter (b0, b1, b2, a1, a2)
-              feedback, enc_res, vfilt, kin_a, kin_q,
-              # initial state
-              xr0, vr0, x0, v0,
-              # labelling
-              tau_ring, v_impact, f_loss, ts_ratio, margin):
-    """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
 
-    Returns per output sample: states, sensor wrench, controller output and
-    ground truth.  See :func:`contactlab.sim.simulate.simulate` for meanings.
-    """
-    npl = max(n_planes, 1)
-    nk = xd_arr.shape[0]
-    # outputs
-    o_xr = np.zeros((n_out, 3)); o_vr = np.zeros((n_out, 3))
-    o_x = np.zeros((n_out, 3)); o_v = np.zeros((n_out, 3))
-    o_w = np.zeros((n_out, 6))
-    o_wr = np.zeros((n_out, 3)); o_xd = np.zeros((n_out, 3))
-    o_act = np.zeros((n_out, npl), np.bool_)
-    o_slip = np.zeros((n_out, npl), np.bool_)
-    o_mat = -np.ones((n_out, npl), np.int64)
-    o_fc = np.zeros((n_out, npl, 3))
-    o_event = np.zeros(n_out, np.int64)
-    o_ring = np.zeros(n_out)
+# ---------------- the integrator's state, as named records of arrays ----------------------------
 
-    xr = xr0.copy(); vr = vr0.copy(); x = x0.copy(); v = v0.copy()
-    gvec = np.array([0.0, 0.0, -grav])
+
+class _Bodies(NamedTuple):
+    # positions and velocities (3,) of the drive (xr: the rotors, where the motors' force, the
+    # friction and the encoders act), the arm behind the cables (xa), the link's tip (xl,
+    # carrying the sensor's base) and the shell (x); a rigid cable or link merges its bodies
+    xr: np.ndarray
+    vr: np.ndarray
+    xa: np.ndarray
+    va: np.ndarray
+    xl: np.ndarray
+    vl: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+
+
+class _Chain(NamedTuple):
+    # constants of the step derived from the records: gravity, its compensation, the drive's
+    # chain (module docstring, "The drive's structure")
+    gvec: np.ndarray
+    gcomp: np.ndarray
+    has_cable: bool
+    has_link: bool
+    m_d: float
+    m_a: float
+
+
+class _ServoState(NamedTuple):
+    # what the servo sees (sensor module docstring, Encoders): the encoder-quantised robot
+    # position and its first difference, lowpassed by a biquad (state vz1, vz2), both at the
+    # servo rate; the desired position (integral force controller state xi_int, held x_hold)
+    # and the motor command wr
+    xm: np.ndarray
+    xm_prev: np.ndarray
+    vm: np.ndarray
+    vz1: np.ndarray
+    vz2: np.ndarray
+    xi_int: np.ndarray
+    x_hold: np.ndarray
+    xd_now: np.ndarray
+    wr: np.ndarray
+
+
+class _Contacts(NamedTuple):
+    # per plane: in contact, sticking, the tangential spring's displacement, the last normal
+    # force, the implicit parts of the normal and tangential springs, the normal, the
+    # velocities before the explicit step; the total contact force and friction torque
+    active: np.ndarray
+    stick: np.ndarray
+    tdisp: np.ndarray
+    last_fn: np.ndarray
+    kn_imp: np.ndarray
+    cn_imp: np.ndarray
+    kt_imp: np.ndarray
+    ct_imp: np.ndarray
+    nrm: np.ndarray
+    vn_old: np.ndarray
+    vt_old: np.ndarray
+    fc_tot: np.ndarray
+    ft_torque: np.ndarray
+
+
+class _TextureCache(NamedTuple):
+    # per plane (:func:`_texture_cached`): (material id, s1, s2, steps since the exact
+    # evaluation), each mode's (sin, cos) of its phase, and each material's largest wavenumber
+    key: np.ndarray
+    sh: np.ndarray
+    ch: np.ndarray
+    sm: np.ndarray
+    cm: np.ndarray
+    kmax: np.ndarray
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc):
+    """Every plane's contact force on the shell at this step (module docstring, "Contacts" and
+    "Friction"): where the sphere touches the plane and the texture there (blended across a
+    texture boundary), the Hertz + Hunt-Crossley normal force, the stick/slip state machine of
+    the tangential spring; their sum and the friction torque about the centre in ``cs``, the
+    explicit part of each plane's force added to its output ``o_fc[j]``.  Returns the contact
+    event (0, 1: impact, 2: loaded loss)."""
+    geo, mat_ids, props = surf.geo, surf.mat_ids, surf.props
+    hk1, hk2, hamp, hbamp, hph, mk1, mk2, mamp, mph, etab, epar = surf.texture
+    active, stick, tdisp = cs.active, cs.stick, cs.tdisp
+    cs.fc_tot[:] = 0.0
+    cs.ft_torque[:] = 0.0
+    event = 0
+    for p in range(surf.n_planes):
+        cs.kn_imp[p] = 0.0; cs.cn_imp[p] = 0.0; cs.kt_imp[p] = 0.0; cs.ct_imp[p] = 0.0
+        n0 = geo[p, GEO_NORMAL]; n1 = geo[p, GEO_NORMAL + 1]; n2 = geo[p, GEO_NORMAL + 2]
+        dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, GEO_OFFSET]
+        was = active[p]
+        fn = 0.0
+        ok = dist < radius + lab.margin
+        pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
+        if ok:
+            if (pc0 < geo[p, GEO_LOWER] or pc1 < geo[p, GEO_LOWER + 1] or pc2 < geo[p, GEO_LOWER + 2]
+                    or pc0 > geo[p, GEO_UPPER] or pc1 > geo[p, GEO_UPPER + 1] or pc2 > geo[p, GEO_UPPER + 2]):
+                ok = False
+        delta = 0.0
+        if ok:
+            s1 = geo[p, GEO_U] * pc0 + geo[p, GEO_U + 1] * pc1 + geo[p, GEO_U + 2] * pc2
+            s2 = geo[p, GEO_V] * pc0 + geo[p, GEO_V + 1] * pc1 + geo[p, GEO_V + 2] * pc2
+            mid = mat_ids[p, 0] if s1 < geo[p, GEO_SPLIT] else mat_ids[p, 1]
+            h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tc.key, tc.sh, tc.ch, tc.sm,
+                                                      tc.cm, tc.kmax, hk1, hk2, hamp, hbamp, hph,
+                                                      mk1, mk2, mamp, mph, etab, epar)
+            edge_width = geo[p, GEO_EDGE]
+            xs = (s1 - geo[p, GEO_SPLIT]) / edge_width
+            if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
+                # the sphere straddles the texture boundary: blend the followed heights
+                ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                   mk1, mk2, mamp, mph, etab, epar)
+                hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
+                                                   mk1, mk2, mamp, mph, etab, epar)
+                lam, dlam = _smoothstep(xs + 0.5)
+                h = (1.0 - lam) * ha + lam * hb
+                g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
+                g2 = (1.0 - lam) * g2a + lam * g2b
+            delta = radius + h - dist
+            if delta <= 0.0:
+                ok = False
+        if not ok:
+            if was:
+                active[p] = False
+                if cs.last_fn[p] > lab.loss_force:
+                    event = 2
+            cs.last_fn[p] = 0.0
+            continue
+        vn = n0 * v[0] + n1 * v[1] + n2 * v[2]
+        if not was:
+            active[p] = True
+            stick[p] = True
+            tdisp[p, :] = 0.0
+            if -vn > lab.impact_speed:
+                event = 1
+        cs.nrm[p, 0] = n0; cs.nrm[p, 1] = n1; cs.nrm[p, 2] = n2
+        vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
+        hdot = (g1 * (geo[p, GEO_U] * vt0 + geo[p, GEO_U + 1] * vt1 + geo[p, GEO_U + 2] * vt2)
+                + g2 * (geo[p, GEO_V] * vt0 + geo[p, GEO_V + 1] * vt1 + geo[p, GEO_V + 2] * vt2))
+        ddot = -vn + hdot
+        sq = math.sqrt(delta)
+        kh = props[mid, PROP_HERTZ]
+        alpha = props[mid, PROP_ALPHA]
+        kloc = 1.5 * kh * sq
+        cn = 1.5 * alpha * kh * delta * sq
+        fn = kh * delta * sq + cn * ddot
+        if fn < 0.0:
+            fn = 0.0
+            cn = 0.0
+        cs.kn_imp[p] = kloc
+        cs.cn_imp[p] = cn
+        # friction
+        fac = 1.0 + mu_f
+        if fac < 0.0:
+            fac = 0.0
+        mus = props[mid, PROP_MU_STATIC] * fac
+        muk = props[mid, PROP_MU_KINETIC] * fac
+        # keep the tangential spring in the current tangent plane
+        dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
+        tdisp[p, 0] += (vt0 * dt - dn * n0)
+        tdisp[p, 1] += (vt1 * dt - dn * n1)
+        tdisp[p, 2] += (vt2 * dt - dn * n2)
+        kt = lab.tangential_ratio * kloc
+        ct = lab.tangential_ratio * cn
+        ft0 = -kt * tdisp[p, 0] - ct * vt0
+        ft1 = -kt * tdisp[p, 1] - ct * vt1
+        ft2 = -kt * tdisp[p, 2] - ct * vt2
+        mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+        if mag > 0.0:
+            # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|,
+            # plus the tilt of the contact normal on the followed height (the sphere's arcs
+            # over the lay ridges): the same ratchet geometry
+            e1 = -(geo[p, GEO_U] * ft0 + geo[p, GEO_U + 1] * ft1 + geo[p, GEO_U + 2] * ft2) / mag
+            e2 = -(geo[p, GEO_V] * ft0 + geo[p, GEO_V + 1] * ft1 + geo[p, GEO_V + 2] * ft2) / mag
+            slope = (b1 + g1) * e1 + (b2 + g2) * e2
+            mus = _ratchet(mus, slope)
+            muk = _ratchet(muk, slope)
+        lim = (mus if stick[p] else muk) * fn
+        if mag > lim:
+            stick[p] = False
+            sc = muk * fn / mag
+            ft0 *= sc; ft1 *= sc; ft2 *= sc
+            if kt > 0.0:
+                tdisp[p, 0] = -ft0 / kt; tdisp[p, 1] = -ft1 / kt; tdisp[p, 2] = -ft2 / kt
+        else:
+            stick[p] = True
+            cs.kt_imp[p] = kt
+            cs.ct_imp[p] = ct
+        cs.last_fn[p] = fn
+        f0 = fn * n0 + ft0; f1 = fn * n1 + ft1; f2 = fn * n2 + ft2
+        cs.fc_tot[0] += f0; cs.fc_tot[1] += f1; cs.fc_tot[2] += f2
+        # torque of friction about the sphere centre: (-R n) x F_t
+        cs.ft_torque[0] += -radius * (n1 * ft2 - n2 * ft1)
+        cs.ft_torque[1] += -radius * (n2 * ft0 - n0 * ft2)
+        cs.ft_torque[2] += -radius * (n0 * ft1 - n1 * ft0)
+        o_fc[j, p, 0] += f0 / n_sub; o_fc[j, p, 1] += f1 / n_sub; o_fc[j, p, 2] += f2 / n_sub
+    return event
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _servo_tick(k, holding, mech, drive, servo, chain, b, sv):
+    """One servo tick (module docstring, "Servo" and "Motors"): what the encoders and the
+    velocity filter report, the desired position (held, tracked, or integrated from the force
+    error by the integral force controller) and the motor command.  Returns ``holding``."""
+    ctl = servo.controller
+    servo_rate = mech.servo_rate
+    vfilt = servo.velocity_filter
+    xm, vm = sv.xm, sv.vm
+    for a in range(3):
+        xm[a] = _quantise(_reported(b.xr, a, servo.kin_a, servo.kin_q), servo.encoder_resolution)
+        dv = (xm[a] - sv.xm_prev[a]) * servo_rate
+        sv.xm_prev[a] = xm[a]
+        vm[a] = vfilt[0] * dv + sv.vz1[a]
+        sv.vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + sv.vz2[a]
+        sv.vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
+    if ctl.feedback == 1:
+        for a in range(3):
+            xm[a] = b.xr[a]
+            vm[a] = b.vr[a]
+    fs_now = mech.sensor_stiffness * (b.x - b.xl) + mech.sensor_damping * (b.v - b.vl)
+    xd_now = sv.xd_now
+    if ctl.hold[k] != 0:
+        if not holding:
+            holding = True
+            sv.x_hold[:] = xm
+        for a in range(3):
+            xd_now[a] = sv.x_hold[a]
+        vdk = np.zeros(3)
+    else:
+        holding = False
+        vdk = ctl.vd[k].copy()
+        if ctl.kind == 1:
+            f_app = -fs_now + mech.shell_mass * chain.gvec
+            for a in range(3):
+                sv.xi_int[a] += ctl.ki[a] * (ctl.fd[k, a] - f_app[a]) / servo_rate
+                xd_now[a] = sv.xi_int[a] + ctl.xd[k, a]
+        else:
+            for a in range(3):
+                xd_now[a] = ctl.xd[k, a]
+    for a in range(3):
+        # the motor command leaves the force DAC in steps of f_res (its error is a
+        # function of the command: constant while the command is) and the current
+        # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
+        sv.wr[a] = _quantise(ctl.kp[a] * (xd_now[a] - xm[a]) + ctl.bp[a] * (vdk[a] - vm[a])
+                             + ctl.fff[k, a] + chain.gcomp[a], drive.force_resolution) + servo.noise[k, a]
+    return holding
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path):
+    """The PHANToM's own losses on the drive (module docstring): viscous back-EMF damping
+    (implicitly), then the backdrive friction -- elasto-plastic with its pre-sliding
+    compliance, or as a rigid set-valued law (if the friction impulse available in the step can
+    stop the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse); static
+    breakaway while stuck, kinetic friction times the brush/cable ripple of the shaft angle
+    while sliding.  Updates ``vr`` and the bristle ``zb``; returns (stuck, path travelled)."""
+    br = drive.damping
+    fr = drive.friction
+    frs = drive.static_friction
+    kb = drive.presliding_stiffness
+    cb = drive.presliding_damping
+    if br > 0.0:
+        for a in range(3):
+            vr[a] /= 1.0 + dt * br / m_d
+    if fr > 0.0:
+        brush_tab = drive.brush_table
+        nb = brush_tab.shape[0]
+        ub = (drive.motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
+        ib = int(ub)
+        fb = ub - ib
+        ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
+        sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+        if kb > 0.0:
+            # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
+            # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
+            # while inside the static limit (stuck) and is clipped to the kinetic value
+            # (with the brush ripple) while sliding; it re-sticks when the trial force
+            # falls back inside the kinetic limit
+            for a in range(3):
+                zb[a] += dt * vr[a]
+                ftr[a] = -kb * zb[a] - cb * vr[a]
+            mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
+            fk = fr * ripple
+            if mag > (frs if rstuck else fk):
+                rstuck = False
+                sc = fk / mag
+                for a in range(3):
+                    ftr[a] *= sc
+                    zb[a] = -ftr[a] / kb
+            else:
+                rstuck = True
+            for a in range(3):
+                vr[a] += dt * ftr[a] / m_d
+        elif rstuck and sp <= dt * frs / m_d:
+            vr[:] = 0.0
+        else:
+            cap = dt * fr * ripple / m_d
+            if sp <= cap:
+                vr[:] = 0.0
+                rstuck = True
+            else:
+                rstuck = False
+                for a in range(3):
+                    vr[a] *= 1.0 - cap / sp
+        r_path += dt * math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
+    return rstuck, r_path
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _drive_forces(dt, mf, drive, chain, b, fs, fc_tot, wr, fcab, flnk):
+    """The explicit velocity step of every body: the motors deliver the commanded force times
+    the commutation ripple of their shaft angle (module docstring, "Motors"), each body passes
+    on to the one before it the cable's, the link's or (rigid) the sensor's force."""
+    gvec = chain.gvec
+    kc = drive.cable_stiffness; cc = drive.cable_damping
+    kl = drive.link_stiffness; cl = drive.link_damping
+    xr, vr, xa, va, xl, vl = b.xr, b.vr, b.xa, b.va, b.xl, b.vl
+    for a in range(3):
+        fm = wr[a]
+        if drive.commutation_events > 0:
+            fm *= commutation_gain(drive.motor_gain * xr[a] + drive.commutation_phase[a],
+                                   drive.commutation_events)
+        flnk[a] = kl * (xl[a] - xa[a]) + cl * (vl[a] - va[a]) if chain.has_link else fs[a]
+        fcab[a] = kc * (xa[a] - xr[a]) + cc * (va[a] - vr[a]) if chain.has_cable else flnk[a]
+        vr[a] += dt * ((fm + fcab[a]) / chain.m_d + gvec[a])
+        if chain.has_cable:
+            va[a] += dt * ((flnk[a] - fcab[a]) / chain.m_a + gvec[a])
+        if chain.has_link:
+            vl[a] += dt * ((fs[a] - flnk[a]) / drive.link_tip_mass + gvec[a])
+        b.v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _record(j, b, fs, r_os, sv, cs, n_planes, out):
+    """Point-sample the state into output row ``j`` (the interval's first step)."""
+    for a in range(3):
+        out.robot_position[j, a] = b.xr[a]; out.robot_velocity[j, a] = b.vr[a]
+        out.shell_position[j, a] = b.x[a]; out.shell_velocity[j, a] = b.v[a]
+        out.wrench[j, a] = fs[a]
+        out.control_wrench[j, a] = sv.wr[a]; out.desired_position[j, a] = sv.xd_now[a]
+    # torque at the sensor origin: r_os x w_m + friction torque about the centre
+    ft_torque = cs.ft_torque
+    out.wrench[j, 3] = r_os[1] * fs[2] - r_os[2] * fs[1] + ft_torque[0]
+    out.wrench[j, 4] = r_os[2] * fs[0] - r_os[0] * fs[2] + ft_torque[1]
+    out.wrench[j, 5] = r_os[0] * fs[1] - r_os[1] * fs[0] + ft_torque[2]
+    for p in range(n_planes):
+        out.active[j, p] = cs.active[p]
+        out.slipping[j, p] = cs.active[p] and not cs.stick[p]
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _record_material(j, x, radius, surf, active, o_mat):
+    """The material under the finger, per plane, into output row ``j``."""
+    geo = surf.geo
+    for p in range(surf.n_planes):
+        if active[p]:
+            pc0 = x[0] - radius * geo[p, GEO_NORMAL]
+            s1 = (geo[p, GEO_U] * pc0 + geo[p, GEO_U + 1] * (x[1] - radius * geo[p, GEO_NORMAL + 1])
+                  + geo[p, GEO_U + 2] * (x[2] - radius * geo[p, GEO_NORMAL + 2]))
+            o_mat[j, p] = surf.mat_ids[p, 0] if s1 < geo[p, GEO_SPLIT] else surf.mat_ids[p, 1]
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _texture_cache(npl, tex):
+    """An empty :class:`_TextureCache` for ``npl`` planes (material -1 forces an exact first call)."""
+    hk1, hk2, mk1, mk2 = tex.h_k1, tex.h_k2, tex.m_k1, tex.m_k2
+    key = np.zeros((npl, 4))
+    key[:, 0] = -1.0
+    kmax = np.zeros(hk1.shape[0])
+    for mm in range(hk1.shape[0]):
+        for jj in range(hk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(hk1[mm, jj]) + abs(hk2[mm, jj]))
+        for jj in range(mk1.shape[1]):
+            kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
+    return _TextureCache(key, np.zeros((npl, hk1.shape[1])), np.zeros((npl, hk1.shape[1])),
+                         np.zeros((npl, mk1.shape[1])), np.zeros((npl, mk1.shape[1])), kmax)
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _outputs(n_out, npl):
+    return Outputs(np.zeros((n_out, 3)), np.zeros((n_out, 3)), np.zeros((n_out, 3)), np.zeros((n_out, 3)),
+                   np.zeros((n_out, 6)), np.zeros((n_out, 3)), np.zeros((n_out, 3)),
+                   np.zeros((n_out, npl), np.bool_), np.zeros((n_out, npl), np.bool_),
+                   -np.ones((n_out, npl), np.int64), np.zeros((n_out, npl, 3)), np.zeros(n_out, np.int64),
+                   np.zeros(n_out))
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _initial_state(mech, drive, servo, start, npl):
+    """The chain's constants, the bodies at rest (each spring of the drive stretched by the
+    weight it carries), the servo's state at rest on the initial velocity, no contact; the
+    cable's and the link's forces."""
+    xr0, vr0 = start.robot_position, start.robot_velocity
+    mr, mf = mech.robot_mass, mech.shell_mass
+    m_rot, m_tip = drive.rotor_mass, drive.link_tip_mass
+    kc, kl = drive.cable_stiffness, drive.link_stiffness
+    gvec = np.array([0.0, 0.0, -mech.gravity])
     gcomp = -(mr + mf) * gvec
-    # the drive's structure (module docstring, "The drive's structure"): a chain of up to three
-    # bodies, the drive (xr: the rotors, where the motors' force, the friction and the encoders
-    # act), the arm (xa) behind the capstan cables kc, the link's tip (xl, carrying the sensor's
-    # base) behind the link's bending spring kl; a rigid cable or link merges its two bodies
     has_cable = kc > 0.0
     has_link = kl > 0.0
     m_arm = mr - (m_rot if has_cable else 0.0) - (m_tip if has_link else 0.0)
     m_d = m_rot if has_cable else (m_arm if has_link else mr)
     m_a = m_arm if has_link else mr - m_rot
-    # at rest each spring is stretched by the weight it carries
+    chain = _Chain(gvec, gcomp, has_cable, has_link, m_d, m_a)
     xa = xr0.copy(); va = vr0.copy()
     if has_cable:
         for a in range(3):
@@ -547,56 +1033,58 @@ def integrate(n_out, n_sub, dt,
     if has_link:
         for a in range(3):
             xl[a] += (m_tip + mf) * gvec[a] / kl
-    fcab = np.zeros(3)
-    flnk = np.zeros(3)
-    wr = np.zeros(3)
-    xi_int = xr0.copy()          # integral force controller state (desired position)
-    x_hold = xr0.copy()
+    bodies = _Bodies(xr0.copy(), vr0.copy(), xa, va, xl, vl, start.shell_position.copy(),
+                     start.shell_velocity.copy())
+    vfilt = servo.velocity_filter
+    sv = _ServoState(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                     xr0.copy(), xr0.copy(), xr0.copy(), np.zeros(3))
+    for a in range(3):
+        sv.xm_prev[a] = _quantise(_reported(xr0 - vr0 / mech.servo_rate, a, servo.kin_a, servo.kin_q),
+                                  servo.encoder_resolution)
+        # filter state at rest on the initial velocity (steady state of the biquad)
+        sv.vm[a] = vr0[a]
+        sv.vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
+        sv.vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + sv.vz2[a]
+    cs = _Contacts(np.zeros(npl, np.bool_), np.ones(npl, np.bool_), np.zeros((npl, 3)), np.zeros(npl),
+                   np.zeros(npl), np.zeros(npl), np.zeros(npl), np.zeros(npl), np.zeros((npl, 3)),
+                   np.zeros(npl), np.zeros((npl, 3)), np.zeros(3), np.zeros(3))
+    return chain, bodies, sv, cs, np.zeros(3), np.zeros(3)
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def integrate(n_out, n_sub, dt, mech, drive, surf, servo, start, lab):
+    """Run the apparatus for ``n_out`` output samples of ``n_sub`` steps of ``dt``.
+
+    ``mech`` :class:`Mechanics`, ``drive`` :class:`Drive`, ``surf`` :class:`Surfaces`,
+    ``servo`` :class:`Servo`, ``start`` :class:`Start`, ``lab`` :class:`Labelling`.  Returns
+    the :class:`Outputs`, per output sample: states, sensor wrench, controller output and
+    ground truth.  See :func:`contactlab.sim.simulate.simulate` for meanings.
+    """
+    mf, ks, bs, radius, servo_rate = (mech.shell_mass, mech.sensor_stiffness, mech.sensor_damping,
+                                      mech.radius, mech.servo_rate)
+    n_planes = surf.n_planes
+    vr0 = start.robot_velocity
+    npl = max(n_planes, 1)
+    nk = servo.controller.xd.shape[0]
+    out = _outputs(n_out, npl)
+    o_fc, o_mat, o_event, o_ring = out.contact_force, out.material, out.event, out.ring
+    chain, b, sv, cs, fcab, flnk = _initial_state(mech, drive, servo, start, npl)
+    tc = _texture_cache(npl, surf.texture)
+    xr, vr, xa, va, xl, vl, x, v = b
+    m_d, has_cable, has_link = chain.m_d, chain.has_cable, chain.has_link
+    wr = sv.wr
+    active, nrm, vn_old, vt_old = cs.active, cs.nrm, cs.vn_old, cs.vt_old
+    kn_imp, cn_imp, kt_imp, ct_imp = cs.kn_imp, cs.cn_imp, cs.kt_imp, cs.ct_imp
     holding = False
     last_k = -1
-    # what the servo sees (sensor module docstring, Encoders): the encoder-quantised robot
-    # position and its first difference, lowpassed by a biquad, both at the servo rate
-    xm = np.zeros(3)
-    xm_prev = np.zeros(3)
-    vm = np.zeros(3)
-    vz1 = np.zeros(3)
-    vz2 = np.zeros(3)
-    for a in range(3):
-        xm_prev[a] = _quantise(_reported(xr0 - vr0 / servo_rate, a, kin_a, kin_q), enc_res)
-        # filter state at rest on the initial velocity (steady state of the biquad)
-        vm[a] = vr0[a]
-        vz2[a] = (vfilt[2] - vfilt[4]) * vr0[a]
-        vz1[a] = (vfilt[1] - vfilt[3]) * vr0[a] + vz2[a]
-    xd_now = xr0.copy()
     rstuck = (vr0[0] == 0.0 and vr0[1] == 0.0 and vr0[2] == 0.0)
     r_path = 0.0
     zb = np.zeros(3)             # pre-sliding (bristle) deflection of the drive's friction
     ftr = np.zeros(3)
-    vn_old = np.zeros(npl)
-    vt_old = np.zeros((npl, 3))
-    active = np.zeros(npl, np.bool_)
-    stick = np.ones(npl, np.bool_)
-    tdisp = np.zeros((npl, 3))
-    last_fn = np.zeros(npl)
-    kn_imp = np.zeros(npl); cn_imp = np.zeros(npl); kt_imp = np.zeros(npl); ct_imp = np.zeros(npl)
-    nrm = np.zeros((npl, 3))
     fs = ks * (x - xl) + bs * (v - vl)
     f_lp = fs.copy()
-    a_lp = dt / (tau_ring + dt)
-    fc_tot = np.zeros(3)
-    ft_torque = np.zeros(3)
-    r_os = np.array([0.0, 0.0, -offset])
-    # per-plane texture phase cache (_texture_cached): material -1 forces an exact first call
-    tcache = np.zeros((npl, 4))
-    tcache[:, 0] = -1.0
-    tsh = np.zeros((npl, hk1.shape[1])); tch = np.zeros((npl, hk1.shape[1]))
-    tsm = np.zeros((npl, mk1.shape[1])); tcm = np.zeros((npl, mk1.shape[1]))
-    kmax = np.zeros(hk1.shape[0])
-    for mm in range(hk1.shape[0]):
-        for jj in range(hk1.shape[1]):
-            kmax[mm] = max(kmax[mm], abs(hk1[mm, jj]) + abs(hk2[mm, jj]))
-        for jj in range(mk1.shape[1]):
-            kmax[mm] = max(kmax[mm], abs(mk1[mm, jj]) + abs(mk2[mm, jj]))
+    a_lp = dt / (lab.ring_tau + dt)
+    r_os = np.array([0.0, 0.0, -mech.origin_offset])
 
     n_steps = n_out * n_sub
     for i in range(n_steps):
@@ -609,157 +1097,9 @@ def integrate(n_out, n_sub, dt,
             k = nk - 1
         if k != last_k:
             last_k = k
-            for a in range(3):
-                xm[a] = _quantise(_reported(xr, a, kin_a, kin_q), enc_res)
-                dv = (xm[a] - xm_prev[a]) * servo_rate
-                xm_prev[a] = xm[a]
-                vm[a] = vfilt[0] * dv + vz1[a]
-                vz1[a] = vfilt[1] * dv - vfilt[3] * vm[a] + vz2[a]
-                vz2[a] = vfilt[2] * dv - vfilt[4] * vm[a]
-            if feedback == 1:
-                for a in range(3):
-                    xm[a] = xr[a]
-                    vm[a] = vr[a]
-            fs_now = ks * (x - xl) + bs * (v - vl)
-            if hold_arr[k] != 0:
-                if not holding:
-                    holding = True
-                    x_hold[:] = xm
-                for a in range(3):
-                    xd_now[a] = x_hold[a]
-                vdk = np.zeros(3)
-            else:
-                holding = False
-                vdk = vd_arr[k].copy()
-                if kind == 1:
-                    f_app = -fs_now + mf * gvec
-                    for a in range(3):
-                        xi_int[a] += ki[a] * (fd_arr[k, a] - f_app[a]) / servo_rate
-                        xd_now[a] = xi_int[a] + xd_arr[k, a]
-                else:
-                    for a in range(3):
-                        xd_now[a] = xd_arr[k, a]
-            for a in range(3):
-                # the motor command leaves the force DAC in steps of f_res (its error is a
-                # function of the command: constant while the command is) and the current
-                # amplifiers add their own random noise (noise, constants.AMPLIFIER_FORCE_NOISE)
-                wr[a] = _quantise(kp[a] * (xd_now[a] - xm[a]) + bp[a] * (vdk[a] - vm[a]) + fff_arr[k, a]
-                                  + gcomp[a], f_res) + noise[k, a]
+            holding = _servo_tick(k, holding, mech, drive, servo, chain, b, sv)
 
-        # ---------------- contacts ---------------------------------------
-        fc_tot[:] = 0.0
-        ft_torque[:] = 0.0
-        event = 0
-        for p in range(n_planes):
-            kn_imp[p] = 0.0; cn_imp[p] = 0.0; kt_imp[p] = 0.0; ct_imp[p] = 0.0
-            n0 = geo[p, 0]; n1 = geo[p, 1]; n2 = geo[p, 2]
-            dist = n0 * x[0] + n1 * x[1] + n2 * x[2] - geo[p, 3]
-            was = active[p]
-            fn = 0.0
-            ok = dist < radius + margin
-            pc0 = x[0] - radius * n0; pc1 = x[1] - radius * n1; pc2 = x[2] - radius * n2
-            if ok:
-                if (pc0 < geo[p, 10] or pc1 < geo[p, 11] or pc2 < geo[p, 12]
-                        or pc0 > geo[p, 13] or pc1 > geo[p, 14] or pc2 > geo[p, 15]):
-                    ok = False
-            delta = 0.0
-            if ok:
-                s1 = geo[p, 4] * pc0 + geo[p, 5] * pc1 + geo[p, 6] * pc2
-                s2 = geo[p, 7] * pc0 + geo[p, 8] * pc1 + geo[p, 9] * pc2
-                mid = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-                h, g1, g2, b1, b2, mu_f = _texture_cached(p, mid, s1, s2, tcache, tsh, tch, tsm, tcm, kmax,
-                                                          hk1, hk2, hamp, hbamp, hph,
-                                                      mk1, mk2, mamp, mph, etab, epar)
-                edge_width = geo[p, 17]
-                xs = (s1 - geo[p, 16]) / edge_width
-                if -0.5 < xs < 0.5 and mat_ids[p, 0] != mat_ids[p, 1]:
-                    # the sphere straddles the texture boundary: blend the followed heights
-                    ha, g1a, g2a, _, _, _ = _texture_at(mat_ids[p, 0], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph, etab, epar)
-                    hb, g1b, g2b, _, _, _ = _texture_at(mat_ids[p, 1], s1, s2, hk1, hk2, hamp, hbamp, hph,
-                                                       mk1, mk2, mamp, mph, etab, epar)
-                    lam, dlam = _smoothstep(xs + 0.5)
-                    h = (1.0 - lam) * ha + lam * hb
-                    g1 = (1.0 - lam) * g1a + lam * g1b + (hb - ha) * dlam / edge_width
-                    g2 = (1.0 - lam) * g2a + lam * g2b
-                delta = radius + h - dist
-                if delta <= 0.0:
-                    ok = False
-            if not ok:
-                if was:
-                    active[p] = False
-                    if last_fn[p] > f_loss:
-                        event = 2
-                last_fn[p] = 0.0
-                continue
-            vn = n0 * v[0] + n1 * v[1] + n2 * v[2]
-            if not was:
-                active[p] = True
-                stick[p] = True
-                tdisp[p, :] = 0.0
-                if -vn > v_impact:
-                    event = 1
-            nrm[p, 0] = n0; nrm[p, 1] = n1; nrm[p, 2] = n2
-            vt0 = v[0] - vn * n0; vt1 = v[1] - vn * n1; vt2 = v[2] - vn * n2
-            hdot = (g1 * (geo[p, 4] * vt0 + geo[p, 5] * vt1 + geo[p, 6] * vt2)
-                    + g2 * (geo[p, 7] * vt0 + geo[p, 8] * vt1 + geo[p, 9] * vt2))
-            ddot = -vn + hdot
-            sq = math.sqrt(delta)
-            kh = props[mid, 0]
-            alpha = props[mid, 1]
-            kloc = 1.5 * kh * sq
-            cn = 1.5 * alpha * kh * delta * sq
-            fn = kh * delta * sq + cn * ddot
-            if fn < 0.0:
-                fn = 0.0
-                cn = 0.0
-            kn_imp[p] = kloc
-            cn_imp[p] = cn
-            # friction
-            fac = 1.0 + mu_f
-            if fac < 0.0:
-                fac = 0.0
-            mus = props[mid, 2] * fac
-            muk = props[mid, 3] * fac
-            # keep the tangential spring in the current tangent plane
-            dn = tdisp[p, 0] * n0 + tdisp[p, 1] * n1 + tdisp[p, 2] * n2
-            tdisp[p, 0] += (vt0 * dt - dn * n0)
-            tdisp[p, 1] += (vt1 * dt - dn * n1)
-            tdisp[p, 2] += (vt2 * dt - dn * n2)
-            kt = ts_ratio * kloc
-            ct = ts_ratio * cn
-            ft0 = -kt * tdisp[p, 0] - ct * vt0
-            ft1 = -kt * tdisp[p, 1] - ct * vt1
-            ft2 = -kt * tdisp[p, 2] - ct * vt2
-            mag = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
-            if mag > 0.0:
-                # bridged roughness: flank slope along the (impending) sliding direction -ft/|ft|
-                e1 = -(geo[p, 4] * ft0 + geo[p, 5] * ft1 + geo[p, 6] * ft2) / mag
-                e2 = -(geo[p, 7] * ft0 + geo[p, 8] * ft1 + geo[p, 9] * ft2) / mag
-                # plus the tilt of the contact normal on the followed height (the sphere's
-                # arcs over the lay ridges): the same ratchet geometry
-                slope = (b1 + g1) * e1 + (b2 + g2) * e2
-                mus = _ratchet(mus, slope)
-                muk = _ratchet(muk, slope)
-            lim = (mus if stick[p] else muk) * fn
-            if mag > lim:
-                stick[p] = False
-                sc = muk * fn / mag
-                ft0 *= sc; ft1 *= sc; ft2 *= sc
-                if kt > 0.0:
-                    tdisp[p, 0] = -ft0 / kt; tdisp[p, 1] = -ft1 / kt; tdisp[p, 2] = -ft2 / kt
-            else:
-                stick[p] = True
-                kt_imp[p] = kt
-                ct_imp[p] = ct
-            last_fn[p] = fn
-            f0 = fn * n0 + ft0; f1 = fn * n1 + ft1; f2 = fn * n2 + ft2
-            fc_tot[0] += f0; fc_tot[1] += f1; fc_tot[2] += f2
-            # torque of friction about the sphere centre: (-R n) x F_t
-            ft_torque[0] += -radius * (n1 * ft2 - n2 * ft1)
-            ft_torque[1] += -radius * (n2 * ft0 - n0 * ft2)
-            ft_torque[2] += -radius * (n0 * ft1 - n1 * ft0)
-            o_fc[j, p, 0] += f0 / n_sub; o_fc[j, p, 1] += f1 / n_sub; o_fc[j, p, 2] += f2 / n_sub
+        event = _contact_forces(j, dt, n_sub, radius, surf, lab, x, v, cs, tc, o_fc)
 
         # ---------------- sensor ----------------------------------------
         for a in range(3):
@@ -771,18 +1111,7 @@ def integrate(n_out, n_sub, dt,
         if event > o_event[j]:
             o_event[j] = event
         if first:
-            for a in range(3):
-                o_xr[j, a] = xr[a]; o_vr[j, a] = vr[a]; o_x[j, a] = x[a]; o_v[j, a] = v[a]
-                o_w[j, a] = fs[a]
-                o_wr[j, a] = wr[a]; o_xd[j, a] = xd_now[a]
-            # torque at the sensor origin: r_os x w_m + friction torque about the centre
-            o_w[j, 3] = r_os[1] * fs[2] - r_os[2] * fs[1] + ft_torque[0]
-            o_w[j, 4] = r_os[2] * fs[0] - r_os[0] * fs[2] + ft_torque[1]
-            o_w[j, 5] = r_os[0] * fs[1] - r_os[1] * fs[0] + ft_torque[2]
-            for p in range(n_planes):
-                o_act[j, p] = active[p]
-                o_slip[j, p] = active[p] and not stick[p]
-        # material under the finger, per plane (recorded for the whole interval's first step)
+            _record(j, b, fs, r_os, sv, cs, n_planes, out)
         # ---------------- integrate --------------------------------------
         for p in range(n_planes):
             if active[p]:
@@ -790,72 +1119,11 @@ def integrate(n_out, n_sub, dt,
                 vn_old[p] = d
                 for a in range(3):
                     vt_old[p, a] = v[a] - d * nrm[p, a]
-        for a in range(3):
-            # the motors deliver the commanded force times the commutation ripple of their
-            # current shaft angle (module docstring, "Motors")
-            fm = wr[a]
-            if n_comm > 0:
-                fm *= commutation_gain(motor_gain * xr[a] + comm_phase[a], n_comm)
-            # the force each body passes on to the one before it: the cable's, the link's, or
-            # (rigid) the sensor's
-            flnk[a] = kl * (xl[a] - xa[a]) + cl * (vl[a] - va[a]) if has_link else fs[a]
-            fcab[a] = kc * (xa[a] - xr[a]) + cc * (va[a] - vr[a]) if has_cable else flnk[a]
-            vr[a] += dt * ((fm + fcab[a]) / m_d + gvec[a])
-            if has_cable:
-                va[a] += dt * ((flnk[a] - fcab[a]) / m_a + gvec[a])
-            if has_link:
-                vl[a] += dt * ((fs[a] - flnk[a]) / m_tip + gvec[a])
-            v[a] += dt * ((fc_tot[a] - fs[a]) / mf + gvec[a])
-        # the PHANToM's own losses on the robot mass: viscous back-EMF damping (implicitly),
-        # then the backdrive friction -- elasto-plastic with its pre-sliding compliance, or
-        # as a rigid set-valued law (if the friction impulse available in the step can stop
-        # the robot, it sticks, v_r = 0; otherwise it is reduced by that impulse)
-        if br > 0.0:
-            for a in range(3):
-                vr[a] /= 1.0 + dt * br / m_d
-        # (static breakaway frs while stuck, kinetic fr times the brush/cable ripple of the
-        # shaft angle while sliding: module docstring, "Motors")
-        if fr > 0.0:
-            nb = brush_tab.shape[0]
-            ub = (motor_gain * r_path) % (2.0 * math.pi) * nb / (2.0 * math.pi)
-            ib = int(ub)
-            fb = ub - ib
-            ripple = brush_tab[ib % nb] * (1.0 - fb) + brush_tab[(ib + 1) % nb] * fb
-            sp = math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-            if kb > 0.0:
-                # elasto-plastic friction (module docstring, "pre-sliding"): the bristle
-                # deflection zb follows the robot; its force -kb zb - cb v_r holds the robot
-                # while inside the static limit (stuck) and is clipped to the kinetic value
-                # (with the brush ripple) while sliding; it re-sticks when the trial force
-                # falls back inside the kinetic limit
-                for a in range(3):
-                    zb[a] += dt * vr[a]
-                    ftr[a] = -kb * zb[a] - cb * vr[a]
-                mag = math.sqrt(ftr[0] * ftr[0] + ftr[1] * ftr[1] + ftr[2] * ftr[2])
-                fk = fr * ripple
-                if mag > (frs if rstuck else fk):
-                    rstuck = False
-                    sc = fk / mag
-                    for a in range(3):
-                        ftr[a] *= sc
-                        zb[a] = -ftr[a] / kb
-                else:
-                    rstuck = True
-                for a in range(3):
-                    vr[a] += dt * ftr[a] / m_d
-            elif rstuck and sp <= dt * frs / m_d:
-                vr[:] = 0.0
-            else:
-                cap = dt * fr * ripple / m_d
-                if sp <= cap:
-                    vr[:] = 0.0
-                    rstuck = True
-                else:
-                    rstuck = False
-                    for a in range(3):
-                        vr[a] *= 1.0 - cap / sp
-            r_path += dt * math.sqrt(vr[0] * vr[0] + vr[1] * vr[1] + vr[2] * vr[2])
-        # linearly implicit correction of the stiff contact springs
+        _drive_forces(dt, mf, drive, chain, b, fs, cs.fc_tot, wr, fcab, flnk)
+        rstuck, r_path = _drive_friction(dt, drive, m_d, vr, zb, ftr, rstuck, r_path)
+        # linearly implicit correction of the stiff contact springs (module docstring,
+        # "Integrator"); kept in this loop: as a helper of its own the compiler's fast-math
+        # reassociation rounds its products differently (tests/test_sim_checksums.py)
         for p in range(n_planes):
             if not active[p]:
                 continue
@@ -888,9 +1156,6 @@ def integrate(n_out, n_sub, dt,
                 vl[a] = va[a]
             x[a] += dt * v[a]
         if first:
-            for p in range(n_planes):
-                if active[p]:
-                    pc0 = x[0] - radius * geo[p, 0]
-                    s1 = geo[p, 4] * pc0 + geo[p, 5] * (x[1] - radius * geo[p, 1]) + geo[p, 6] * (x[2] - radius * geo[p, 2])
-                    o_mat[j, p] = mat_ids[p, 0] if s1 < geo[p, 16] else mat_ids[p, 1]
-    return (o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring)
+            # the material under the finger, per plane, after the interval's first step
+            _record_material(j, x, radius, surf, active, o_mat)
+    return out

@@ -34,6 +34,23 @@ _BIG = 1e9
 _WALL_BAND = 1e-3   # maze walls: half-width of the contact-point band about the wall line, m
 
 
+# the columns of a plane's row in ``Environment.pack()["geo"]`` (a (3,) vector starts at its
+# constant) and of a material's row in ``props``: what the compiled integrator reads
+GEO_NORMAL = 0        # unit normal (3,)
+GEO_OFFSET = 3        # normal . x of the plane
+GEO_U = 4             # first in-plane axis (3,): surface coordinate s1
+GEO_V = 7             # second in-plane axis normal x u (3,): s2
+GEO_LOWER = 10        # lower corner of the plane's extent (3,)
+GEO_UPPER = 13        # upper corner (3,)
+GEO_SPLIT = 16        # s1 where the second material starts
+GEO_EDGE = 17         # width of the texture-boundary blend
+GEO_COLUMNS = 19
+PROP_HERTZ = 0        # Hertz constant k_h of the fingertip on the material
+PROP_ALPHA = 1        # Hunt-Crossley damping alpha
+PROP_MU_STATIC = 2
+PROP_MU_KINETIC = 3
+
+
 @dataclass(frozen=True)
 class Plane:
     """A fixed plane surface.  See the module docstring for the fields."""
@@ -93,18 +110,18 @@ class Environment:
         if key in self._cache:
             return self._cache[key]
         n_p = len(self.planes)
-        geo = np.zeros((max(n_p, 1), 19))
+        geo = np.zeros((max(n_p, 1), GEO_COLUMNS))
         mat_ids = np.zeros((max(n_p, 1), 2), np.int64)
         for i, p in enumerate(self.planes):
             n = np.asarray(p.normal, float)
             u = np.asarray(p.u_axis, float)
-            geo[i, 0:3] = n
-            geo[i, 3] = p.offset
-            geo[i, 4:7] = u
-            geo[i, 7:10] = np.cross(n, u)
-            geo[i, 10:13] = p.lower
-            geo[i, 13:16] = p.upper
-            geo[i, 16] = p.split
+            geo[i, GEO_NORMAL:GEO_NORMAL + 3] = n
+            geo[i, GEO_OFFSET] = p.offset
+            geo[i, GEO_U:GEO_U + 3] = u
+            geo[i, GEO_V:GEO_V + 3] = np.cross(n, u)
+            geo[i, GEO_LOWER:GEO_LOWER + 3] = p.lower
+            geo[i, GEO_UPPER:GEO_UPPER + 3] = p.upper
+            geo[i, GEO_SPLIT] = p.split
             mat_ids[i, 0] = self.material_id(p.material)
             mat_ids[i, 1] = self.material_id(p.material_b if p.material_b is not None else p.material)
         mats = self.materials or [get_material("polished_aluminium")]
@@ -116,7 +133,7 @@ class Environment:
             # texture-boundary blend width (constants.TEXTURE_EDGE_MIN_WIDTH)
             step = sum(float(np.sum(np.abs(tex["h_amp"][mat_ids[i, side]])))
                        + float(np.max(np.abs(tex["e_tab"][mat_ids[i, side]]))) for side in (0, 1))
-            geo[i, 17] = max(math.sqrt(18.0 * radius * step), C.TEXTURE_EDGE_MIN_WIDTH)
+            geo[i, GEO_EDGE] = max(math.sqrt(18.0 * radius * step), C.TEXTURE_EDGE_MIN_WIDTH)
         out = dict(geo=geo, mat_ids=mat_ids, n_planes=n_p, props=props, **tex)
         self._cache[key] = out
         return out

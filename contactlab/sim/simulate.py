@@ -15,7 +15,8 @@ import numpy as np
 
 from contactlab.sim import constants as C
 from contactlab.sim.controllers import KIND_INTEGRAL_FORCE
-from contactlab.sim.dynamics import Apparatus, brush_ripple_table, integrate
+from contactlab.sim.dynamics import (Apparatus, Drive, Labelling, Mechanics, Servo, Start, Surfaces, Texture,
+                                     brush_ripple_table, integrate)
 from contactlab.sim.environment import Environment
 from contactlab.sim.sensor import Encoders, StrainGaugeSensor
 
@@ -161,23 +162,20 @@ def simulate(*, environment: Environment, controller, duration_s: float, seed: i
     vfilt = np.array([vb[0], vb[1], vb[2], va[1], va[2]]) / va[0]
     kin_a, kin_q = enc.kinematic_error()
     f_loss = float(np.linalg.norm(sen.wrench_noise_std[:3])) * 3.0
-    out = integrate(n_out, n_sub, dt,
-                    app.robot_mass, app.shell_mass, app.sensor_stiffness, app.sensor_damping, app.radius,
-                    app.origin_offset, app.gravity, app.servo_rate_hz,
-                    app.robot_friction, app.robot_damping, app.robot_static_friction,
-                    brush_ripple_table(app.brush_friction_variation),
-                    app.presliding_stiffness, app.presliding_damping, float(app.force_resolution),
-                    float(app.rotor_mass), float(max(app.cable_stiffness, 0.0)), float(app.cable_damping),
-                    float(app.link_tip_mass), float(max(app.link_stiffness, 0.0)), float(app.link_damping),
-                    int(app.commutation_events), float(app.motor_rad_per_m), comm_phase,
-                    pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
-                    pk["h_k1"], pk["h_k2"], pk["h_amp"], pk["h_bamp"], pk["h_phase"],
-                    pk["m_k1"], pk["m_k2"], pk["m_amp"], pk["m_phase"], pk["e_tab"], pk["e_par"],
-                    sa.kind, sa.kp, sa.bp, sa.ki, sa.xd, sa.vd, sa.fff, sa.fd, sa.hold, noise,
-                    int(getattr(sa, "feedback", 0)), float(enc.resolution), vfilt, kin_a, kin_q,
-                    xr0, v0.copy(), x0, v0.copy(),
-                    ring_tau, C.IMPACT_MIN_APPROACH_SPEED, f_loss, C.TANGENTIAL_STIFFNESS_RATIO,
-                    C.CONTACT_MARGIN)
+    mech = Mechanics(app.robot_mass, app.shell_mass, app.sensor_stiffness, app.sensor_damping, app.radius,
+                     app.origin_offset, app.gravity, app.servo_rate_hz)
+    drive = Drive(app.robot_friction, app.robot_damping, app.robot_static_friction,
+                  brush_ripple_table(app.brush_friction_variation), app.presliding_stiffness,
+                  app.presliding_damping, float(app.force_resolution), float(app.rotor_mass),
+                  float(max(app.cable_stiffness, 0.0)), float(app.cable_damping), float(app.link_tip_mass),
+                  float(max(app.link_stiffness, 0.0)), float(app.link_damping), int(app.commutation_events),
+                  float(app.motor_rad_per_m), comm_phase)
+    surf = Surfaces(pk["n_planes"], pk["geo"], pk["mat_ids"], pk["props"],
+                    Texture(*(pk[f] for f in Texture._fields)))
+    servo = Servo(sa, noise, float(enc.resolution), vfilt, kin_a, kin_q)
+    labels = Labelling(ring_tau, C.IMPACT_MIN_APPROACH_SPEED, f_loss, C.TANGENTIAL_STIFFNESS_RATIO,
+                       C.CONTACT_MARGIN)
+    out = integrate(n_out, n_sub, dt, mech, drive, surf, servo, Start(xr0, v0.copy(), x0, v0.copy()), labels)
     (o_xr, o_vr, o_x, o_v, o_w, o_wr, o_xd, o_act, o_slip, o_mat, o_fc, o_event, o_ring) = out
     sl = slice(n_pre, n_out)
     n_s = len(environment.planes)
