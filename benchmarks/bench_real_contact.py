@@ -5,7 +5,8 @@ with one line when absent): the wiping demonstration, one recording, imported as
 trials with ``import --window`` (train on 0-22 s, recognise 22-43 s; its label 4 counted
 as contact), and the HIRO snap-fit trials (train on S-02 and S-03, recognise S-04..S-09;
 train on the first 14, recognise the other 13; rotation, insertion and mating counted as
-contact).  Ours: ``train --graph free-contact --label-map ...`` then ``recognize`` with
+contact).  Both are imported with the tool's orientation (the wrench is measured in the
+sensor's axes, the position in the base frame).  Ours: ``train --graph free-contact --label-map ...`` then ``recognize`` with
 default flags, points of the conditioned time base.  Peer: the force threshold ``|F| > k
 sigma`` (:class:`contactlab.peers.force_threshold.ForceThreshold`) with ``k`` chosen on
 the training trials, on the raw samples.  Also: how many recognised trials the misfit
@@ -23,6 +24,10 @@ import numpy as np
 from benchmarks.real_data import SKIPPED, real_data_dir
 
 COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=label"
+#: the tool's orientation as each recording stores it (the wrench is in the sensor's axes,
+#: the position in the base frame: the contact signals rotate the force into the base)
+WIPE_COLUMNS = COLUMNS + ";orientation=qw,qx,qy,qz"
+HIRO_COLUMNS = COLUMNS + ";rpy=roll,pitch,yaw"
 WIPE_MAP = "1=free,2=contact,3=free,4=contact"
 HIRO_MAP = "1=free,2=contact,3=contact,4=contact"
 
@@ -89,10 +94,10 @@ def run() -> list[dict]:
         d = Path(tmp)
         wipe = d / "wipe.h5"
         _cli("import", *sorted((root / "wiping").glob("*.csv")), "--out", wipe, "-q",
-             "--columns", COLUMNS, "--window", "0:22", "--window", "22:43")
+             "--columns", WIPE_COLUMNS, "--window", "0:22", "--window", "22:43")
         hiro = d / "hiro.h5"
         csvs = sorted((root / "hiro_snap").glob("*.csv"))
-        _cli("import", *csvs, "--out", hiro, "-q", "--columns", COLUMNS)
+        _cli("import", *csvs, "--out", hiro, "-q", "--columns", HIRO_COLUMNS)
         from contactlab.archive import open_archive
 
         with open_archive(wipe) as a:

@@ -27,7 +27,8 @@ decimated), ``wrench`` (the wrench through the same filter and decimation),
 ``hf`` (``y_h``: block-averaged ``log|y_d|`` of the strains), and
 :data:`STREAMS` adds ``position`` and ``velocity`` (through the same filter
 and decimation).  The constraint models read ``contact`` (position then force,
-both lowpassed) or ``contact-compensated``, whose force has the friction along the
+both lowpassed; the force in the position's base axes when the trial carries its
+orientation, :func:`trial_signals`) or ``contact-compensated``, whose force has the friction along the
 velocity removed as 8.29 does before every constraint estimate of chapter 8
 (:func:`compensate_friction`).  Every conditioned sample carries the index of the newest
 input sample it uses (``index``) and that sample's time (``times``).
@@ -256,7 +257,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
         if s in CONTACT_SIGNALS:    # position then force, both through the 7.1 lowpass
             w = condition(trial, "wrench", path=path)
             p = condition(trial, "position", path=path)
-            out[s] = np.concatenate([p.y[:, :3], w.y[:, :3]], axis=1)
+            out[s] = np.concatenate([p.y[:, :3], _base_force(trial, w, path)], axis=1)
             indices.append(w.index)
             continue
         if s not in SIGNALS:
@@ -291,6 +292,27 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     out = {k: np.ascontiguousarray(v[:n]) for k, v in out.items()}
     fs = float(trial.rate_hz) / factor_for(trial.rate_hz)
     return out, index[:n], fs
+
+
+def _base_force(trial, wrench: Signal, path) -> np.ndarray:
+    """The conditioned force of ``wrench`` in the position's (base) axes.
+
+    The constraint form (8.10-8.11) pairs a motion and a force in one frame; the
+    position is the end effector's in the base frame, and a wrist sensor measures
+    in its own.  A trial that carries its orientation and a wrench as measured
+    (``wrench_frame == "sensor"``) has its raw force rotated into the base frame
+    before the 7.1 lowpass (the lowpass is linear: this is the conditioned
+    base-frame force); without an orientation the force is taken as it is (a tool
+    that does not turn, or a wrench already in the base frame)."""
+    q = getattr(trial, "orientation", None)
+    if q is None or getattr(trial, "wrench_frame", "sensor") != "sensor":
+        return wrench.y[:, :3]
+    from contactlab.archive.importer import quaternion_matrices
+
+    raw = _raw(trial, "wrench", path)[:, :3]
+    q = np.asarray(q, dtype=np.float64)[: len(raw)]
+    f = np.einsum("nij,nj->ni", quaternion_matrices(q), raw[: len(q)])
+    return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 
 def _check_sources(trial, signals, path) -> None:
@@ -423,8 +445,9 @@ def relabel(trial, label_map: dict | None):
     names = [label_map.get(str(n)) for n in (getattr(trial, "label_names", None) or [])]
     fields = {k: getattr(trial, k, None) for k in ("id", "rate_hz", "time", "labels", "strain",
                                                   "wrench", "position", "velocity", "action",
-                                                  "command")}
-    return SimpleNamespace(**fields, label_names=names)
+                                                  "command", "orientation")}
+    return SimpleNamespace(**fields, label_names=names,
+                           wrench_frame=getattr(trial, "wrench_frame", "sensor"))
 
 
 def truth_codes(trial, index, names=None, *, window: int = 1, path=None) -> np.ndarray | None:

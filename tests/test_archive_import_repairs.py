@@ -232,3 +232,36 @@ def test_cli_prints_and_reports_repairs(tmp_path):
     assert out["repairs"]["rec@2-end"]["gaps"]["count"] == 1
     res = CliRunner().invoke(main, args + ["--window", "oops"])
     assert res.exit_code == 2 and "START:END" in res.output
+
+
+def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tmp_path):
+    """8.10's reciprocity needs the motion and the force in one frame: a trial with its
+    orientation and a wrench as measured gives the constraint models the same force as
+    one imported with --wrench-frame base (and through a label map too)."""
+    from contactlab.signals import relabel, trial_signals
+
+    frame = recording(n=400)
+    frame["roll"] = np.linspace(0.0, 0.8, len(frame))          # the tool turns
+    frame["pitch"], frame["yaw"] = -0.3, np.pi / 2
+    csv = write(frame, tmp_path / "arm.csv")
+    cols = parse_column_map(MAP + ";rpy=roll,pitch,yaw")
+    sensor = import_files([csv], out=tmp_path / "s.h5", quiet=True, columns=cols).path
+    base = import_files([csv], out=tmp_path / "b.h5", quiet=True, columns=cols,
+                        wrench_frame="base").path
+    plain = import_files([csv], out=tmp_path / "p.h5", quiet=True,
+                         columns=parse_column_map(MAP)).path
+    R = quaternion_matrices(rpy_to_quaternion(frame[["roll", "pitch", "yaw"]].to_numpy()))
+    expected = np.einsum("nij,nj->ni", R, frame[WRENCH].to_numpy()[:, :3])
+    signals = ["contact", "contact-compensated", "velocity"]
+    with open_archive(sensor) as s, open_archive(base) as b, open_archive(plain) as p:
+        got, _, _ = trial_signals(s.trial("arm"), signals)
+        ref, _, _ = trial_signals(b.trial("arm"), signals)
+        raw, _, _ = trial_signals(p.trial("arm"), signals)
+        mapped, _, _ = trial_signals(relabel(s.trial("arm"), {"1": "a", "2": "b"}), signals)
+    for name in ("contact", "contact-compensated"):
+        np.testing.assert_allclose(got[name], ref[name], atol=1e-7)
+        np.testing.assert_allclose(mapped[name], ref[name], atol=1e-7)
+        np.testing.assert_array_equal(raw[name][:, :3], got[name][:, :3])   # position as is
+    np.testing.assert_allclose(got["contact"][:, 3:], expected[: len(got["contact"])],
+                               atol=1e-7)      # 100 Hz: the 7.1 lowpass passes it unchanged
+    assert np.abs(raw["contact"][:, 3:] - got["contact"][:, 3:]).max() > 1.0
