@@ -307,11 +307,11 @@ def _base_force(trial, wrench: Signal, path) -> np.ndarray:
     q = getattr(trial, "orientation", None)
     if q is None or getattr(trial, "wrench_frame", "sensor") != "sensor":
         return wrench.y[:, :3]
-    from contactlab.archive.importer import quaternion_matrices
+    from contactlab.archive.importer import rotate_vectors
 
     raw = _raw(trial, "wrench", path)[:, :3]
     q = np.asarray(q, dtype=np.float64)[: len(raw)]
-    f = np.einsum("nij,nj->ni", quaternion_matrices(q), raw[: len(q)])
+    f = rotate_vectors(q, raw[: len(q)])
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 
 from contactlab.archive import open_archive, parse_column_map, validate_archive
 from contactlab.archive.importer import (import_files, parse_window, quaternion_matrices,
+                                         rotate_vectors,
                                          rpy_to_quaternion, window_id)
 from contactlab.cli import main
 from contactlab.errors import DataError, UsageError
@@ -265,3 +266,16 @@ def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tm
     np.testing.assert_allclose(got["contact"][:, 3:], expected[: len(got["contact"])],
                                atol=1e-7)      # 100 Hz: the 7.1 lowpass passes it unchanged
     assert np.abs(raw["contact"][:, 3:] - got["contact"][:, 3:]).max() > 1.0
+
+
+def test_rotate_vectors_agrees_with_scipy_rotation():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(200, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    v = rng.normal(size=(200, 3))
+    oracle = Rotation.from_quat(q[:, [1, 2, 3, 0]]).apply(v)      # scipy: x y z w
+    np.testing.assert_allclose(rotate_vectors(q, v), oracle, atol=1e-12)
+    np.testing.assert_allclose(rotate_vectors(q, v),
+                               np.einsum("nij,nj->ni", quaternion_matrices(q), v), atol=1e-12)

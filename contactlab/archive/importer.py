@@ -401,12 +401,22 @@ def quaternion_matrices(q: np.ndarray) -> np.ndarray:
     ], axis=1)
 
 
+def rotate_vectors(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(n, 3) vectors ``v`` rotated by the (n, 4) unit quaternions ``q`` (w x y z):
+    ``R(q) v`` as ``v + 2 w (u x v) + 2 u x (u x v)`` with ``u`` the vector part (the
+    matrices of :func:`quaternion_matrices` are not built)."""
+    w, x, y, z = np.asarray(q, dtype=np.float64).T
+    a, b, c = np.asarray(v, dtype=np.float64).T
+    tx, ty, tz = 2.0 * (y * c - z * b), 2.0 * (z * a - x * c), 2.0 * (x * b - y * a)
+    return np.column_stack([a + w * tx + y * tz - z * ty, b + w * ty + z * tx - x * tz,
+                            c + w * tz + x * ty - y * tx])
+
+
 def rotate_wrench(q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
     """A sensor-frame wrench (n, 6) in the base frame's axes: force and torque each
     rotated by R(q) (the torque stays about the sensor's origin)."""
-    rot = quaternion_matrices(q)
-    return np.concatenate([np.einsum("nij,nj->ni", rot, wrench[:, :3]),
-                           np.einsum("nij,nj->ni", rot, wrench[:, 3:])], axis=1)
+    return np.concatenate([rotate_vectors(q, wrench[:, :3]), rotate_vectors(q, wrench[:, 3:])],
+                          axis=1)
 
 
 def _cut(path: Path, table: dict, window, mapping: dict) -> dict:

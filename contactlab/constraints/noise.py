@@ -58,7 +58,8 @@ def raw_noise_sd(y) -> np.ndarray:
     mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
     s = mad / (_MAD_NORMAL * math.sqrt(6.0))
     steps = np.abs(np.diff(a, axis=0))
-    quant = np.array([(col[col > 0].min() if (col > 0).any() else 0.0) for col in steps.T])
+    quant = np.where(steps > 0, steps, np.inf).min(axis=0)
+    quant = np.where(np.isfinite(quant), quant, 0.0)        # a constant column: no step
     return np.maximum(s, quant / math.sqrt(12.0))
 
 

@@ -932,7 +932,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                         nA += 1
                 nC = nA * deg
                 if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
-                        and cnt[C_SLOTS] + nC <= ha.shape[1]
+                        and cnt[C_SLOTS] + max(nC - cnt[C_FREE], 0) <= ha.shape[1]
                         and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
                         and cnt[C_AL] + nA <= alt.shape[0]
                         and cnt[C_CAND] + nP + nC <= candt.shape[0]
@@ -1107,8 +1107,9 @@ class Core:
         if nA > len(ev[1]) or nC > len(ev[4]) or nP + nC > len(ev[2]):
             self._alloc_events(len(ev[0]), _cap(max(nA, nC), len(ev[1])),
                                _cap(nP + nC, len(ev[2])))
-        if int(c[C_SLOTS]) + nC > hist.width:
-            hist.widen(_cap(int(c[C_SLOTS]) + nC, 0))
+        new_slots = max(nC - int(c[C_FREE]), 0)          # the freed slots are taken first
+        if int(c[C_SLOTS]) + new_slots > hist.width:
+            hist.widen(_cap(int(c[C_SLOTS]) + new_slots, 0))
 
     def _compact_segs(self) -> None:
         """Keep only the segments the active paths' histories reach, renumbered."""

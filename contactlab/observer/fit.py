@@ -87,6 +87,13 @@ def _num(x: float):
     return float(x) if np.isfinite(x) else None
 
 
+def _chi(stat) -> np.ndarray:
+    """The first instance's chi-square per sample from a model's ``run`` statistics."""
+    chi = np.asarray(stat, np.float64)
+    chi = chi[..., 0] if chi.ndim == 3 else chi
+    return chi[:, 0]
+
+
 def path_fit(graph, models: dict, data: dict, map_path, n: int | None = None) -> PathFit:
     """Score ``map_path`` (``[(node name, start sample), ...]``) on ``data`` (signal ->
     ``(n, C)`` array, the conditioned streams the observer read) with fresh instances of
@@ -100,6 +107,7 @@ def path_fit(graph, models: dict, data: dict, map_path, n: int | None = None) ->
     values: dict[str, list] = {}
     dims: dict[str, int] = {}
     scored = 0
+    whole: dict = {}            # a stateless model's chi-square over all samples, run once
     bounds = [s for _, s in map_path[1:]] + [n]
     for (name, a), b in zip(map_path, bounds):
         a, b = int(a), int(min(b, n))
@@ -115,10 +123,12 @@ def path_fit(graph, models: dict, data: dict, map_path, n: int | None = None) ->
                 continue
             starts = np.array([a0])
             state = m.init_state(starts, x.shape[1])
-            _, stat = m.run(state, x[a0 - lag:b], t0=a0, starts=starts)
-            chi = np.asarray(stat, np.float64)
-            chi = chi[..., 0] if chi.ndim == 3 else chi
-            chi = chi[:, 0]
+            if isinstance(state, dict) and not state:   # stateless: every instance alike
+                if mname not in whole:
+                    whole[mname] = _chi(m.run(state, x[:n], t0=lag, starts=starts)[1])
+                chi = whole[mname][a0 - lag:b - lag]
+            else:
+                chi = _chi(m.run(state, x[a0 - lag:b], t0=a0, starts=starts)[1])
             ok = np.isfinite(chi)
             tot[mname] = tot.get(mname, 0.0) + float(chi[ok].sum())
             dof[mname] = dof.get(mname, 0.0) + float(ok.sum()) * m.dim(x.shape[1])
