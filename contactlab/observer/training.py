@@ -341,7 +341,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             ids_used.append(tid)
             for s in all_signals:
                 codes = truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
-                if s in KINEMATIC_SIGNALS:
+                if s in kin_signals:
                     for k, lab in enumerate(labels):
                         if lab in kin_labels:
                             kin_runs.setdefault((s, lab), []).extend(

@@ -15,7 +15,7 @@ import numpy as np
 
 from contactlab.signals import trial_signals, truth_codes, window_of
 
-__all__ = ["labelled_points", "fit_hmm"]
+__all__ = ["labelled_points", "fit_hmm", "point_accuracy"]
 
 
 def labelled_points(archive, states, *, reduce: str = "mean") -> list[dict]:
@@ -62,3 +62,47 @@ def fit_hmm(train: list[dict], n_states: int, *, pseudo: float = 1.0):
     model.means_ = means
     model.covars_ = covs
     return model
+
+
+def point_accuracy(train_archive, test_archive, states, *, reduce: str = "mean") -> float:
+    """Share of the labelled y_h points of ``test_archive`` that the supervised HMM fitted
+    on ``train_archive`` marks correctly by Viterbi (labels named like ``states``)."""
+    model = fit_hmm(labelled_points(train_archive, states, reduce=reduce), len(states))
+    ok = total = 0
+    for run in labelled_points(test_archive, states, reduce=reduce):
+        if run["truth"] is None:
+            continue
+        path = model.predict(run["y"])
+        k = run["truth"] >= 0
+        ok += int(np.sum(path[k] == run["truth"][k]))
+        total += int(k.sum())
+    if total == 0:
+        raise ValueError(f"{test_archive}: no labelled points named {', '.join(states)}")
+    return ok / total
+
+
+def main(argv=None) -> int:
+    """``python -m contactlab.peers.hmm TRAIN.h5 TEST.h5 [STATES]``: the peer's point
+    accuracy (states default to the hf hypotheses H0-H3 of 7.3)."""
+    import sys
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    if len(args) not in (2, 3):
+        print("usage: python -m contactlab.peers.hmm TRAIN.h5 TEST.h5 [H0,H1,H2,H3]",
+              file=sys.stderr)
+        return 2
+    states = (args[2] if len(args) == 3 else "H0,H1,H2,H3").split(",")
+    from contactlab.errors import ContactlabError
+
+    try:
+        acc = point_accuracy(args[0], args[1], states)
+    except (ContactlabError, OSError, ValueError) as exc:
+        print(f"contactlab.peers.hmm: error: {exc}", file=sys.stderr)
+        return 1
+    print(f"supervised Gaussian HMM (hmmlearn, Viterbi) on y_h, trained on {args[0]}: "
+          f"{100 * acc:.1f} % of the labelled points of {args[1]} marked correctly")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
