@@ -59,9 +59,10 @@ def test_headline_puts_ours_beside_the_thesis_and_the_hmm():
 
     res = {"test_cf": {"accuracy": 0.40}, "test_ctx": {"accuracy": 0.70}}
     hmm = {"test": (np.array([[30, 10], [10, 50]]),)}     # 80 of 100 points on the diagonal
-    line = _headline(res, hmm)
+    line = _headline(res, hmm, {"test_cf_gauss": {"accuracy": 0.65}})
     # make demo's closing summary picks this line out by its start
     assert line.startswith("test runs marked correctly: context free 40 %")
     assert f"thesis {100 * THESIS['test_cf']['accuracy']:.0f} %" in line
     assert "HMM peer 80 %" in line and "with context 70 %" in line
+    assert "hf-gaussian 65 %" in line
     assert f"thesis {100 * THESIS['test_ctx']['accuracy']:.0f} %" in line

@@ -95,7 +95,7 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
     cf = load_graph(GRAPHS / "hf-context-free.toml")
     ctx = load_graph(GRAPHS / "hf-context.toml")
     with scratch_dir(out_dir) as tmp:
-        with bar(total=7, desc="hf-recognition", quiet=quiet, unit="step") as pbar:
+        with bar(total=8, desc="hf-recognition", quiet=quiet, unit="step") as pbar:
             train = record_spec("hf-train", tmp / "hf-train.h5", seed=seed)
             test = record_spec("hf-test", tmp / "hf-test.h5", seed=seed + 1)
             pbar.update(1)
@@ -115,6 +115,13 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                 pbar.update(1)
             check = {key: recognize_archive(arc, graph=g, models=models["none"], **kw)
                      for key, arc, g in (("test_cf", test, cf), ("test_ctx", test, ctx))}
+            pbar.update(1)
+            gauss = load_graph(GRAPHS / "hf-gaussian.toml")       # our variant, beside
+            gm_gauss = train_graph(train, gauss, reduce="mean")
+            check.update({f"{key}_gauss": recognize_archive(arc, graph=gauss, models=gm_gauss,
+                                                            threshold=THRESHOLD,
+                                                            change_size=CHANGE_SIZE, write=False)
+                          for key, arc in (("train_cf", train), ("test_cf", test))})
             pbar.update(1)
             tr_pts, te_pts = labelled_points(train, STATES), labelled_points(test, STATES)
             hmm = fit_hmm(tr_pts, len(STATES))
@@ -222,12 +229,19 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
         rows.append([TITLES[key], f"{100 * THESIS[key]['accuracy']:.0f} %",
                      f"{100 * s['accuracy']:.1f} %", f"{100 * s['accuracy_online']:.1f} %",
                      f"{100 * check[key]['accuracy']:.1f} %" if key in check else "-",
+                     f"{100 * check[key + '_gauss']['accuracy']:.1f} %"
+                     if key + "_gauss" in check else "-",
                      f"{100 * _acc(hm):.1f} %" if key != "test_ctx" else "(same as above)"])
     page.table(rows, columns=["setting", "thesis", "ours (MAP path)", "ours (on-line)",
-                              "ours, 8 channels", "HMM Viterbi"],
+                              "ours, 8 channels", "ours, Gaussian hypotheses", "HMM Viterbi"],
                caption="Points marked correctly. 'ours, 8 channels': the same pipeline with "
-                       "the 8 gauges' y_h as independent channels. The HMM has no context "
-                       "graph; its row is the same for both test settings.")
+                       "the 8 gauges' y_h as independent channels. 'ours, Gaussian "
+                       "hypotheses': graph hf-gaussian, our variant of the context-free "
+                       "graph whose stationary hypotheses are trained Gaussians of y_h (their "
+                       "levels fixed, where the thesis's AR models re-estimate each "
+                       "segment's level from a trained prior), the same observer settings. "
+                       "The HMM has no context graph; its row is the same for both test "
+                       "settings.")
     for key in ("train_cf", "test_cf", "test_ctx"):
         m = np.asarray(res[key]["confusion"]["matrix"])
         page.table(_conf_rows("thesis", THESIS[key]["confusion"]) + _conf_rows("ours", m),
@@ -274,12 +288,15 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
     summary = {"experiment": "hf-recognition", "seed": seed,
                "accuracy": {k: res[k]["accuracy"] for k in res},
                "accuracy_online": {k: res[k]["accuracy_online"] for k in res},
-               "accuracy_8_channels": {k: check[k]["accuracy"] for k in check},
+               "accuracy_8_channels": {k: check[k]["accuracy"] for k in check
+                                       if not k.endswith("_gauss")},
+               "accuracy_gaussian": {k[:-len("_gauss")]: check[k]["accuracy"] for k in check
+                                     if k.endswith("_gauss")},
                "accuracy_hmm": {k: _acc(v[0]) for k, v in hmm_res.items()},
                "confusion": {k: res[k]["confusion"]["matrix"] for k in res},
                "confusion_hmm": {k: v[0].tolist() for k, v in hmm_res.items()},
                "delays": {k: res[k]["delays"] for k in res},
-               "headline": _headline(res, hmm_res),
+               "headline": _headline(res, hmm_res, check),
                "thesis": THESIS, "seconds": secs,
                "hmm_decode_s": {k: v[1] for k, v in hmm_res.items()},
                "paths": {k: {tid: e["merged_path"] for tid, e in res[k]["trials"].items()}
@@ -289,12 +306,13 @@ def _report(res, secs, check, hmm, hmm_res, gm, te_pts, cf, ctx, *, out_dir, see
     return summary
 
 
-def _headline(res, hmm_res) -> str:
+def _headline(res, hmm_res, check) -> str:
     """One line: points marked correctly on the test runs, ours beside the thesis and the HMM."""
     cf, ctx = res["test_cf"], res["test_ctx"]
     return (f"test runs marked correctly: context free {100 * cf['accuracy']:.0f} % (thesis "
             f"{100 * THESIS['test_cf']['accuracy']:.0f} %, HMM peer "
-            f"{100 * _acc(hmm_res['test'][0]):.0f} %), with context "
+            f"{100 * _acc(hmm_res['test'][0]):.0f} %; hf-gaussian "
+            f"{100 * check['test_cf_gauss']['accuracy']:.0f} %), with context "
             f"{100 * ctx['accuracy']:.0f} % (thesis {100 * THESIS['test_ctx']['accuracy']:.0f} "
             "%); see 'Where ours differ'")
 
@@ -337,5 +355,15 @@ def _differences(res, hmm_res, gm, check) -> list[str]:
         "three within a few nats of each other, so most errors are the models' confusions "
         "rather than missed changes, and lowering T^2 (more hypotheses) does not help "
         "(seed 3: T^2 4 58 %, 2 54 %, 1 50 %, with hundreds of extra marks).",
+        "The models' confusion, not the observer, is the cause: the same observer with "
+        "each stationary hypothesis a trained Gaussian of y_h (graph hf-gaussian, our "
+        "variant: the HMM's emission model, its level fixed at training) marks "
+        f"{100 * check['test_cf_gauss']['accuracy']:.1f} % of the test points "
+        f"({100 * check['train_cf_gauss']['accuracy']:.1f} % of the training points). "
+        "A fresh AR instance re-estimates its level from a prior wide enough to hold every "
+        "training block's, so rest, motion and pressing explain one another's segments; "
+        "a fixed level does not bend. Where each segment draws its own level (the "
+        "switching suite's fresh variant) the thesis's estimated levels are the better "
+        "model (datasets_spec/graphs/hf-gaussian.toml gives both measurements).",
     ]
     return out
