@@ -24,6 +24,10 @@ from contactlab.cli.inputs import checks_archive
                    "departs from the first phase's), velocity (the moving model M), "
                    "temporal (AR(1) with a mean of the wrench, at 250 Hz and above).  "
                    "[default: none]")
+@click.option("--models-from", "base", default=None, metavar="GRAPH",
+              help="Keep the nodes and models of GRAPH (a bundled name or a file; the label "
+                   "map names its nodes) and learn only the edges, their probabilities and "
+                   "the initial probabilities from the labels.")
 @click.option("--name", default=None, help="Graph name.  [default: the --out file's stem]")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
 @click.option("--em", "em", is_flag=True,
@@ -34,7 +38,7 @@ from contactlab.cli.inputs import checks_archive
 @json_option
 @quiet_option
 @checks_archive
-def learn(archives, label_map, out, extra, name, trials, em, force, as_json, quiet):
+def learn(archives, label_map, out, extra, base, name, trials, em, force, as_json, quiet):
     """Learn a feature graph from the labelled trials of ARCHIVE... and write it to --out.
 
     One node per node name of --label-map; each reads a Gaussian of its phase
@@ -58,6 +62,9 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
       contactlab graph learn wrist.h5 --label-map "free=free,contact=contact" --em \\
           --out task-em.toml
       contactlab graph show task.toml
+      contactlab acquire --spec hf-train --out hf-train.h5 --seed 1 -q
+      contactlab graph learn hf-train.h5 --models-from hf-gaussian \\
+          --label-map "H0=H0,H1=H1,H2=H2,H3=H3" --out hf-learned.toml
     """
     from contactlab.fileio import check_writable
     from contactlab.observer.graph_learn import EXTRA_FAMILIES, learn_from_labels, refine_with_em
@@ -72,9 +79,13 @@ def learn(archives, label_map, out, extra, name, trials, em, force, as_json, qui
     if bad:
         raise click.BadParameter(f"unknown family {bad[0]!r} (known: "
                                  f"{', '.join(EXTRA_FAMILIES)})", param_hint="'--models'")
+    if base is not None and families:
+        raise click.UsageError("--models adds to the phase Gaussians; --models-from keeps "
+                               "another graph's models: give one of them")
     check_writable(out, force=force, inputs=tuple(archives))
     doc, summary = learn_from_labels(list(archives), lmap, trials=list(trials) or None,
-                                     name=name or Path(out).stem, extra=families, quiet=quiet)
+                                     name=name or Path(out).stem, extra=families, quiet=quiet,
+                                     base=base)
     if em:
         full = dict(e.split("=", 1) for e in summary["label_map"].split(","))
         doc, summary["em"] = refine_with_em(doc, list(archives), label_map=full,

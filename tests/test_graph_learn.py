@@ -148,3 +148,48 @@ def test_graph_learn_refuses_a_map_matching_nothing(archive, tmp_path):
     r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", "7=a",
                                   "--out", str(tmp_path / "x.toml")])
     assert r.exit_code == 1 and "label-map" in r.output, r.output
+
+
+def test_a_base_graph_keeps_its_models_and_learns_the_edges():
+    from contactlab.observer.graph_learn import base_document
+
+    base = base_document("hf-gaussian")
+    seqs = [["H0", "H1", "H3", "H2"], ["H0", "H1", "H0"], ["H0", "H1", "H3", "H2"]]
+    lmap = {n: n for n in ("H0", "H1", "H2", "H3")}
+    doc = graph_from_labels(seqs, lmap, name="g", base=base)
+    g = parse_graph(doc, source="g.toml")
+    assert doc["models"] == base["models"]                     # the base's, as declared
+    assert [n.transient for n in g.nodes] == [False, False, False, True]
+    assert [n.self_transition for n in g.nodes] == [False, False, False, True]
+    assert g.initial.tolist() == [1.0, 0.0, 0.0, 0.0]
+    h0, h1, h2, h3 = range(4)
+    assert g.edge_probabilities[0] == pytest.approx(
+        {(h0, h1): 1.0, (h1, h3): 2 / 3, (h1, h0): 1 / 3, (h3, h2): 1.0})
+    from contactlab.errors import DataError
+
+    with pytest.raises(DataError, match="'outside' is not a node of graph 'hf-gaussian'"):
+        graph_from_labels(seqs + [["outside", "H0"]], {**lmap, "0": "outside"}, base=base)
+
+
+def test_graph_learn_models_from_a_bundled_graph(tmp_path):
+    from contactlab.synthetic import write_archive
+    from contactlab.synthetic.switching import switching_trials
+
+    write_archive(switching_trials(3, seed=5), tmp_path / "tr.h5")
+    lmap = "H0=H0,H1=H1,H2=H2,H3=H3"
+    r = CliRunner().invoke(main, ["graph", "learn", str(tmp_path / "tr.h5"), "--models-from",
+                                  "hf-gaussian", "--label-map", lmap, "--out",
+                                  str(tmp_path / "g.toml"), "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["models"]["H3"] == "I" and out["models"]["H0"] == "S0"
+    for args in (["train", str(tmp_path / "tr.h5"), "--graph", str(tmp_path / "g.toml"),
+                  "--out", str(tmp_path / "m.h5"), "-q"],
+                 ["recognize", str(tmp_path / "tr.h5"), "--graph", str(tmp_path / "g.toml"),
+                  "--models", str(tmp_path / "m.h5"), "--no-write", "-q"]):
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["graph", "learn", str(tmp_path / "tr.h5"), "--models-from",
+                                  "hf-gaussian", "--models", "velocity", "--label-map", lmap,
+                                  "--out", str(tmp_path / "h.toml")])
+    assert r.exit_code == 2 and "give one of them" in r.output

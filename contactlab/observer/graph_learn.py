@@ -28,7 +28,13 @@ segmentation) states the graph directly:
   and recognising with the task's own map leaves them out of the score.
 
 Nodes do not restart within themselves (``self_transition = false``): a phase's
-Gaussian has no parameters to redraw.  ``train --graph`` fits the models and
+Gaussian has no parameters to redraw.
+
+With a **base graph** (``base``; ``graph learn --models-from GRAPH``) the nodes keep
+that graph's models, transient flags and labels -- the label map names its nodes -- and
+only the edges, their probabilities and the initial probabilities come from the labels:
+the context of 7.3.3 (which transitions a task makes, and how often) learned from the
+training runs instead of stated from the action and the geometry.  ``train --graph`` fits the models and
 ``recognize --graph`` runs the result like any bundled graph.  With ``em``, the models
 are trained from the labelled archive and Baum-Welch over every run of the archives
 (labels not needed; :func:`contactlab.observer.learning.learn_graph`) adds the edges the
@@ -47,6 +53,7 @@ from contactlab.errors import DataError
 from contactlab.signals import relabel
 
 __all__ = ["label_sequences", "count_transitions", "graph_from_labels", "learn_from_labels",
+           "base_document",
            "ACTION", "CONTACT_N", "EXTRA_FAMILIES", "OUTSIDE", "outside_map"]
 
 #: the learned graph's one action: every sample is under it
@@ -106,12 +113,29 @@ def _node_order(label_map: dict) -> list[str]:
     return list(dict.fromkeys(label_map.values()))
 
 
+def _base_nodes(base: dict, nodes: list[str]) -> dict:
+    """``{node: its declaration in base}``; DataError naming the first node ``base``
+    lacks (the label map must map onto the base graph's node names)."""
+    declared = {n["name"]: n for n in base.get("nodes", [])}
+    unknown = [n for n in nodes if n not in declared]
+    if unknown:
+        hint = (" (labels outside the map make a node of their own: map every label onto "
+                "one of the graph's nodes)" if unknown[0].startswith(OUTSIDE) else "")
+        raise DataError(f"{unknown[0]!r} is not a node of graph {base.get('name')!r} (its "
+                        f"nodes: {', '.join(declared)}){hint}", field="--label-map")
+    return {n: declared[n] for n in nodes}
+
+
 def graph_from_labels(sequences, label_map: dict, *, name: str = "learned",
-                      families: dict | None = None, sources: str = "") -> dict:
+                      families: dict | None = None, sources: str = "",
+                      base: dict | None = None) -> dict:
     """The graph document (``datasets_spec/GRAPHS.md``) of the module notes from label
     sequences; ``families`` maps a node to its extra model declarations
-    (``{role: (model name, declaration)}``)."""
+    (``{role: (model name, declaration)}``).  ``base`` (a graph document): the nodes keep
+    that graph's models, transient flags and labels, and only the edges, their
+    probabilities and the initial probabilities are learned."""
     nodes = _node_order(label_map)
+    declared = _base_nodes(base, nodes) if base is not None else {}
     first, pairs = count_transitions(sequences)
     seen = {n for seq in sequences for n in seq}
     missing = [n for n in nodes if n not in seen]
@@ -128,15 +152,27 @@ def graph_from_labels(sequences, label_map: dict, *, name: str = "learned",
     doc_nodes = []
     for node in nodes:
         labels = [k for k, v in label_map.items() if v == node]
-        roles = {"phase": node}
-        models[node] = {"kind": "gaussian", "signal": "phase", "trained": node}
-        for role, (mname, decl) in (families or {}).get(node, {}).items():
-            roles[role] = mname
-            models[mname] = decl
-        entry = {"name": node, "label": f"labels {', '.join(labels)}", "models": roles}
+        if node in declared:                # the base graph's models, as it declares them
+            decl = declared[node]
+            roles = decl["models"]
+            used = [roles] if isinstance(roles, str) else list(roles.values())
+            models.update({m: base["models"][m] for m in used})
+            entry = {"name": node, "label": decl.get("label", f"labels {', '.join(labels)}"),
+                     "models": roles}
+            if decl.get("transient"):
+                entry["transient"] = True
+            stateless = all(base["models"][m].get("kind") == "gaussian" for m in used)
+            entry["self_transition"] = decl.get("self_transition", not stateless)
+        else:
+            roles = {"phase": node}
+            models[node] = {"kind": "gaussian", "signal": "phase", "trained": node}
+            for role, (mname, decl) in (families or {}).get(node, {}).items():
+                roles[role] = mname
+                models[mname] = decl
+            entry = {"name": node, "label": f"labels {', '.join(labels)}", "models": roles,
+                     "self_transition": False}
         if first.get(node):
             entry["initial"] = round(first[node] / total, 6)
-        entry["self_transition"] = False
         doc_nodes.append(entry)
     # initial probabilities that sum to 1 after rounding
     given = [n for n in doc_nodes if "initial" in n]
@@ -150,6 +186,12 @@ def graph_from_labels(sequences, label_map: dict, *, name: str = "learned",
            "edges": [],
            "models": models,
            "nodes": doc_nodes}
+    if base is not None:
+        doc["title"] = f"{base.get('title', base.get('name'))}, edges learned from labels"
+        for key in ("sides", "thesis"):
+            doc.pop(key, None)
+            if key in base:
+                doc[key] = base[key]
     if edges:
         doc["edge_sets"] = [{"actions": [ACTION],
                              "edges": [f"{a} -> {b}" for a, b in edges],
@@ -180,9 +222,16 @@ def _families(extra, stats: dict, rate_hz: float) -> dict:
 
 
 def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | None = None,
-                      extra=(), quiet: bool = True) -> tuple[dict, dict]:
+                      extra=(), quiet: bool = True, base=None) -> tuple[dict, dict]:
     """``(document, summary)``: the graph of the module notes from the labelled trials of
-    ``archives`` (paths), ``trials`` (ids) if given."""
+    ``archives`` (paths), ``trials`` (ids) if given.  ``base``: a graph (name, file or
+    :class:`~contactlab.observer.graph.FeatureGraph`) whose nodes' models the learned
+    graph keeps (:func:`graph_from_labels`)."""
+    if base is not None:
+        base = base_document(base)
+        if extra:
+            raise ValueError("extra model families go with the phase Gaussians, not with a "
+                             "base graph's models")
     from contactlab.archive import open_archive
     from contactlab.progress import progress
 
@@ -239,7 +288,8 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
     fam = _families(tuple(extra), stats, min(rates)) if extra else None
     src = ", ".join(Path(a).name for a in archives)
     doc = graph_from_labels(sequences, full, name=name or "learned", families=fam,
-                            sources=f"learned from the labels of {len(sequences)} trials of {src}")
+                            sources=f"learned from the labels of {len(sequences)} trials of {src}",
+                            base=base)
     first, pairs = count_transitions(sequences)
     summary = {"trials": used, "nodes": nodes,
                "label_map": ",".join(f"{k}={v}" for k, v in full.items()),
@@ -247,6 +297,20 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                "transitions": {f"{a} -> {b}": n for (a, b), n in sorted(pairs.items())},
                "models": {n["name"]: n["models"] for n in doc["nodes"]}}
     return doc, summary
+
+
+def base_document(graph) -> dict:
+    """The TOML document of a graph (a bundled name, a file, or a loaded
+    :class:`~contactlab.observer.graph.FeatureGraph`) as its file states it."""
+    import tomllib
+
+    from contactlab.observer.graph import FeatureGraph, load_graph
+
+    g = graph if isinstance(graph, FeatureGraph) else load_graph(graph)
+    if not g.source:
+        raise ValueError(f"graph {g.name!r} has no file to take its models from")
+    with open(g.source, "rb") as f:
+        return tomllib.load(f)
 
 
 def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: bool = True,
