@@ -128,6 +128,13 @@ def test_alignment_degree_test_and_its_overconfidence_on_noise():
     assert np.median(post.max(1)) > 0.9                # ... chosen with high confidence
 
 
+def test_alignment_degree_test_fit_returns_self():
+    """``fit`` means scikit-learn's everywhere: estimate from data, return self."""
+    stats = np.random.default_rng(1).normal(size=(40, 2))
+    test = AlignmentDegreeTest()
+    assert test.fit(stats, np.arange(40) % 2) is test
+
+
 # -- direction (8.69-8.70) ----------------------------------------------------------------------
 
 def test_direction_prior_and_penalty():

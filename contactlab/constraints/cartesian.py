@@ -55,7 +55,6 @@ from contactlab.constraints import frames as F
 from contactlab.constraints.exploration import DEFAULT_THRESHOLD, exploration
 from contactlab.constraints.friction import friction_filter
 from contactlab.constraints.scaling import Scaling, canonical_signs, reciprocal_scaling
-from contactlab.deprecation import renamed_method
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["POSITION_SD", "FORCE_SD", "VELOCITY_SD", "CartesianConstraint",
@@ -488,10 +487,6 @@ class CartesianConstraint:
             iters += it
         return frames, ll, iters
 
-    fit = renamed_method("fit", "estimate")
-    fit_blocks = renamed_method("fit_blocks", "estimate_blocks")
-    fit_information = renamed_method("fit_information", "estimate_information")
-
     def estimate_blocks(self, position, force, velocity=None) -> BlockFits:
         """Fit every block of (B, n, k) arrays at once (no uncertainty, no residuals).
 
@@ -667,9 +662,6 @@ class CartesianStiffness:
     def _centering(self) -> tuple[bool, bool]:
         c = self.center or "both"
         return c in ("motion", "both"), c == "both"
-
-    fit = renamed_method("fit", "estimate")
-    fit_blocks = renamed_method("fit_blocks", "estimate_blocks")
 
     def estimate_blocks(self, position, force, velocity=None) -> tuple[np.ndarray, np.ndarray]:
         """Joint projections P (B, 2k, k) and eigenvalues (B, 2k) of (B, n, k) blocks."""

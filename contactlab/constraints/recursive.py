@@ -19,7 +19,6 @@ import numpy as np
 from contactlab.constraints.cartesian import CartesianConstraint, ConstraintFit, min_samples
 from contactlab.constraints.friction import friction_filter
 from contactlab.constraints.scaling import reciprocal_scaling
-from contactlab.deprecation import renamed_method
 from contactlab.errors import DataError, UsageError
 
 __all__ = ["RecursiveConstraint"]
@@ -98,8 +97,6 @@ class RecursiveConstraint:
         if self.n_ == 0:
             return np.full((2 * self.k, 2 * self.k), math.nan)
         return self._centred(np.array(float(self.n_)), self.sum_, self.sum2_)
-
-    fit = renamed_method("fit", "estimate")
 
     def estimate(self) -> ConstraintFit:
         """The estimator's fit of everything absorbed (no per-sample residuals)."""

@@ -21,7 +21,7 @@ lower-triangular with a non-negative diagonal, ``I = R R^T``.
 
 from contactlab.estimators.kalman import KalmanResult, SquareRootKalman, kalman_step
 from contactlab.estimators.models import (ARModel, LinearDecayModel, LinearFit, LinearModel,
-                                          estimate, estimate_ar, fit, fit_ar)
+                                          estimate, estimate_ar)
 from contactlab.estimators.orthogonal import (OrthogonalKalman, from_orthogonal,
                                               orthogonal_prior, to_orthogonal, unit_structure)
 from contactlab.estimators.rls import RLSResult, SquareRootRLS, exact_sequence_loglik

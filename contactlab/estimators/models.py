@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactlab.deprecation import renamed_function
 from contactlab.estimators.rls import SquareRootRLS
 
 __all__ = ["LinearModel", "ARModel", "LinearDecayModel", "LinearFit", "estimate", "estimate_ar"]
@@ -196,6 +195,3 @@ def estimate_ar(y, *, order: int = 2, mean: bool = False) -> LinearFit:
     """Estimate AR(``order``) (with a mean if ``mean``) on every channel of ``y``."""
     return estimate(ARModel(order=order, mean=mean), y)
 
-
-fit = renamed_function("fit", estimate)
-fit_ar = renamed_function("fit_ar", estimate_ar)

@@ -31,7 +31,7 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
   likelihood of a whole block, which favours every extra parameter on short
   segments; the predictive form compares paths of any length fairly.)
 * ``mode="fixed"``: the frame is given (a nominal frame, or one estimated by
-  the chapter-8 estimator from labelled segments, :meth:`ConstraintFeature.fit`).
+  the chapter-8 estimator from labelled segments, :meth:`ConstraintFeature.from_segments`).
 * ``mode="estimated"``: the frame is re-estimated after every sample from the
   instance's joint information (8.19, the running sums of
   :mod:`contactlab.constraints.recursive`) by the trace criterion's closed

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.deprecation import renamed_method
 from contactlab.estimators.models import LinearDecayModel, estimate
 from contactlab.observer.models._kalman import (MODE_PLAIN, as_channel_prior, prior_state,
                                                 repeat_state, run_kalman)
@@ -36,8 +35,6 @@ class ImpactFeature(FeatureModel):
         super().__init__(name=name, signal=signal, change_size=change_size)
         self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
             theta_mean, theta_sqrt, noise_var, 2, name)
-
-    fit = renamed_method("fit", "from_segments", on_class=True)
 
     @classmethod
     def from_segments(cls, segments, *, name: str = "impact", signal: str = "hf",

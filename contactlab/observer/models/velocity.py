@@ -13,7 +13,7 @@
 
 Both are stateless (no parameters are estimated per instance).  Their
 parameters are given in the graph file or trained from labelled samples
-(:meth:`FixedVelocity.fit`, :meth:`MovingVelocity.fit`): F's ``sigma`` is the
+(:meth:`FixedVelocity.from_segments`, :meth:`MovingVelocity.from_segments`): F's ``sigma`` is the
 root mean square of the velocity over the samples labelled still (the
 zero-mean normal's maximum-likelihood variance); M's range is symmetric,
 ``+-`` the 99th percentile of ``|v|`` over the samples labelled moving (our
