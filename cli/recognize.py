@@ -45,12 +45,14 @@ from contactlab.cli.inputs import checks_archive
                    "log p of the edge, where the graph's edge sets give probabilities (a "
                    "forward projection's or EM's); 'none': every allowed transition alike, as "
                    "in 6.4.  Graphs without probabilities are the same either way.")
-@click.option("--transient-max", "transient_max", type=float,
-              default=D.OBSERVER_TRANSIENT_MAX_S, show_default=True, metavar="SECONDS",
+@click.option("--transient-max", "transient_max", type=float, default=None,
+              metavar="SECONDS",
               help="The longest a path stays in a transient (impact) node; then the samples "
                    "after go to the node's successors, as after a detected change.  0: no "
-                   "limit (6.4 as written).  A stated default, about twice the longest impact "
-                   "labelled in the simulated hf training runs.")
+                   "limit (6.4 as written).  [default: per transient node, its longest "
+                   "labelled run in the trials the models were trained on; where training "
+                   f"had none, {D.OBSERVER_TRANSIENT_MAX_S:g} s, a stated default about twice "
+                   "the longest impact labelled in the simulated hf training runs]")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
@@ -125,7 +127,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         raise click.BadParameter(f"must be in (0, 1]; got {p_prune}", param_hint="'--prune'")
     if not gap > 0:
         raise click.BadParameter(f"must be > 0; got {gap}", param_hint="'--gap'")
-    if not transient_max >= 0:
+    if transient_max is not None and not transient_max >= 0:
         raise click.BadParameter(f"must be >= 0; got {transient_max}",
                                  param_hint="'--transient-max'")
     act = action

@@ -47,9 +47,11 @@ OBSERVER_THRESHOLD = 8.0
 OBSERVER_CHANGE_SIZE = 2.0
 OBSERVER_PRUNE = 0.999
 OBSERVER_GAP = 20.0
-#: the longest a path stays in a transient (impact) node, in seconds (``recognize
-#: --transient-max``; 0: no limit, as in 6.4): a stated default, about twice the longest
-#: impact labelled in the simulated hf training runs (0.22 s at seeds 1-10)
+#: the longest a path stays in a transient (impact) node, in seconds, where the models'
+#: training had no labelled run of it (``recognize`` otherwise holds each transient node
+#: at most its longest labelled run in training; ``--transient-max`` sets one limit, 0:
+#: none, as in 6.4): a stated default, about twice the longest impact labelled in the
+#: simulated hf training runs (0.22 s at seeds 1-10)
 OBSERVER_TRANSIENT_MAX_S = 0.5
 #: the observer's detector tests: the covariance increase of 6.14 plus a two-sided test
 #: of the normalised innovation's mean (best on the switching suite, benchmarks/bench_observer.py)

@@ -84,3 +84,40 @@ def test_the_peer_module_prints_its_accuracy(fixed_runs, capsys):
     assert f"{100 * peer:.1f} % of the labelled points" in out
     assert hmm_main([str(train)]) == 2 and hmm_main([str(train), "nope.h5"]) == 1
     assert "nope.h5: no such file" in capsys.readouterr().err
+
+
+def test_recognize_holds_a_transient_node_at_most_its_longest_labelled_run(fixed_runs):
+    """``train`` records each transient node's longest labelled run (the oracle: the runs
+    of its label counted with numpy); ``recognize`` holds the node no longer by default,
+    0.5 s where training had none, and ``--transient-max`` overrides it."""
+    from contactlab.defaults import OBSERVER_TRANSIENT_MAX_S
+    from contactlab.observer.recognize import RecognizeStage, transient_limits
+
+    train, test = fixed_runs
+    graph = load_graph("hf-gaussian")
+    models = train_graph(train, graph)
+    longest = 0.0
+    with open_archive(train) as arc:
+        for trial in arc:
+            k = list(trial.label_names).index("H3")
+            x = np.r_[0, (np.asarray(trial.labels) == k).astype(int), 0]
+            starts, ends = np.flatnonzero(np.diff(x) == 1), np.flatnonzero(np.diff(x) == -1)
+            if len(starts):
+                longest = max(longest, (ends - starts).max() / trial.rate_hz)
+    assert models.provenance["transient_longest_s"] == {"H3": pytest.approx(longest)}
+    assert 0 < longest < OBSERVER_TRANSIENT_MAX_S
+    assert transient_limits(graph, models) == {"H3": pytest.approx(longest)}
+    models.provenance.pop("transient_longest_s")            # a models file without it
+    assert transient_limits(graph, models) == {"H3": OBSERVER_TRANSIENT_MAX_S}
+    models = train_graph(train, graph)
+    out = recognize_archive(test, graph=graph, models=models, write=False, keep=True)
+    fs = out["_runs"][0].fs
+    for rec in out["_runs"]:
+        n = len(rec.result.labels)
+        bounds = [s for _, s in rec.result.map_path[1:]] + [n]
+        held = [b - a for (nd, a), b in zip(rec.result.map_path, bounds) if nd == "H3"]
+        assert all(h <= round(longest * fs) for h in held)
+    stage = RecognizeStage(graph=graph, models=models, transient_max_s=0.3)
+    assert stage.observer_kw["transient_max_s"] == 0.3
+    assert RecognizeStage(graph=graph, models=models,
+                          transient_max_s=0).observer_kw["transient_max_s"] is None

@@ -448,3 +448,8 @@ def test_a_transient_node_ends_after_its_longest_duration(seed):
     assert np.all(fast.labels[300 + 3 * tm:] == g.node_names.index("C"))
     with pytest.raises(ValueError, match="transient_max"):
         Observer(g, fast_models, transient_max=0)
+    # per node: the same limit given for the node by name is the same observer
+    named = observe(Observer(g, fast_models, transient_max={"I": tm}), y, chunk=257)
+    assert_same_observer_results(fast, named)
+    with pytest.raises(ValueError, match="not a node"):
+        Observer(g, fast_models, transient_max={"Q": tm})

@@ -289,7 +289,8 @@ class Observer:
         ``sqrt(q - 1)``; the default, best on the switching suite) or ``"all"``.
     max_paths : optional beam width cap after pruning.
     initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
-    transient_max : the longest a path stays in a transient node (samples), or None (no
+    transient_max : the longest a path stays in a transient node (samples; a mapping
+        gives it per node name, nodes it leaves out have no limit), or None (no
         limit, as in 6.4).  A path held that long ends there: the samples after it go to
         fresh successors of every other node the graph allows (started at the end of the
         duration from their best predecessor, as for a detected change) and the transient
@@ -316,7 +317,7 @@ class Observer:
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
                  gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
                  initial=None, transitions: str = D.OBSERVER_TRANSITIONS,
-                 transient_max: int | None = None):
+                 transient_max: "int | Mapping[str, int] | None" = None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
         if not change_size > 1:
@@ -331,14 +332,21 @@ class Observer:
             raise ValueError(f"max_paths must be >= 1; got {max_paths!r}")
         if transitions not in TRANSITIONS:
             raise ValueError(f"transitions must be one of {TRANSITIONS}; got {transitions!r}")
-        if transient_max is not None and int(transient_max) < 1:
-            raise ValueError(f"transient_max must be >= 1 sample; got {transient_max!r}")
+        limits = (dict(transient_max) if isinstance(transient_max, Mapping)
+                  else None if transient_max is None else {None: transient_max})
+        for v in (limits or {}).values():
+            if int(v) < 1:
+                raise ValueError(f"transient_max must be >= 1 sample; got {transient_max!r}")
         self.transitions = transitions
         self.graph = graph if initial is None else graph.with_initial(initial)
-        self.transient_max = None if transient_max is None else int(transient_max)
+        unknown = [k for k in (limits or {}) if k is not None and k not in self.graph.node_names]
+        if unknown:
+            raise ValueError(f"transient_max names {unknown[0]!r}, not a node of the graph")
+        self.transient_max = (None if limits is None else int(limits[None]) if None in limits
+                              else {k: int(v) for k, v in limits.items()})
         #: per node, the longest a transient node is held (samples; 0: no limit)
-        self._tmax = np.array([self.transient_max or 0 if n.transient else 0
-                               for n in self.graph.nodes], dtype=np.int64)
+        self._tmax = np.array([int((limits or {}).get(n.name, (limits or {}).get(None, 0)))
+                               if n.transient else 0 for n in self.graph.nodes], dtype=np.int64)
         self.nodes = node_models(self.graph, models)
         self.models = {name: models[name] for name in self.graph.models}
         self.threshold = float(threshold)

@@ -178,13 +178,27 @@ def observer_setup(trial, graph: FeatureGraph, models: dict, observer_kw: dict |
     return observer_keywords(observer_kw, fs), data, index, fs
 
 
+def transient_limits(graph, models) -> dict | None:
+    """Per transient node of ``graph``, the longest it is held (seconds): the longest
+    labelled run of it in the trials the models were trained on (``transient_longest_s``
+    of their provenance), else :data:`~contactlab.defaults.OBSERVER_TRANSIENT_MAX_S`
+    where training had none.  None for a graph without transient nodes."""
+    seen = (getattr(models, "provenance", None) or {}).get("transient_longest_s") or {}
+    out = {n.name: float(seen.get(n.name) or D.OBSERVER_TRANSIENT_MAX_S)
+           for n in graph.nodes if n.transient}
+    return out or None
+
+
 def observer_keywords(observer_kw: dict | None, fs: float) -> dict:
     """:class:`Observer`'s keywords from a stage's ``observer_kw`` at the conditioned rate
     ``fs``: ``transient_max_s`` (seconds; 0 or None: no limit) becomes ``transient_max``
     in samples."""
     kw = dict(observer_kw or {})
     secs = kw.pop("transient_max_s", None)
-    kw["transient_max"] = max(1, int(round(secs * fs))) if secs else None
+    if isinstance(secs, dict):          # per transient node
+        kw["transient_max"] = {n: max(1, int(round(v * fs))) for n, v in secs.items() if v}
+    else:
+        kw["transient_max"] = max(1, int(round(secs * fs))) if secs else None
     return kw
 
 
@@ -245,7 +259,7 @@ class RecognizeStage(Stage):
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None,
                  transitions: str = D.OBSERVER_TRANSITIONS,
-                 transient_max_s: float | None = D.OBSERVER_TRANSIENT_MAX_S):
+                 transient_max_s: float | None = None):
         self.graph, self.models, self.built = bind_models(graph, models)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         p_prune = p_prune or self.graph.p_prune or D.OBSERVER_PRUNE
@@ -260,7 +274,9 @@ class RecognizeStage(Stage):
         except ValueError as exc:
             from contactlab.errors import UsageError
             raise UsageError(str(exc)) from None
-        self.observer_kw["transient_max_s"] = transient_max_s or None
+        self.observer_kw["transient_max_s"] = (transient_limits(self.graph, self.models)
+                                               if transient_max_s is None
+                                               else transient_max_s or None)
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,
@@ -387,7 +403,7 @@ def recognize_archive(archive, *, graph, models, action=None,
                       write: bool = True, quiet: bool = True, keep: bool = False,
                       workers: int = 1, scheduler: str | None = None,
                       transitions: str = D.OBSERVER_TRANSITIONS,
-                      transient_max_s: float | None = D.OBSERVER_TRANSIENT_MAX_S) -> dict:
+                      transient_max_s: float | None = None) -> dict:
     """Recognise every trial of ``archive`` with ``graph`` and ``models`` (paths or objects).
 
     Returns a JSON-able summary: ``accuracy`` (final MAP path, labelled points),

@@ -247,6 +247,25 @@ def load_graph_models(path) -> GraphModels:
 # -- training ----------------------------------------------------------------------------
 
 
+def _longest_runs(trial, transient: dict, longest: dict) -> None:
+    """Update ``longest`` (node -> seconds) with the trial's longest labelled run of each
+    transient node (``transient``: node -> the labels that name it, its own name first,
+    then its models' trained labels): the duration ``recognize`` holds the node at most."""
+    names = list(getattr(trial, "label_names", None) or [])
+    if not transient or trial.labels is None or not names:
+        return
+    codes = np.asarray(trial.labels)
+    for node, labels in transient.items():
+        lab = next((x for x in labels if x in names), None)
+        if lab is None:
+            continue
+        runs = mask_runs(codes == names.index(lab))
+        if runs:
+            secs = max(b - a for a, b in runs) / float(trial.rate_hz)
+            longest[node] = max(longest.get(node, 0.0), secs)
+
+
+
 def _example_label(seen) -> str:
     """A label of the recording to show in a --label-map example: never ``0``, which
     integer-coded recordings use for unlabelled or before-and-after samples."""
@@ -328,6 +347,9 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     raw_labels: set = set()
     ids_used = []
     fs = None
+    transient = {n.name: [n.name] + [graph.models[m].trained for m in n.model_names]
+                 for n in graph.nodes if n.transient}
+    longest: dict[str, float] = {}
     with open_archive(path) as arch:
         ids = arch.select(trials)
         for tid in progress(ids, desc="train", quiet=quiet, unit="trial"):
@@ -339,6 +361,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             seen_labels.update(n for n in (trial.label_names or []) if n is not None)
             data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
             ids_used.append(tid)
+            _longest_runs(trial, transient, longest)
             for s in all_signals:
                 codes = truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
                 if s in kin_signals:
@@ -401,6 +424,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         "signal": signal, "reduce": reduce, "block": int(block), "order": int(order),
         "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
         "impact_segments": {k: len(v) for k, v in segs.items()},
+        "transient_longest_s": longest,
         "graph": {"name": graph.name, "source": graph.source,
                   "sha256": sha256_file(Path(graph.source)) if graph.source
                   and Path(graph.source).is_file() else None},
