@@ -345,3 +345,15 @@ def test_fuzz_helpers_break_what_they_claim(archive_bytes, tmp_path):
     _apply(path, [("replace", "trials/t01/measurements/time", np.zeros(3))])
     with pytest.raises(DataError, match="measurements/time"):
         check_archive(path)
+
+
+def test_a_models_file_with_a_damaged_root_object_is_a_one_line_error(models_bytes, tmp_path):
+    """Zeroed bytes in the root group's header make h5py raise KeyError on its attributes
+    (found by ``make fuzz``): a DataError naming the file, like any other damage."""
+    seed, _ = models_bytes
+    path = tmp_path / "models.h5"
+    path.write_bytes(seed.read_bytes())
+    _apply(path, [("bytes", "", (108, b"\x00" * 5))])
+    with pytest.raises(DataError) as err:
+        GraphModels.load(path)
+    assert_names_file(err.value, path)

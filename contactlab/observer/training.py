@@ -159,7 +159,7 @@ class GraphModels:
         one-line DataError naming it, like every other mistake in it."""
         try:
             return cls._load(path)
-        except OSError as exc:
+        except (OSError, KeyError, RuntimeError) as exc:   # h5py's errors on damaged bytes
             raise DataError(f"damaged models file: HDF5 cannot read it ({exc})",
                             file=str(path)) from None
 
