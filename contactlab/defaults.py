@@ -47,6 +47,15 @@ OBSERVER_THRESHOLD = 8.0
 OBSERVER_CHANGE_SIZE = 2.0
 OBSERVER_PRUNE = 0.999
 OBSERVER_GAP = 20.0
+#: the observer's beam width: at most this many paths are kept after an event's pruning
+#: (6.4 keeps every path within P_prune's mass and the gap, without a bound).  A bound for
+#: data the models do not fit: on the HIRO failed-assembly recordings up to 1,003
+#: near-equal paths were kept at once (an hour of 200 Hz with them recognised in 2.9 s,
+#: 602 MB traced at the peak; with this cap 2.4 s and 472 MB, the same 0.9987 of points
+#: correct).  Largest number kept without a cap, seed 1: the hf graphs 3-7, the maze 29,
+#: the corner moves 13-22, the guarded move 27-121 (its distractor frames): twice that
+#: is the bound (None: no cap)
+OBSERVER_MAX_PATHS = 256
 #: the longest a path stays in a transient (impact) node, in seconds, where the models'
 #: training had no labelled run of it (``recognize`` otherwise holds each transient node
 #: at most its longest labelled run in training; ``--transient-max`` sets one limit, 0:

@@ -112,3 +112,31 @@ def test_a_change_missed_at_first_is_recovered():
     assert res.map_path[-1][0] == "B"
     assert n0 - 5 <= [s for node, s in res.map_path if node == "B"][0] <= n0 + 60
     assert np.mean(res.labels[n0 + 60:] == 1) == 1.0
+
+
+def test_the_beam_keeps_at_most_max_paths_the_most_probable_first():
+    """With a hair-trigger detector and neither mass nor gap pruning every alarm adds paths;
+    the beam width bounds how many an event keeps, and it keeps the most probable ones
+    (a cap wider than the beam ever gets changes nothing)."""
+    from contactlab.defaults import OBSERVER_MAX_PATHS
+
+    rng = np.random.default_rng(7)
+    y = np.r_[rng.normal(0.0, 1.0, 400), rng.normal(1.5, 1.0, 400), rng.normal(0, 1, 400)]
+    models = {k: TemporalFeature(name=k, order=1, mean=True, theta_mean=[mu, 0.0],
+                                 theta_sqrt=[0.05, 0.01], noise_var=1.0, structure="plain")
+              for k, mu in (("A", 0.0), ("B", 1.5))}
+    g = parse_graph({"name": "ab", "models": {k: {"kind": "temporal"} for k in "AB"},
+                     "nodes": [{"name": "A", "models": "A", "initial": 1.0},
+                               {"name": "B", "models": "B", "initial": 0.0}],
+                     "edges": ["A -> B", "B -> A"]})
+    kw = dict(threshold=0.5, p_prune=1.0, gap=np.inf)
+    assert Observer(g, models).max_paths == OBSERVER_MAX_PATHS
+    free = observe(Observer(g, models, max_paths=None, **kw), y)
+    widest = max(len(e.kept) for e in free.events)
+    assert widest > 12
+    capped = observe(Observer(g, models, max_paths=12, **kw), y)
+    assert max(len(e.kept) for e in capped.events) == 12
+    assert capped.map_path[-1][0] == "A" and any(n == "B" for n, _ in capped.map_path)
+    wide = observe(Observer(g, models, max_paths=widest, **kw), y)
+    assert wide.map_path == free.map_path
+    np.testing.assert_array_equal(wide.labels, free.labels)

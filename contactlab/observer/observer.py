@@ -287,7 +287,9 @@ class Observer:
         for ``N(0, qV)``), ``"both"`` (also a decrease to ``V/q``), ``"mean"`` (the
         increase plus a two-sided change of the normalised innovation's mean by
         ``sqrt(q - 1)``; the default, best on the switching suite) or ``"all"``.
-    max_paths : optional beam width cap after pruning.
+    max_paths : the beam width: at most this many paths kept after an event's pruning,
+        the most probable (:data:`contactlab.defaults.OBSERVER_MAX_PATHS`; None: no cap,
+        as in 6.4).
     initial : optional initial probabilities replacing the graph's ((K,) or {name: p}).
     transient_max : the longest a path stays in a transient node (samples; a mapping
         gives it per node name, nodes it leaves out have no limit), or None (no
@@ -315,7 +317,8 @@ class Observer:
     def __init__(self, graph: FeatureGraph, models: Mapping[str, FeatureModel], *,
                  threshold: float = D.OBSERVER_THRESHOLD,
                  change_size: float = D.OBSERVER_CHANGE_SIZE, p_prune: float = D.OBSERVER_PRUNE,
-                 gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES, max_paths: int | None = None,
+                 gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES,
+                 max_paths: int | None = D.OBSERVER_MAX_PATHS,
                  initial=None, transitions: str = D.OBSERVER_TRANSITIONS,
                  transient_max: "int | Mapping[str, int] | None" = None):
         if not (threshold > 0 and math.isfinite(threshold)):
