@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 CHUNK = 40          # input rows per step (40 ms at 1000 Hz)
-LONG_S = 600.0      # seconds of data of the memory run
+LONG_S = 3600.0     # seconds of data of the memory run: an hour
 
 
 def _rss_mb() -> float:
@@ -85,12 +85,14 @@ def _measure(archive, graph, models, fields, *, loops=1, probe=None):
     from contactlab.live.conditioner import LiveConditioner
     from contactlab.live.watch import watch
     from contactlab.observer.observer import Observer
-    from contactlab.observer.recognize import RecognizeStage
+    from contactlab.observer.recognize import RecognizeStage, observer_keywords
+    from contactlab.signals import factor_for
 
     stage = RecognizeStage(graph=graph, models=models, write=False)
     src = _Replay(archive, fields, loops=loops, probe=probe)
     rate = src.infos[0].rate_hz
-    obs = Observer(stage.graph, stage.built, **stage.observer_kw)
+    obs = Observer(stage.graph, stage.built,
+                   **observer_keywords(stage.observer_kw, rate / factor_for(rate)))
     cond = LiveConditioner(obs.signals, rate_hz=rate, fields=fields, reduce=stage.models.reduce)
     data_s = loops * sum(len(r["time"]) for r in src.rows) / rate
     cpu0 = time.process_time()
