@@ -63,3 +63,22 @@ def test_label_map_hint_never_suggests_label_0_and_train_names_what_it_fitted(tm
     assert free.startswith("free: constraint degree 0 (normals none), signal contact-compensated, from ")
     assert free.endswith(" labelled free")
     assert " on contact" not in r.output
+
+
+def test_an_impact_node_without_labels_of_its_own_keeps_the_stated_limit(tmp_path):
+    """free-contact's impact model is trained on the contact's labels; the node itself is
+    never labelled, so training records no duration for it and recognize holds it at
+    most the stated default (not the longest contact)."""
+    from contactlab.defaults import OBSERVER_TRANSIENT_MAX_S
+    from contactlab.observer import load_graph
+    from contactlab.observer.recognize import transient_limits
+    from contactlab.observer.training import GraphModels
+
+    rec = _integer_labelled(tmp_path)
+    r = run_cli("train", rec, "--graph", "free-contact", "--out", tmp_path / "m.h5", "-q",
+                "--label-map", "1=free,2=contact,3=free")
+    assert r.exit_code == 0, r.output
+    models = GraphModels.load(tmp_path / "m.h5")
+    assert models.provenance["transient_longest_s"] == {}
+    assert transient_limits(load_graph("free-contact"), models) == {
+        "impact": OBSERVER_TRANSIENT_MAX_S}

@@ -249,8 +249,8 @@ def load_graph_models(path) -> GraphModels:
 
 def _longest_runs(trial, transient: dict, longest: dict) -> None:
     """Update ``longest`` (node -> seconds) with the trial's longest labelled run of each
-    transient node (``transient``: node -> the labels that name it, its own name first,
-    then its models' trained labels): the duration ``recognize`` holds the node at most."""
+    transient node (``transient``: node -> the labels that name it, after the label map):
+    the duration ``recognize`` holds the node at most."""
     names = list(getattr(trial, "label_names", None) or [])
     if not transient or trial.labels is None or not names:
         return
@@ -347,8 +347,9 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     raw_labels: set = set()
     ids_used = []
     fs = None
-    transient = {n.name: [n.name] + [graph.models[m].trained for m in n.model_names]
-                 for n in graph.nodes if n.transient}
+    # a transient node's own labelled runs (its models may be trained on other labels:
+    # free-contact's impact model is the contact's frame with a wider covariance)
+    transient = {n.name: [n.name] for n in graph.nodes if n.transient}
     longest: dict[str, float] = {}
     with open_archive(path) as arch:
         ids = arch.select(trials)
