@@ -347,9 +347,13 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
     raw_labels: set = set()
     ids_used = []
     fs = None
-    # a transient node's own labelled runs (its models may be trained on other labels:
-    # free-contact's impact model is the contact's frame with a wider covariance)
-    transient = {n.name: [n.name] for n in graph.nodes if n.transient}
+    # a transient node's labelled runs: its own name's, else those its impact models are
+    # trained on (9.1.1's impact node "1" reads the "impact" labels); not those of its
+    # other models (free-contact's impact reads the contact's frame, trained on contact)
+    transient = {n.name: [n.name] + [lab for m in n.model_names
+                                     if graph.models[m].kind == "impact"
+                                     for lab in graph.models[m].trained_labels]
+                 for n in graph.nodes if n.transient}
     longest: dict[str, float] = {}
     with open_archive(path) as arch:
         ids = arch.select(trials)
