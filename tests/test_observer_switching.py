@@ -94,13 +94,8 @@ def test_impact_nodes_end(suite):
             assert max(stays, default=0) <= longest
 
 
-def test_a_change_missed_at_first_is_recovered():
-    """A beam of one path drops the new path at the first alarm (it has less evidence
-    yet); the old path's detector is reset and must fire again, so the path still
-    reaches the new node."""
-    rng = np.random.default_rng(5)
-    n0, n1 = 300, 600
-    y = np.r_[rng.normal(0.0, 1.0, n0), rng.normal(1.5, 1.0, n1)]
+def _ab():
+    """Two nodes A (level 0) and B (level 1.5) of AR(1)-with-a-mean models, A <-> B."""
     models = {k: TemporalFeature(name=k, order=1, mean=True, theta_mean=[mu, 0.0],
                                  theta_sqrt=[0.05, 0.01], noise_var=1.0, structure="plain")
               for k, mu in (("A", 0.0), ("B", 1.5))}
@@ -108,6 +103,17 @@ def test_a_change_missed_at_first_is_recovered():
                      "nodes": [{"name": "A", "models": "A", "initial": 1.0},
                                {"name": "B", "models": "B", "initial": 0.0}],
                      "edges": ["A -> B", "B -> A"]})
+    return g, models
+
+
+def test_a_change_missed_at_first_is_recovered():
+    """A beam of one path drops the new path at the first alarm (it has less evidence
+    yet); the old path's detector is reset and must fire again, so the path still
+    reaches the new node."""
+    rng = np.random.default_rng(5)
+    n0, n1 = 300, 600
+    y = np.r_[rng.normal(0.0, 1.0, n0), rng.normal(1.5, 1.0, n1)]
+    g, models = _ab()
     res = observe(Observer(g, models, max_paths=1), y)
     assert res.map_path[-1][0] == "B"
     assert n0 - 5 <= [s for node, s in res.map_path if node == "B"][0] <= n0 + 60
@@ -122,13 +128,7 @@ def test_the_beam_keeps_at_most_max_paths_the_most_probable_first():
 
     rng = np.random.default_rng(7)
     y = np.r_[rng.normal(0.0, 1.0, 400), rng.normal(1.5, 1.0, 400), rng.normal(0, 1, 400)]
-    models = {k: TemporalFeature(name=k, order=1, mean=True, theta_mean=[mu, 0.0],
-                                 theta_sqrt=[0.05, 0.01], noise_var=1.0, structure="plain")
-              for k, mu in (("A", 0.0), ("B", 1.5))}
-    g = parse_graph({"name": "ab", "models": {k: {"kind": "temporal"} for k in "AB"},
-                     "nodes": [{"name": "A", "models": "A", "initial": 1.0},
-                               {"name": "B", "models": "B", "initial": 0.0}],
-                     "edges": ["A -> B", "B -> A"]})
+    g, models = _ab()
     kw = dict(threshold=0.5, p_prune=1.0, gap=np.inf)
     assert Observer(g, models).max_paths == OBSERVER_MAX_PATHS
     free = observe(Observer(g, models, max_paths=None, **kw), y)
