@@ -52,18 +52,14 @@ def cli(*args) -> dict:
 def hmm_accuracy(train, test, states) -> tuple[float, int, object, list]:
     """Supervised HMM: point accuracy, transitions missed (no decoded change of the
     right kind within 50 samples), the model, the test points."""
-    from contactlab.metrics import confusion_matrix
     from contactlab.observer.recognize import detection_delays
-    from contactlab.peers.hmm import fit_hmm, labelled_points
+    from contactlab.peers.hmm import decode, fit_hmm, labelled_points
 
     tr, te = labelled_points(train, states), labelled_points(test, states)
     hmm = fit_hmm(tr, len(states))
-    K = len(states)
-    total = np.zeros((K, K), np.int64)
+    total, paths = decode(hmm, te, len(states))
     missed = 0
-    for p in te:
-        _, s = hmm.decode(p["y"], algorithm="viterbi")
-        total += confusion_matrix(p["truth"], s, K)[0]
+    for p, s in zip(te, paths):
         ch = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
         path = [(states[s[c]], int(c)) for c in ch]
         missed += detection_delays(p["truth"], path, states)["missed"]

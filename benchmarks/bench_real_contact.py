@@ -6,8 +6,9 @@ trials with ``import --window`` (train on 0-22 s, recognise 22-43 s; its label 4
 as contact), and the HIRO snap-fit trials (train on S-02 and S-03, recognise S-04..S-09;
 train on the first 14, recognise the other 13; rotation, insertion and mating counted as
 contact).  Both are imported with the tool's orientation (the wrench is measured in the
-sensor's axes, the position in the base frame).  Ours: ``train --graph free-contact --label-map ...`` then ``recognize`` with
-default flags, points of the conditioned time base.  Peer: the force threshold ``|F| > k
+sensor's axes, the position in the base frame).  Ours: ``train --graph free-contact
+--label-map ...`` then ``recognize`` with default flags, points of the conditioned time
+base.  Peer: the force threshold ``|F| > k
 sigma`` (:class:`contactlab.peers.force_threshold.ForceThreshold`) with ``k`` chosen on
 the training trials, on the raw samples.  Also: how many recognised trials the misfit
 check warned about (it should be silent where the models fit).
@@ -121,19 +122,23 @@ def run() -> list[dict]:
     return rows
 
 
-def _hour_csv(root: Path, out: Path, seconds: float = 3600.0) -> int:
-    """The HIRO trials one after another, again and again, to ``seconds`` of 200 Hz
-    wrench, pose and labels (a time column counted anew); returns the rows written."""
+def _hiro_trials(root: Path) -> list:
+    """The HIRO trials' wrench, pose and labels, one table each."""
     import pandas as pd
 
     cols = ["fx", "fy", "fz", "tx", "ty", "tz", "x", "y", "z", "roll", "pitch", "yaw", "label"]
-    trials = [pd.read_csv(f)[cols] for f in sorted((root / "hiro_snap").glob("*.csv"))]
-    n = int(seconds * 200)
+    return [pd.read_csv(f)[cols] for f in sorted((root / "hiro_snap").glob("*.csv"))]
+
+
+def _repeated_csv(trials: list, out: Path, n: int) -> None:
+    """The trials one after another, again and again, to ``n`` rows at 200 Hz (a time
+    column counted anew)."""
+    import pandas as pd
+
     reps = -(-n // sum(len(t) for t in trials))
     table = pd.concat(trials * reps, ignore_index=True).iloc[:n]
     table.insert(0, "t", np.arange(n) / 200.0)
     table.to_csv(out, index=False, float_format="%.7g")
-    return n
 
 
 def run_hour(root: Path, d: Path) -> dict:
@@ -142,16 +147,11 @@ def run_hour(root: Path, d: Path) -> dict:
     that holds every trial once (the same content, a fifth of the length)."""
     import tracemalloc
 
-    csv = d / "hour.csv"
-    n = _hour_csv(root, csv)
-    once = d / "once.csv"                  # every trial once: the hour's first 12 minutes
-    n_once = sum(1 for f in (root / "hiro_snap").glob("*.csv") for _ in open(f)) - len(
-        list((root / "hiro_snap").glob("*.csv")))
-    with open(csv) as src, open(once, "w") as dst:
-        for i, line in enumerate(src):
-            if i > n_once:
-                break
-            dst.write(line)
+    trials = _hiro_trials(root)
+    n, n_once = 3600 * 200, sum(len(t) for t in trials)
+    csv, once = d / "hour.csv", d / "once.csv"
+    _repeated_csv(trials, csv, n)
+    _repeated_csv(trials, once, n_once)
     lmap = HIRO_MAP
     t0 = time.perf_counter()
     _cli("import", csv, "--out", d / "hour.h5", "-q", "--columns", HIRO_COLUMNS)
@@ -177,5 +177,5 @@ def run_hour(root: Path, d: Path) -> dict:
             "notes": f"{n / 200.0 / total:.0f}x real time in one process (import "
                      f"{t1 - t0:.2f} s, train {t2 - t1:.2f} s, recognize {t3 - t2:.2f} s; "
                      f"goal >= 1000x); recognize's peak traced memory {peaks[1]:.0f} MB for "
-                     f"the hour, {peaks[0]:.0f} MB for its first {n_once / 200 / 60:.0f} minutes (every "
-                     f"trial once)"}
+                     f"the hour, {peaks[0]:.0f} MB for its first {n_once / 200 / 60:.0f} "
+                     f"minutes (every trial once)"}

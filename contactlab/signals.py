@@ -251,14 +251,18 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     _check_sources(trial, signals, path)
     out: dict[str, np.ndarray] = {}
     indices: list[np.ndarray] = []
+    contact = None              # (y, index) of the contact signals: computed once
     for s in signals:
         if s in ("velocity", "position", PHASE):
             continue
         if s in CONTACT_SIGNALS:    # position then force, both through the 7.1 lowpass
-            w = condition(trial, "wrench", path=path)
-            p = condition(trial, "position", path=path)
-            out[s] = np.concatenate([p.y[:, :3], _base_force(trial, w, path)], axis=1)
-            indices.append(w.index)
+            if contact is None:
+                w = condition(trial, "wrench", path=path)
+                p = condition(trial, "position", path=path)
+                contact = (np.concatenate([p.y[:, :3], _base_force(trial, w, path)], axis=1),
+                           w.index)
+            out[s] = contact[0]
+            indices.append(contact[1])
             continue
         if s not in SIGNALS:
             raise DataError(f"unknown signal {s!r} (known: {', '.join(STREAMS)})",
@@ -295,7 +299,8 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
 
 
 def _base_force(trial, wrench: Signal, path) -> np.ndarray:
-    """The conditioned force of ``wrench`` in the position's (base) axes.
+    """The conditioned force of ``wrench`` (the trial's conditioned wrench) in the
+    position's (base) axes.
 
     The constraint form (8.10-8.11) pairs a motion and a force in one frame; the
     position is the end effector's in the base frame, and a wrist sensor measures

@@ -39,9 +39,8 @@ from contactlab.observer.draw import plot_graph  # noqa: E402
 from contactlab.observer.graph import bundled_graphs, load_graph  # noqa: E402
 from contactlab.observer.recognize import (DELAY_BINS, merge_path,  # noqa: E402
                                            recognize_archive)
-from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.observer.training import train_graph  # noqa: E402
-from contactlab.peers.hmm import fit_hmm, labelled_points  # noqa: E402
+from contactlab.peers.hmm import decode, fit_hmm, labelled_points  # noqa: E402
 from contactlab.progress import bar  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 from contactlab.experiments.scratch import scratch_dir  # noqa: E402
@@ -70,18 +69,11 @@ TITLES = {"train_cf": "training runs, context free (7.3.2)",
 # the HMM peer
 # ---------------------------------------------------------------------------
 def decode_hmm(model, runs: list[dict]) -> tuple[np.ndarray, float, list[np.ndarray]]:
-    """Viterbi state sequences; pooled confusion counts and decoding time (s)."""
-    K = len(STATES)
-    total = np.zeros((K, K), np.int64)
-    states = []
+    """Viterbi state sequences; pooled confusion counts and the time (s) to decode and
+    count them (:func:`contactlab.peers.hmm.decode`)."""
     t0 = time.perf_counter()
-    for r in runs:
-        _, s = model.decode(r["y"], algorithm="viterbi")
-        states.append(s)
-    dt = time.perf_counter() - t0
-    for r, s in zip(runs, states):
-        total += confusion_matrix(r["truth"], s, K)[0]
-    return total, dt, states
+    total, states = decode(model, runs, len(STATES))
+    return total, time.perf_counter() - t0, states
 
 
 # ---------------------------------------------------------------------------

@@ -212,7 +212,7 @@ def format_explanation(ex: dict) -> list[str]:
     lines.append(f"  points marked correctly {100 * ex['accuracy']:.1f} %; with the true "
                  f"boundaries given, the models alone label {100 * ex['segment_accuracy']:.1f} "
                  "% (each true segment by the node whose fresh instance explains it best)")
-    lines.append(f"  true segments: " + ", ".join(
+    lines.append("  true segments: " + ", ".join(
         f"{s['node']}@{s['start'] / fs:.2f}s->{s['best']}({s['margin']:+.1f})"
         for s in ex["segments"]) + "  (best node, true minus best other, nats)")
     w = ex["window_samples"]

@@ -34,8 +34,10 @@ With a **base graph** (``base``; ``graph learn --models-from GRAPH``) the nodes 
 that graph's models, transient flags and labels -- the label map names its nodes -- and
 only the edges, their probabilities and the initial probabilities come from the labels:
 the context of 7.3.3 (which transitions a task makes, and how often) learned from the
-training runs instead of stated from the action and the geometry.  ``train --graph`` fits the models and
-``recognize --graph`` runs the result like any bundled graph.  With ``em``, the models
+training runs instead of stated from the action and the geometry.
+
+``train --graph`` fits the models and ``recognize --graph`` runs the result like any
+bundled graph.  With ``em``, the models
 are trained from the labelled archive and Baum-Welch over every run of the archives
 (labels not needed; :func:`contactlab.observer.learning.learn_graph`) adds the edges the
 labels never showed and replaces the probabilities by the learned ones (the mean over

@@ -415,7 +415,10 @@ def recognize_archive(archive, *, graph, models, action=None,
     ground truth.  ``write``: results to each trial's ``results/recognize``, all
     trials in one atomic step (:func:`contactlab.stages.run_stage`; ``workers``
     / ``scheduler`` as there).  ``keep``: also return the
-    :class:`TrialRecognition` objects under ``"_runs"``.
+    :class:`TrialRecognition` objects under ``"_runs"``.  ``transient_max_s``: the
+    longest a path stays in a transient node, in seconds (0: no limit, as in 6.4); None
+    holds each transient node at most its longest labelled run in the models' training
+    (:func:`transient_limits`).
     """
     stage = RecognizeStage(graph=graph, models=models, action=action, threshold=threshold,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,

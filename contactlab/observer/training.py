@@ -52,7 +52,7 @@ from contactlab import __version__
 from contactlab import defaults as D
 from contactlab.errors import DataError
 from contactlab.observer.graph import FeatureGraph, load_graph
-from contactlab.observer.kinematics import (KINEMATIC_SIGNALS, check_map_sources,
+from contactlab.observer.kinematics import (check_map_sources,
                                             fit_kinematic_models, kinematic_specs,
                                             read_kinematic_models, write_kinematic_models)
 from contactlab.observer.models.impact import ImpactFeature
@@ -263,7 +263,6 @@ def _longest_runs(trial, transient: dict, longest: dict) -> None:
         if runs:
             secs = max(b - a for a, b in runs) / float(trial.rate_hz)
             longest[node] = max(longest.get(node, 0.0), secs)
-
 
 
 def _example_label(seen) -> str:

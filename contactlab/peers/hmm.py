@@ -15,7 +15,7 @@ import numpy as np
 
 from contactlab.signals import trial_signals, truth_codes, window_of
 
-__all__ = ["labelled_points", "fit_hmm", "point_accuracy"]
+__all__ = ["labelled_points", "fit_hmm", "decode", "point_accuracy"]
 
 
 def labelled_points(archive, states, *, reduce: str = "mean") -> list[dict]:
@@ -64,21 +64,27 @@ def fit_hmm(train: list[dict], n_states: int, *, pseudo: float = 1.0):
     return model
 
 
+def decode(model, runs: list[dict], n_states: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The Viterbi state sequence of each run's ``y`` (:func:`labelled_points`) and the
+    point confusion counts pooled over the runs with truth (rows true, columns decoded)."""
+    from contactlab.metrics import confusion_matrix
+
+    total = np.zeros((n_states, n_states), np.int64)
+    paths = [model.decode(r["y"], algorithm="viterbi")[1] for r in runs]
+    for r, s in zip(runs, paths):
+        if r["truth"] is not None:
+            total += confusion_matrix(r["truth"], s, n_states)[0]
+    return total, paths
+
+
 def point_accuracy(train_archive, test_archive, states, *, reduce: str = "mean") -> float:
     """Share of the labelled y_h points of ``test_archive`` that the supervised HMM fitted
     on ``train_archive`` marks correctly by Viterbi (labels named like ``states``)."""
     model = fit_hmm(labelled_points(train_archive, states, reduce=reduce), len(states))
-    ok = total = 0
-    for run in labelled_points(test_archive, states, reduce=reduce):
-        if run["truth"] is None:
-            continue
-        path = model.predict(run["y"])
-        k = run["truth"] >= 0
-        ok += int(np.sum(path[k] == run["truth"][k]))
-        total += int(k.sum())
-    if total == 0:
+    total, _ = decode(model, labelled_points(test_archive, states, reduce=reduce), len(states))
+    if total.sum() == 0:
         raise ValueError(f"{test_archive}: no labelled points named {', '.join(states)}")
-    return ok / total
+    return float(np.trace(total) / total.sum())
 
 
 def main(argv=None) -> int:
