@@ -54,7 +54,7 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
            "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
            "compensate_friction", "velocity_noise_level", "phase_stream", "PHASE",
-           "PHASE_CUTOFF_HZ"]
+           "PHASE_CUTOFF_HZ", "phase_filter"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -354,6 +354,15 @@ def _velocity_at(trial, index, path) -> np.ndarray:
     return _raw(trial, "velocity", path)[index]
 
 
+def phase_filter(fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(b, a)`` of the task-phase lowpass at rate ``fs``: second-order Butterworth at
+    :data:`PHASE_CUTOFF_HZ`, at most 0.4 times the rate."""
+    from scipy.signal import butter
+
+    fs = float(fs)
+    return butter(2, min(PHASE_CUTOFF_HZ, 0.4 * fs) / (fs / 2.0))
+
+
 def phase_stream(trial, path=None) -> np.ndarray:
     """The task-phase stream at the input rate: the wrench and the velocity (recorded, else
     the position's first difference times the rate; none without either) through a causal
@@ -361,7 +370,7 @@ def phase_stream(trial, path=None) -> np.ndarray:
     rate), started at rest on the first sample -- (N, 9), or (N, 6) with no kinematics.
     Task phases differ in force level, velocity direction and load over seconds; the
     lowpass keeps that and drops the sensor noise and the impacts' ringing."""
-    from scipy.signal import butter, lfilter, lfilter_zi
+    from scipy.signal import lfilter, lfilter_zi
 
     fs = float(trial.rate_hz)
     parts = [_raw(trial, "wrench", path)]
@@ -373,7 +382,7 @@ def phase_stream(trial, path=None) -> np.ndarray:
     x = np.concatenate(parts, axis=1)
     if len(x) == 0:
         return x
-    b, a = butter(2, min(PHASE_CUTOFF_HZ, 0.4 * fs) / (fs / 2.0))
+    b, a = phase_filter(fs)
     zi = lfilter_zi(b, a)[:, None] * x[:1]
     return np.ascontiguousarray(lfilter(b, a, x, axis=0, zi=zi)[0])
 

@@ -36,7 +36,7 @@ import numpy as np
 from contactlab.conditioning import (Differencer, LogEnergy, LowpassDecimator,
                                      quantisation_floor)
 from contactlab.errors import UsageError
-from contactlab.signals import (COMPENSATED, CONTACT_SIGNALS, PHASE, PHASE_CUTOFF_HZ, SIGNALS,
+from contactlab.signals import (COMPENSATED, CONTACT_SIGNALS, PHASE, SIGNALS, phase_filter,
                                 compensate_friction, cutoff_for, factor_for, hf_block_for,
                                 source_of, velocity_noise_level)
 
@@ -311,7 +311,7 @@ class LiveConditioner:
         return y
 
     def _phase_rows(self, arr: dict) -> np.ndarray:
-        from scipy.signal import butter, lfilter, lfilter_zi
+        from scipy.signal import lfilter, lfilter_zi
 
         parts = [arr["wrench"]]
         if "velocity" in arr:
@@ -321,7 +321,7 @@ class LiveConditioner:
             prev = p[:1] if self._phase is None else self._phase[1][None, :]
             parts.append(np.diff(np.concatenate([prev, p]), axis=0) * self.fs)
         x = np.concatenate(parts, axis=1)
-        b, a = butter(2, min(PHASE_CUTOFF_HZ, 0.4 * self.fs) / (self.fs / 2.0))
+        b, a = phase_filter(self.fs)
         zi = lfilter_zi(b, a)[:, None] * x[:1] if self._phase is None else self._phase[0]
         y, zf = lfilter(b, a, x, axis=0, zi=zi)
         self._phase = (zf, arr["position"][-1, :3].copy() if "position" in arr else None)
