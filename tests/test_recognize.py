@@ -280,3 +280,28 @@ def test_explain_names_each_true_transition_and_why(files, tmp_path):
     assert r.exit_code == 0 and "A -> C at" in r.output
     r = run_cli(*args, "--explain", "nope")
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1
+
+
+def test_explain_text_lists_one_line_per_alarm_time_and_sums_up_the_rest():
+    """An alarm crossed by several tests of one path is one line; past the first few,
+    the alarms are counted by what they started and how it fared (JSON keeps all)."""
+    from contactlab.observer.explain import TEXT_EVENTS, _event_lines
+
+    def ev(t, spawned):
+        return {"time": t, "path_node": "B", "model": "B", "change_time": t,
+                "spawned": [{"node": "C", "start": t, "fate": f} for f in spawned]}
+
+    events = []
+    for t in range(10):
+        events += [ev(t, ["pruned: gap" if t % 2 else "kept"]), ev(t, []), ev(t, [])]
+    lines = _event_lines(events, fs=10.0)
+    assert len(lines) == TEXT_EVENTS + 1
+    assert lines[0].startswith("    alarm at 0.000s on B/B") and "C@0.000s kept" in lines[0]
+    rest = range(TEXT_EVENTS, 10)
+    kept = sum(1 for t in rest if t % 2 == 0)
+    assert lines[-1] == (f"    {len(rest)} more alarms until 0.900s: started "
+                         + ", ".join(f"{k} x{v}" for k, v in
+                                     ([("C pruned: gap", len(rest) - kept), ("C kept", kept)]
+                                      if TEXT_EVENTS % 2 else
+                                      [("C kept", kept), ("C pruned: gap", len(rest) - kept)])))
+    assert _event_lines([], fs=10.0) == []

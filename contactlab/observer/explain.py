@@ -202,6 +202,39 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
     return out
 
 
+#: alarms of one transition's window listed one by one in the text (the rest summed up;
+#: ``--json`` keeps every one)
+TEXT_EVENTS = 3
+
+
+def _event_lines(events: list, fs: float) -> list[str]:
+    """Text of a window's alarms: one line per alarm time (an alarm crossed by several
+    tests of one path is one event), the first :data:`TEXT_EVENTS` in full and the rest
+    as counts of what they started and how it fared."""
+    by_time: dict = {}
+    for e in events:
+        key = (e["time"], e["path_node"], e["model"], e["change_time"])
+        by_time.setdefault(key, []).extend(e["spawned"])
+    out = []
+    items = list(by_time.items())
+    for (t, node, model, r), spawned in items[:TEXT_EVENTS]:
+        sp = ", ".join(f"{s['node']}@{s['start'] / fs:.3f}s {s['fate']}"
+                       for s in spawned) or "none new"
+        out.append(f"    alarm at {t / fs:.3f}s on {node}/{model} (change {r / fs:.3f}s): "
+                   f"started {sp}")
+    rest = items[TEXT_EVENTS:]
+    if rest:
+        fates: dict = {}
+        for _, spawned in rest:
+            for s in spawned:
+                k = f"{s['node']} {s['fate']}"
+                fates[k] = fates.get(k, 0) + 1
+        what = ", ".join(f"{k} x{v}" for k, v in fates.items()) or "none new"
+        out.append(f"    {len(rest)} more alarms until {rest[-1][0][0] / fs:.3f}s: "
+                   f"started {what}")
+    return out
+
+
 def format_explanation(ex: dict) -> list[str]:
     """Text lines of :func:`explain_trial`'s result."""
     fs = ex["rate_hz"]
@@ -226,11 +259,7 @@ def format_explanation(ex: dict) -> list[str]:
                 f"crossed at {d['crossed'] / fs:.3f}s"
             lines.append(f"    detector {d['model']}/{d['test']}: {d['at_change']:.1f} at the "
                          f"change, max {d['max']:.1f} (T^2 {ex['threshold']:g}), {cr}")
-        for e in tr["events"]:
-            sp = ", ".join(f"{s['node']}@{s['start'] / fs:.3f}s {s['fate']}"
-                           for s in e["spawned"]) or "none new"
-            lines.append(f"    alarm at {e['time'] / fs:.3f}s on {e['path_node']}/{e['model']} "
-                         f"(change {e['change_time'] / fs:.3f}s): started {sp}")
+        lines.extend(_event_lines(tr["events"], fs))
         if not tr["events"]:
             lines.append(f"    no alarm within {w} samples")
         ll = tr["window_loglik"]
