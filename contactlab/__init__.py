@@ -33,13 +33,20 @@ Subpackages and modules follow the thesis's figure 1.3 / 6.1, one box each:
 - :mod:`contactlab.export`        recognition results as CSV tables
 - :mod:`contactlab.errors`        the two error kinds: in a file, or in what was typed
 - :mod:`contactlab.cli`           the ``contactlab`` command and its verbs (click)
+- :mod:`contactlab.kernel_cache`  where numba keeps the compiled kernels
 """
 
 from __future__ import annotations
 
 import importlib
 
+from contactlab.kernel_cache import configure as _configure_kernel_cache
+
 __version__ = "0.1.0"
+
+# compiled kernels are cached per state of the whole source (contactlab.kernel_cache):
+# numba alone would keep a kernel compiled with an edited helper from another file
+_configure_kernel_cache()
 
 #: public name -> the module that defines it (imported on first access)
 _EXPORTS = {
