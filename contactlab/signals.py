@@ -54,7 +54,8 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
            "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
            "compensate_friction", "velocity_noise_level", "phase_stream", "PHASE",
-           "PHASE_CUTOFF_HZ", "phase_filter"]
+           "PHASE_CUTOFF_HZ", "phase_filter", "phase_sample_weight", "sample_weight",
+           "HF_SAMPLE_WEIGHT"]
 
 #: conditioned signals of a trial's force sensor (7.1)
 SIGNALS = ("strain", "wrench", "hf")
@@ -361,6 +362,47 @@ def phase_filter(fs: float) -> tuple[np.ndarray, np.ndarray]:
 
     fs = float(fs)
     return butter(2, min(PHASE_CUTOFF_HZ, 0.4 * fs) / (fs / 2.0))
+
+
+#: the weight of one y_h sample (:func:`sample_weight`): y_h[k] averages the ``2 f``
+#: differences ``n = f k + 1 .. f k + 2 f`` (7.1), so neighbouring samples share half
+#: their differences at every rate; for independent differences the averages' integrated
+#: autocorrelation time is ``1 + 2 * 1/2 = 2``
+HF_SAMPLE_WEIGHT = 0.5
+
+
+def phase_sample_weight(fs: float) -> float:
+    """The share of an independent sample that one sample of the task-phase stream at
+    rate ``fs`` carries: ``sum h^2 / (sum h)^2`` over the lowpass's impulse response
+    ``h``, the inverse of the integrated autocorrelation time ``tau = sum_k rho(k)`` of
+    white noise through it: the mean of ``n`` filtered samples has the variance of the
+    mean of ``n w`` independent ones (Priestley 1981, 5.3).  A per-sample model of the
+    stream counts each sample's log-likelihood with this weight, so that a phase's
+    evidence grows with its duration, not with the recording's rate (0.11 at 100 Hz,
+    0.055 at 200 Hz).  It follows from the filter alone; nothing is fitted."""
+    from scipy.signal import lfilter
+
+    b, a = phase_filter(fs)
+    fc = min(PHASE_CUTOFF_HZ, 0.4 * float(fs))
+    # the impulse response until it has decayed (poles inside the unit circle: geometric
+    # decay; 40 periods of the cutoff leave less than 1e-12 of its peak)
+    n = int(np.ceil(40.0 * float(fs) / fc)) + 16
+    imp = np.zeros(n)
+    imp[0] = 1.0
+    h = lfilter(b, a, imp)
+    return float(np.sum(h * h) / np.sum(h) ** 2)
+
+
+def sample_weight(signal: str, fs: float | None) -> float:
+    """The weight of one sample of ``signal`` at rate ``fs`` in a per-sample model's
+    log-likelihood (the share of an independent sample it carries):
+    :func:`phase_sample_weight` for the lowpassed task-phase stream,
+    :data:`HF_SAMPLE_WEIGHT` for y_h, 1 for every other stream (or an unknown rate)."""
+    if signal == PHASE and fs:
+        return phase_sample_weight(fs)
+    if signal == "hf":
+        return HF_SAMPLE_WEIGHT
+    return 1.0
 
 
 def phase_stream(trial, path=None) -> np.ndarray:

@@ -54,8 +54,9 @@ def test_gaussian_model_scores_like_its_compiled_step():
     ll, chi = m.run({}, x[:5], t0=0, starts=np.zeros(3, np.int64))
     assert ll.shape == (5, 3) and np.all(ll[:, 0] == ll[:, 2])
     for k in range(5):
-        a, b = gaussian_step(m._p, x[k])
-        assert a == pytest.approx(ll[k, 0], rel=1e-12) and b == pytest.approx(chi[k, 0])
+        a, b, z = gaussian_step(m._p, x[k])
+        assert a == pytest.approx(ll[k, 0], rel=1e-12) and b == pytest.approx(chi[k, 0, 0])
+        assert z == 0.0 and chi[k, 0, 1] == 0.0          # no rivals: no margin
     # the log-density of N(mean, cov) (mean chi-square per dof near 1 on its own data)
     from scipy.stats import multivariate_normal
     assert ll[:, 0] == pytest.approx(multivariate_normal(m.mean, m.cov).logpdf(x[:5]))

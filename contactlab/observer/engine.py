@@ -561,11 +561,10 @@ def _step2_covariances(nb, act, mid, ust):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
     """A directly scored model's log-likelihood and chi-square of one sample ``x`` (its
-    signal's columns), its state row ``s`` advanced (``w``: scratch)."""
+    signal's columns), its state row ``s`` advanced (``w``: scratch); the Gaussian model,
+    which also gives its rival margin, is stepped by the caller."""
     if reg == REG_CONSTRAINT:
         return constraint_step(p, s, x, w)
-    if reg == REG_GAUSSIAN:
-        return gaussian_step(p, x)
     return velocity_step(p, x)
 
 
@@ -623,6 +622,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     vt = np.full(mi.shape[0], -1 << 62, np.int64)
     vll = np.empty(mi.shape[0])
     vchi = np.empty(mi.shape[0])
+    vz = np.empty(mi.shape[0])
     direct = False                           # any model scored directly
     for k in range(mi.shape[0]):
         direct = direct or mi[k, 0] >= REG_VELOCITY
@@ -732,14 +732,21 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             chi = 0.0
             zs = 0.0
             if (reg == REG_VELOCITY or reg == REG_GAUSSIAN) and vt[k] == tt:
-                ll_sum, chi = vll[k], vchi[k]   # stateless: every instance scores the same
+                # stateless: every instance scores the same
+                ll_sum, chi, zs = vll[k], vchi[k], vz[k]
+                C = 0
+            elif reg == REG_GAUSSIAN:
+                # z: the best rival's log-likelihood margin (its rival test's increment)
+                col = mi[k, 4]
+                ll_sum, chi, zs = gaussian_step(mp[k], xa[row, col:col + C])
+                vt[k], vll[k], vchi[k], vz[k] = tt, ll_sum, chi, zs
                 C = 0
             elif reg >= REG_VELOCITY:
                 # scored directly (z = 0: its mean tests never fire); no channel filters
                 col = mi[k, 4]
                 ll_sum, chi = _direct_step(reg, mp[k], ust[u, 0], xa[row, col:col + C], wk)
-                if reg == REG_VELOCITY or reg == REG_GAUSSIAN:
-                    vt[k], vll[k], vchi[k] = tt, ll_sum, chi
+                if reg == REG_VELOCITY:
+                    vt[k], vll[k], vchi[k], vz[k] = tt, ll_sum, chi, 0.0
                 C = 0
             for c in range(C):
                 col = mi[k, 4] + c

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.observer.observer import Observer, SIDE_TESTS, observe
+from contactlab.observer.observer import Observer, observe
 from contactlab.observer.recognize import (detection_delays, merge_path, observer_setup,
                                           trial_actions)
 from contactlab.signals import relabel, truth_codes
@@ -77,7 +77,7 @@ def _detectors(obs: Observer, graph, models, data, node: str, seg_start: int, ch
     """The observer's detector tests on fresh instances of ``node``'s models from
     ``seg_start``, read at ``change .. end-1`` (no resets)."""
     names = list(obs._model_names)
-    tests = SIDE_TESTS[obs.sides]
+    tests = obs.tests_
     out = []
     nd = graph.nodes[graph.node_names.index(node)]
     for name in nd.model_names:
@@ -136,8 +136,10 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
                   observer_kw: dict | None = None, label_map: dict | None = None,
                   window_s: float = EXPLAIN_WINDOW_S, path=None) -> dict:
     """The explanation of one trial's recognition (module notes) as a JSON-able dict."""
-    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
+    kw, data, index, fs, models = observer_setup(trial, graph, models, observer_kw, reduce,
+                                                 path)
     obs = Observer(graph, models, **kw)
+    models = obs.models
     data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in data.items()}
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act)

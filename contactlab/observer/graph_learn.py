@@ -9,7 +9,10 @@ segmentation) states the graph directly:
   node: HIRO's rotation and insertion are one "engage" phase), in the map's order;
 * **models** -- each node reads a Gaussian of its phase on the ``phase`` stream
   (:class:`~contactlab.observer.models.gaussian.GaussianFeature`: the lowpassed wrench
-  and velocity, :func:`contactlab.signals.phase_stream`), trained on that node's labels;
+  and velocity, :func:`contactlab.signals.phase_stream`), trained on that node's labels
+  (recognition weighs each sample by the share of an independent one it carries, and
+  tests each phase's model against those of the phases that may follow it: the
+  model's notes);
   optional extra families (``extra``) add, per node, a constraint of an estimated frame
   on the contact signal (degree 1 where the phase's force departs from the first
   phase's by more than :data:`CONTACT_N`, else 0), the moving-velocity model M and an

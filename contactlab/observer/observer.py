@@ -209,6 +209,33 @@ def _increments(stat, kinds, a, b, src):  # pragma: no cover
     return out
 
 
+def _with_rivals(graph: FeatureGraph, models: dict) -> dict:
+    """``models`` with each Gaussian model given the Gaussian models (on its signal) of
+    the nodes that may follow a node it belongs to, under any action: the alternatives of
+    its ``rival`` test (:class:`~contactlab.observer.models.gaussian.GaussianFeature`)."""
+    from contactlab.observer.models.gaussian import GaussianFeature
+
+    if not any(isinstance(m, GaussianFeature) for m in models.values()):
+        return models
+    rivals: dict = {}
+    for i, node in enumerate(graph.nodes):
+        follow = set()
+        for a in (None,) + tuple(graph.actions):
+            follow.update(j for j in graph.successors(i, a) if j != i)
+        for _, name in node.models:
+            if isinstance(models[name], GaussianFeature):
+                rivals.setdefault(name, [])
+                for j in sorted(follow):
+                    for _, other in graph.nodes[j].models:
+                        r = models[other]
+                        if (other != name and isinstance(r, GaussianFeature)
+                                and r.signal == models[name].signal
+                                and other not in rivals[name]):
+                            rivals[name].append(other)
+    return {k: (m.with_rivals([models[r] for r in rivals[k]]) if rivals.get(k) else m)
+            for k, m in models.items()}
+
+
 def _mixture(ll: np.ndarray, nodes: np.ndarray, M: np.ndarray):
     """(rows, K) node probabilities (6.5: sums of the paths' probabilities, ``M`` the (P, K)
     one-hot node matrix) and (rows,) MAP node from (rows, P) path log-likelihoods."""
@@ -350,13 +377,19 @@ class Observer:
         #: per node, the longest a transient node is held (samples; 0: no limit)
         self._tmax = np.array([int((limits or {}).get(n.name, (limits or {}).get(None, 0)))
                                if n.transient else 0 for n in self.graph.nodes], dtype=np.int64)
+        models = _with_rivals(self.graph, {name: models[name] for name in self.graph.models})
         self.nodes = node_models(self.graph, models)
-        self.models = {name: models[name] for name in self.graph.models}
+        self.models = models
         self.threshold = float(threshold)
         self.change_size = float(change_size)
         self.p_prune = float(p_prune)
         self.gap = float(gap)
         self.sides = sides
+        #: the detector tests run: those of ``sides``, and Page's test against the known
+        #: successors (``rival``) where a model has rivals
+        self.tests_ = SIDE_TESTS[sides] + (
+            ("rival",) if any("rival" in (m.tests or ()) for m in self.models.values())
+            else ())
         self.max_paths = None if max_paths is None else int(max_paths)
         self.lag = max(m.lag for m in self.models.values())
         self.signals = tuple(sorted({m.signal for m in self.models.values()}))
@@ -425,7 +458,7 @@ class Observer:
     def _start(self, data: dict[str, np.ndarray]) -> None:
         """First data: channel counts are known; build the banks and the initial instances
         (or the compiled core, :meth:`_start_core`)."""
-        S = len(SIDE_TESTS[self.sides])
+        S = len(self.tests_)
         self._channels = {s: data[s].shape[1] for s in self.signals}
         self._core = None
         if self._start_core():
@@ -709,7 +742,7 @@ class Observer:
         ``q V`` (``a = -m log(q) / 2``, ``b = (1 - 1/q) / 2``) and ``V / q``; on the
         normalised innovation sum z (``x = stat[..., 1]``) ``+-delta z - delta^2 / 2``
         for a mean change of ``delta = sqrt(q - 1)`` innovation standard deviations."""
-        tests = SIDE_TESTS[self.sides]
+        tests = self.tests_
         dim, q = self._model_dim, self._model_q
         a = np.empty((len(dim), len(tests)))
         b = np.empty_like(a)
@@ -718,11 +751,23 @@ class Observer:
                 a[:, k], b[:, k] = 0.5 * (-dim * np.log(q)), 0.5 * (1.0 - 1.0 / q)
             elif side == "decrease":
                 a[:, k], b[:, k] = 0.5 * (dim * np.log(q)), 0.5 * (1.0 - q)
+            elif side == "rival":
+                # Page's test against the best known successor: the increment is the
+                # model's rival margin z itself (weighted already)
+                a[:, k], b[:, k] = 0.0, 1.0
             else:
                 # a change size of 1 or less has no mean alternative: that test never
                 # accumulates (increments of -inf, as for a side the model does not test)
                 d = np.sqrt(np.maximum(q - 1.0, 0.0)) * (1.0 if side == "up" else -1.0)
                 a[:, k], b[:, k] = np.where(q > 1.0, -(0.5 * d * d), -np.inf), d
+        # a model whose samples carry less than an independent sample's evidence (the
+        # lowpassed phase stream, GaussianFeature.weight) weighs its covariance tests'
+        # log-likelihood ratios as it weighs its log-likelihood
+        wts = np.array([float(getattr(self.models[n], "weight", 1.0))
+                        for n in self._model_names])
+        cov = [k for k, side in enumerate(tests) if side in ("increase", "decrease")]
+        a[:, cov] *= wts[:, None]
+        b[:, cov] *= wts[:, None]
         # a side a model does not test (``FeatureModel.tests``) never accumulates:
         # increments of -inf keep its statistic at 0 (6.18)
         for k, name in enumerate(self._model_names):
