@@ -61,3 +61,12 @@ def report(archive, out, trials, force, as_json, quiet):
                    f"marked correctly by the MAP path (on-line {100 * r['accuracy_online']:.1f} "
                    f"%); chance: {100 * r['chance_majority']:.1f} % always {major}, "
                    f"{100 * r['chance_uniform']:.0f} % uniform")
+    ex = summary.get("explained")
+    if ex and ex.get("transitions"):
+        verdicts: dict = {}
+        for tr in ex["transitions"]:
+            verdicts[tr["verdict"]] = verdicts.get(tr["verdict"], 0) + 1
+        click.echo(f"worst trial {ex['trial']}: {100 * ex['accuracy']:.1f} % (the models "
+                   f"alone, true boundaries given: {100 * ex['segment_accuracy']:.1f} %); its "
+                   "true changes: " + ", ".join(f"{v} {k}" for k, v in verdicts.items())
+                   + " (the report's explanation section)")

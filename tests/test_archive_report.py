@@ -197,3 +197,39 @@ def test_report_names_nodes_with_their_graph_labels(tmp_path):
     line = next(ln for ln in text.splitlines() if ln.startswith("recognised: "))
     assert "always H0 (stationary)" in line
     assert "H1 (moving)" in (out / "index.html").read_text()
+
+
+def test_report_explains_the_worst_recognised_trial(tmp_path):
+    """After ``recognize``, the report reruns ``--explain`` on the trial recognised worst:
+    one row per true change with its verdict, the same as ``recognize --explain`` gives;
+    without the models file it says how to get the explanation."""
+    from contactlab.observer import load_graph, recognize_archive, train_graph
+    from contactlab.report.archive_report import report_archive
+    from contactlab.synthetic import write_archive as write_synthetic
+    from contactlab.synthetic.switching import switching_trials
+
+    train, test = tmp_path / "train.h5", tmp_path / "test.h5"
+    write_synthetic(switching_trials(4, seed=21, fresh=True), train)
+    write_synthetic(switching_trials(3, seed=22, fresh=True), test)
+    graph = load_graph("hf-context-free")
+    models = tmp_path / "m.h5"
+    train_graph(train, graph).save(models)
+    summary = recognize_archive(test, graph=graph, models=models)
+    accs = {tid: e["accuracy"] for tid, e in summary["trials"].items()}
+    worst = min(accs, key=accs.get)
+    assert accs[worst] < 1.0
+    out = report_archive(test, out_dir=tmp_path / "rep", quiet=True)
+    ex = out["explained"]
+    assert ex["trial"] == worst and ex["accuracy"] == pytest.approx(accs[worst])
+    r = CliRunner().invoke(main, ["recognize", str(test), "--graph", "hf-context-free",
+                                  "--models", str(models), "--explain", worst, "--json", "-q"])
+    assert r.exit_code == 0, r.output
+    assert [t["verdict"] for t in ex["transitions"]] == \
+        [t["verdict"] for t in json.loads(r.stdout)["transitions"]]
+    html = (tmp_path / "rep" / "index.html").read_text()
+    assert f"Why trial {worst} was recognised worst" in html
+    assert html.count("<tr>") >= len(ex["transitions"])
+    models.unlink()
+    out = report_archive(test, out_dir=tmp_path / "rep2", quiet=True)
+    assert "could not be read" in out["explained"]["note"]
+    assert "--explain" in (tmp_path / "rep2" / "index.html").read_text()

@@ -30,7 +30,9 @@ def report_archive(path: str | Path, *, out_dir: str | Path, trials: list[str] |
                    quiet: bool = False) -> dict:
     """Write ``out_dir/index.html`` and ``report.pdf`` for the archive at ``path``.
 
-    Returns a summary: file, out_dir, trials reported and the figures written.
+    Returns a summary: file, out_dir, trials reported, the figures written, the
+    recognition summary and the explanation of the trial recognised worst
+    (:func:`explain_worst`).
     """
     path = Path(path)
     out_dir = Path(out_dir)
@@ -38,7 +40,7 @@ def report_archive(path: str | Path, *, out_dir: str | Path, trials: list[str] |
         summary = _write_report(path, aside, trials, quiet)
     return {"file": summary["file"], "out_dir": str(out_dir), "trials": summary["trials"],
             "figures": summary["figures"], "recognition": summary["recognition"],
-            "html": str(out_dir / "index.html"), "pdf": str(out_dir / "report.pdf")}
+            "explained": summary["explained"], "html": str(out_dir / "index.html"), "pdf": str(out_dir / "report.pdf")}
 
 
 def _write_report(path: Path, out_dir: Path, trials, quiet: bool) -> dict:
@@ -76,10 +78,84 @@ def _write_report(path: Path, out_dir: Path, trials, quiet: bool) -> dict:
                             or f"Results of stage '{stage}' for trial {tid}.")
                 figures.append(rname)
         recognition = recognition_summary(archive, ids)
+        explained = None
         if recognition is not None:
             _recognition_section(page, recognition)
+            explained = explain_worst(archive, path, recognition)
+            if explained is not None:
+                _explain_section(page, explained)
         page.write()
-    return {"file": str(path), "trials": ids, "figures": figures, "recognition": recognition}
+    return {"file": str(path), "trials": ids, "figures": figures, "recognition": recognition,
+            "explained": explained}
+
+
+def explain_worst(archive, path, r: dict) -> dict | None:
+    """``recognize --explain`` of the trial recognised worst (the lowest share of labelled
+    points, below 100 %), rerun with the graph, models and settings its results name
+    (:func:`contactlab.observer.explain.explain_trial`); None when every trial was
+    recognised fully or none has an accuracy.  Where the graph or models file can no
+    longer be read, ``{"trial", "note"}`` says so."""
+    from contactlab.errors import ContactlabError
+    from contactlab.observer.explain import explain_trial
+    from contactlab.observer.recognize import RecognizeStage
+
+    scored = [t for t in r["trials"] if t["accuracy"] is not None and t["accuracy"] < 1.0]
+    if not scored:
+        return None
+    worst = min(scored, key=lambda t: t["accuracy"])
+    trial = archive.trial(worst["trial"])
+    params = _parameters(trial.results("recognize"))
+    ts = params.get("transient_max_s")
+    try:
+        stage = RecognizeStage(
+            graph=params["graph"], models=params["models"], action=params.get("action"),
+            threshold=params["threshold"], change_size=params["change_size"],
+            p_prune=params["p_prune"], gap=params["gap"], sides=params["sides"],
+            transitions=params.get("transitions", "graph"), label_map=params.get("label_map"),
+            transient_max_s=None if isinstance(ts, dict) else (0 if ts is None else ts),
+            write=False)
+        label_map, _ = stage._trial_label_map(trial)
+        ex = explain_trial(trial, stage.graph, stage.built, reduce=stage.models.reduce,
+                           action=stage.action, observer_kw=stage.observer_kw,
+                           label_map=label_map, path=path)
+    except (ContactlabError, OSError, KeyError, TypeError, ValueError) as exc:
+        return {"trial": worst["trial"], "note": f"the explanation needs the graph and "
+                f"models files the results name, which could not be read ({exc})"}
+    return ex
+
+
+def _explain_section(page, ex: dict) -> None:
+    page.heading(f"Why trial {ex['trial']} was recognised worst")
+    if "transitions" not in ex:
+        page.paragraph(f"No explanation: {ex.get('note', 'nothing to explain')}. "
+                       f"'contactlab recognize ARCHIVE --graph G --models M --explain "
+                       f"{ex['trial']}' gives it.")
+        return
+    if ex.get("accuracy") is None:
+        page.paragraph(ex.get("note", "The trial has no ground truth to explain against."))
+        return
+    fs = ex["rate_hz"]
+    page.paragraph(
+        f"The final MAP path marks {100 * ex['accuracy']:.1f} % of its labelled points "
+        f"correctly; with the true boundaries given, the models alone label "
+        f"{100 * ex['segment_accuracy']:.1f} % (each true segment by the node whose fresh "
+        f"instance explains it best), so the gap between the two is the path search's and "
+        f"the rest the models'. Each true change below: what the observer did within "
+        f"{ex['window_samples']} samples of it ('contactlab recognize --explain "
+        f"{ex['trial']}' gives the detectors' statistics and every alarm).")
+    rows = []
+    for tr in ex["transitions"]:
+        alarms = len({e["time"] for e in tr["events"]})
+        rows.append([f"{tr['from']} -> {tr['to']}", f"{tr['time_s']:.3f}", tr["verdict"],
+                     "-" if tr["delay"] is None else f"{tr['delay']}",
+                     tr["path_node"], alarms, f"{tr['margin']:+.1f}"])
+    page.table(rows, columns=["true change", "time (s)", "verdict", "delay (samples)",
+                              "path's node then", "alarm times", "true node's margin (nats)"],
+               caption=f"The true changes of trial {ex['trial']} ({fs:g} Hz). Verdicts: "
+                       "detected; models confuse (another node explains the samples after "
+                       "the change better); pruned (the new path was started and dropped); "
+                       "no alarm; not kept. The margin: the true node's fresh log-likelihood "
+                       "over the window minus the best other node's.")
 
 
 def recognition_summary(archive, ids) -> dict | None:
