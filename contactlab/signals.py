@@ -54,7 +54,7 @@ __all__ = ["SIGNALS", "STREAMS", "FACTOR", "CUTOFF_DIVISOR", "TARGET_RATE_HZ",
            "conditioned_signal", "trial_signals", "derived_velocity", "codes_at", "truth_codes",
            "relabel", "REDUCE", "loudest_channel", "CONTACT_SIGNALS", "COMPENSATED",
            "compensate_friction", "velocity_noise_level", "phase_stream", "PHASE",
-           "PHASE_CUTOFF_HZ", "phase_filter", "phase_sample_weight", "sample_weight",
+           "PHASE_CUTOFF_HZ", "phase_cutoff", "phase_filter", "phase_sample_weight", "sample_weight",
            "HF_SAMPLE_WEIGHT"]
 
 #: conditioned signals of a trial's force sensor (7.1)
@@ -355,13 +355,18 @@ def _velocity_at(trial, index, path) -> np.ndarray:
     return _raw(trial, "velocity", path)[index]
 
 
+def phase_cutoff(fs: float) -> float:
+    """The task-phase lowpass's cutoff (Hz) at rate ``fs``: :data:`PHASE_CUTOFF_HZ`, at
+    most 0.4 times the rate."""
+    return min(PHASE_CUTOFF_HZ, 0.4 * float(fs))
+
+
 def phase_filter(fs: float) -> tuple[np.ndarray, np.ndarray]:
     """``(b, a)`` of the task-phase lowpass at rate ``fs``: second-order Butterworth at
-    :data:`PHASE_CUTOFF_HZ`, at most 0.4 times the rate."""
+    :func:`phase_cutoff`."""
     from scipy.signal import butter
 
-    fs = float(fs)
-    return butter(2, min(PHASE_CUTOFF_HZ, 0.4 * fs) / (fs / 2.0))
+    return butter(2, phase_cutoff(fs) / (float(fs) / 2.0))
 
 
 #: the weight of one y_h sample (:func:`sample_weight`): y_h[k] averages the ``2 f``
@@ -383,10 +388,9 @@ def phase_sample_weight(fs: float) -> float:
     from scipy.signal import lfilter
 
     b, a = phase_filter(fs)
-    fc = min(PHASE_CUTOFF_HZ, 0.4 * float(fs))
     # the impulse response until it has decayed (poles inside the unit circle: geometric
     # decay; 40 periods of the cutoff leave less than 1e-12 of its peak)
-    n = int(np.ceil(40.0 * float(fs) / fc)) + 16
+    n = int(np.ceil(40.0 * float(fs) / phase_cutoff(fs))) + 16
     imp = np.zeros(n)
     imp[0] = 1.0
     h = lfilter(b, a, imp)

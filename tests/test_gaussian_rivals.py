@@ -95,6 +95,13 @@ def test_the_weight_follows_the_rate_of_the_data_scored():
     out = rate_weighted({"a": m, "b": other}, 200.0)
     assert out["a"].weight == pytest.approx(phase_sample_weight(200.0))
     assert out["b"] is other and m.weight == 1.0
+    # the observer given the recording's rate weighs its models the same way
+    g = _chain(["a", "b"], ["a -> b"])
+    obs = Observer(g, {"a": m, "b": _gauss("b", [1.0], [[1.0]], signal="phase")},
+                   rate_hz=200.0)
+    assert obs.models["a"].weight == pytest.approx(phase_sample_weight(200.0))
+    plain = Observer(g, {"a": m, "b": _gauss("b", [1.0], [[1.0]], signal="phase")})
+    assert plain.models["a"].weight == 1.0
 
 
 def _chain(names, edges):

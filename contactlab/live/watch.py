@@ -189,9 +189,7 @@ def _watch_trial(stream, source, stage, emit, lat, stats, results, writer, probs
                 from contactlab.signals import factor_for
 
                 fs = info.rate_hz / factor_for(info.rate_hz)
-                from contactlab.observer.models.gaussian import rate_weighted
-
-                obs = Observer(stage.graph, rate_weighted(stage.built, info.rate_hz),
+                obs = Observer(stage.graph, stage.built, rate_hz=info.rate_hz,
                                **observer_keywords(stage.observer_kw, fs))
                 cond = LiveConditioner(obs.signals, rate_hz=info.rate_hz, fields=source.fields,
                                        reduce=stage.models.reduce, source=source.name)

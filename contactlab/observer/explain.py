@@ -136,10 +136,9 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
                   observer_kw: dict | None = None, label_map: dict | None = None,
                   window_s: float = EXPLAIN_WINDOW_S, path=None) -> dict:
     """The explanation of one trial's recognition (module notes) as a JSON-able dict."""
-    kw, data, index, fs, models = observer_setup(trial, graph, models, observer_kw, reduce,
-                                                 path)
+    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
     obs = Observer(graph, models, **kw)
-    models = obs.models
+    models = obs.models                     # as the observer weighs them
     data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in data.items()}
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act)

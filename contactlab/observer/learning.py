@@ -52,10 +52,7 @@ def node_logliks(trial, graph: FeatureGraph, models: Mapping[str, FeatureModel],
 
     if block < 1:
         raise ValueError(f"block must be >= 1; got {block}")
-    from contactlab.observer.models.gaussian import rate_weighted
-
-    # each sample weighted as the observer weighs it (GaussianFeature.weight)
-    obs = Observer(graph, rate_weighted(dict(models), float(trial.rate_hz)))
+    obs = Observer(graph, models, rate_hz=float(trial.rate_hz))   # samples weighed as in recognize
     data, index, fs = trial_signals(trial, obs.signals, reduce=reduce, path=path)
     n = len(index)
     per_model = {}

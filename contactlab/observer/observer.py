@@ -334,6 +334,10 @@ class Observer:
         ``log p(i -> j | a)``; ``"none"``: every allowed transition is free, as in 6.4
         (the thesis had no probabilities, 6.2).  Graphs without probabilities are the same
         either way.
+    rate_hz : the rate the data were recorded at (Hz), or None.  Given, each Gaussian
+        model weighs a sample by the share of an independent one it carries at that rate
+        (:func:`~contactlab.observer.models.gaussian.rate_weighted`); None: every sample
+        counts fully, as the models came.
 
     State: ``n_seen_`` samples processed; ``events_`` all events so far (an
     :class:`~contactlab.observer.paths.EventLog`);
@@ -347,7 +351,8 @@ class Observer:
                  gap: float = D.OBSERVER_GAP, sides: str = D.OBSERVER_SIDES,
                  max_paths: int | None = D.OBSERVER_MAX_PATHS,
                  initial=None, transitions: str = D.OBSERVER_TRANSITIONS,
-                 transient_max: "int | Mapping[str, int] | None" = None):
+                 transient_max: "int | Mapping[str, int] | None" = None,
+                 rate_hz: float | None = None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
         if not change_size > 1:
@@ -377,7 +382,12 @@ class Observer:
         #: per node, the longest a transient node is held (samples; 0: no limit)
         self._tmax = np.array([int((limits or {}).get(n.name, (limits or {}).get(None, 0)))
                                if n.transient else 0 for n in self.graph.nodes], dtype=np.int64)
-        models = _with_rivals(self.graph, {name: models[name] for name in self.graph.models})
+        models = {name: models[name] for name in self.graph.models}
+        if rate_hz is not None:
+            from contactlab.observer.models.gaussian import rate_weighted
+
+            models = rate_weighted(models, float(rate_hz))
+        models = _with_rivals(self.graph, models)
         self.nodes = node_models(self.graph, models)
         self.models = models
         self.threshold = float(threshold)

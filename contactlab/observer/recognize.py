@@ -149,10 +149,9 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
                     path=None, label_map: dict | None = None) -> TrialRecognition:
     """Run the observer over one archive trial (``models``: built model objects;
     ``label_map``: the trial's label names -> node names for the truth)."""
-    kw, data, index, fs, models = observer_setup(trial, graph, models, observer_kw, reduce,
-                                                 path)
+    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
     obs = Observer(graph, models, **kw)
-    models = obs.models
+    models = obs.models                     # as the observer weighs them
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     if act is not None and not isinstance(act, str) and np.ndim(act) == 1 \
             and np.any(np.asarray(act) < 0):
@@ -172,17 +171,15 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
 
 def observer_setup(trial, graph: FeatureGraph, models: dict, observer_kw: dict | None,
                    reduce: str, path=None):
-    """``(observer keywords, data, index, fs, models)`` of one trial: its streams for the
-    graph's models, ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit)
-    turned into :class:`Observer`'s ``transient_max`` in samples at the trial's rate, and
-    the models with their per-sample weights for the trial's rate
-    (:func:`~contactlab.observer.models.gaussian.rate_weighted`)."""
-    from contactlab.observer.models.gaussian import rate_weighted
-
+    """``(observer keywords, data, index, fs)`` of one trial: its streams for the graph's
+    models, and ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit)
+    turned into :class:`Observer`'s ``transient_max`` in samples at the trial's rate and
+    the trial's recorded rate as its ``rate_hz``."""
     signals = sorted({models[m].signal for m in graph.models})
     data, index, fs = trial_signals(trial, signals, reduce=reduce, path=path)
-    models = rate_weighted(models, float(trial.rate_hz))
-    return observer_keywords(observer_kw, fs), data, index, fs, models
+    kw = observer_keywords(observer_kw, fs)
+    kw["rate_hz"] = float(trial.rate_hz)
+    return kw, data, index, fs
 
 
 def transient_limits(graph, models) -> dict | None:

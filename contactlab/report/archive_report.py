@@ -118,7 +118,7 @@ def explain_worst(archive, path, r: dict) -> dict | None:
         ex = explain_trial(trial, stage.graph, stage.built, reduce=stage.models.reduce,
                            action=stage.action, observer_kw=stage.observer_kw,
                            label_map=label_map, path=path)
-    except (ContactlabError, OSError, KeyError, TypeError, ValueError) as exc:
+    except (ContactlabError, OSError, KeyError, ValueError) as exc:
         return {"trial": worst["trial"], "note": f"the explanation needs the graph and "
                 f"models files the results name, which could not be read ({exc})"}
     return ex
