@@ -53,7 +53,7 @@ def tiny_capacities(monkeypatch) -> list:
         # stop would repeat forever)
         assert (id(self), t) not in {(c, s) for c, s, _ in calls}, f"stopped twice at {t}"
         nP = int(self.cnt[engine.C_P])
-        tmax = self.cfg[17][self.paths_["node"][:nP]]
+        tmax = self.cfg.max_duration[self.paths_["node"][:nP]]
         held = int(((tmax > 0) & (t - self.paths_["start"][:nP] >= tmax)).sum())
         calls.append((id(self), t, held))
         ensure_room(self, hist)

@@ -22,21 +22,24 @@ which differ from numpy's by a few units in the last place.
 
 The filter step is :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for
 one scalar filter (m = 1, every channel of the linear feature models is one),
-operation for operation, written once inside :func:`run_core`'s loop (the
-detectors call :func:`~contactlab.detection.cusum.cusum_step`): passed to a
-compiled helper, every array argument costs reference counting on each call,
-which tripled the cost of a step.  When all models share one parameter count
-the loop is compiled for it (the step's loops then have constant bounds: half
-the cost).  When that count is two (AR(1) with a mean, the impact model's level
-and slope: every hf model of 7.3) the step is written out on scalars
-(:func:`_step2_a`, :func:`_step2_b`, :func:`_step2_c`; the same operations, so
-the results are the general step's to the bit), which keeps its state in
-registers.  Its cost is one dependent chain per instance and sample (three square
-roots and three divisions of the Householder rows, ~60-80 ns); the instances of a
-sample are independent, so the step runs in passes over them (the first row; the
-update, statistics and detectors; after the sample's bookkeeping, the covariance
-rows) and the processor overlaps their chains, and after an event the new paths
-are caught up together, sample by sample, for the same reason.
+operation for operation (:func:`_kalman_channel`; the detectors call
+:func:`~contactlab.detection.cusum.cusum_step`).  When all models share one parameter
+count the loop is compiled for it (the step's loops then have constant bounds: half
+the cost).  When that count is two (AR(1) with a mean, the impact model's level and
+slope: every hf model of 7.3) the step is written out on scalars (:func:`_step2_a`,
+:func:`_step2_b`, :func:`_step2_c`; the same operations, so the results are the
+general step's to the bit), which keeps its state in registers.  Its cost is one
+dependent chain per instance and sample (three square roots and three divisions of
+the Householder rows, ~60-80 ns); the instances of a sample are independent, so the
+step runs in passes over them (the first row; the update, statistics and detectors;
+after the sample's bookkeeping, the covariance rows) and the processor overlaps their
+chains, and after an event the new paths are caught up together, sample by sample,
+for the same reason.  Those passes are written out in :func:`run_core`: helpers
+inlined into them, or arrays taken from the state tuples inside them, cost reference
+counting per instance, which measured 1.3-2.5x slower on the 7.3 graphs; every other
+part is a named helper (:func:`_filter_step`, :func:`_direct_score`,
+:func:`_detectors`, :func:`_path_sums`, :func:`_catch_up_sums`, :func:`_event_fits`,
+:func:`_spawn`, :func:`_prune`).
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
 log-likelihood history, segment), instances ("units": path, model, start,
@@ -51,6 +54,7 @@ with the event.  Events go to tables an
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numba
 import numpy as np
@@ -65,7 +69,7 @@ from contactlab.observer.models.velocity import velocity_step
 _HALF_LOG_2PI = 0.5 * 1 * math.log(2.0 * math.pi)
 
 __all__ = ["REG_AR", "REG_TIME", "REG_VELOCITY", "REG_CONSTRAINT", "REG_GAUSSIAN", "OK", "FULL",
-           "Core", "run_core", "state_width"]
+           "Core", "CoreConfig", "CoreEvents", "CoreState", "run_core", "state_width"]
 
 #: regressors the core forms: AR (``[1,] y(t-1) .. y(t-p)`` per channel) and ``[1, t - start]``
 REG_AR, REG_TIME = 0, 1
@@ -85,6 +89,42 @@ N_COUNTERS = 12
 # columns of the event table
 E_TA, E_AL0, E_NAL, E_CAND0, E_NCAND, E_KEEP0, E_NKEEP, E_SP0, E_NSP, E_MG0, E_NMG = range(11)
 N_EV_COLS = 11
+#: columns of a model's row in ``CoreConfig.model_info``: its regressors (``REG_*``), AR
+#: order, whether the AR model has a constant, parameter count, first column in the
+#: measurement buffer, channels, regressor structure (``kalman.MODE_*``), whether the noise
+#: is estimated on-line
+MI_REG, MI_ORDER, MI_MEAN, MI_Q, MI_COL, MI_CHANNELS, MI_MODE, MI_EST = range(8)
+#: the state row of a two-parameter instance (``state_width(2)``): theta, S (row-major),
+#: L (row-major, lower), the running and the fixed square-root noise, the running count
+R2_TH0, R2_TH1, R2_S00, R2_S01, R2_S10, R2_S11, R2_L00, R2_L01, R2_L10, R2_L11 = range(10)
+R2_VE, R2_LV, R2_VC = 10, 11, 12
+
+
+#: the core's configuration, fixed for one observer: each model's row (``MI_*``
+#: columns), its running noise estimate's prior count, each test's increment ``a + b x``
+#: per model and its source (0: the chi-square, 1: the normalised innovation or rival
+#: margin), each model's prior state row per channel, the threshold, the path gap, the
+#: mass kept and the beam width (-1: none), the successors and log transition
+#: probabilities, each node's models (``kind_ptr``, ``kind_list``), the largest parameter
+#: count, the directly scored models' parameter rows, each node's longest duration
+CoreConfig = namedtuple("CoreConfig", [
+    "model_info", "noise_prior_count", "side_a", "side_b", "side_src", "prior_state",
+    "threshold", "gap", "p_keep", "max_paths", "succ", "n_succ", "log_t", "kind_ptr",
+    "kind_list", "q_max", "model_params", "max_duration"])
+#: the core's state: instances (path, model, start, detector statistics, last zeros, state
+#: rows), the measurement buffer and the global row of its first row, the paths'
+#: log-likelihood history and its first row, the counters (``C_*``), paths (id, node,
+#: start, history column, segment, initial and current log-likelihood), the free history
+#: columns, the actions and their first row, the segments (node, start, previous)
+CoreState = namedtuple("CoreState", [
+    "unit_path", "unit_model", "unit_start", "unit_df", "unit_lz", "unit_state", "x",
+    "x_base", "hist", "hist_base", "counters", "path_id", "path_node", "path_start",
+    "path_slot", "path_seg", "path_init", "path_ll", "free_slots", "actions", "action_base",
+    "seg_node", "seg_start", "seg_prev"])
+#: the event tables (:class:`~contactlab.observer.paths.EventLog` reads them): events
+#: (``E_*`` columns), alarms, candidates' log-likelihoods, kept paths, spawned, merged
+CoreEvents = namedtuple("CoreEvents", ["events", "alarms", "cand_ll", "kept", "spawned",
+                                       "merged"])
 
 
 def state_width(qmax: int) -> int:
@@ -113,13 +153,19 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     with its history row ``r`` written; ``newp`` receives (path, first unit, end unit)
     of each new path for the caller's catch-up (``scr``: :func:`run_core`'s scratch
     arrays for the events).  Returns the number of new paths."""
-    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp, tmax) = cfg
-    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
-     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
-    evt, alt, candt, keept, spt, mgt = ev
+    pst, thr, tmax = cfg.prior_state, cfg.threshold, cfg.max_duration
+    succ, n_succ, logT = cfg.succ, cfg.n_succ, cfg.log_t
+    nk_ptr, nk_list = cfg.kind_ptr, cfg.kind_list
+    upath, umodel, ustart, udf, ulz, ust = (st.unit_path, st.unit_model, st.unit_start,
+                                            st.unit_df, st.unit_lz, st.unit_state)
+    ha, hbase, cnt, free = st.hist, st.hist_base, st.counters, st.free_slots
+    pid, pnode, pstart, pslot, pseg, pinit, pll = (st.path_id, st.path_node, st.path_start,
+                                                   st.path_slot, st.path_seg, st.path_init,
+                                                   st.path_ll)
+    aa, abase = st.actions, st.action_base
+    snode, sstart, sprev = st.seg_node, st.seg_start, st.seg_prev
+    evt, alt, spt, mgt = ev.events, ev.alarms, ev.spawned, ev.merged
     S = udf.shape[1]
-    K = logT.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
     # alarms: every test that crossed, each distinct change time (its last zero + 1)
     al_p, al_k, al_r, rs, c_j, c_r, c_init, c_prev, is_new = scr[:9]
@@ -283,11 +329,14 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     """Rank the paths, keep mass P_prune, drop those ``gap`` below the best (6.4, 9.1.1);
     complete the event record; move the kept paths and their units to the front (``scr``:
     :func:`run_core`'s scratch arrays for the events)."""
-    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp, tmax) = cfg
-    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
-     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
-    evt, alt, candt, keept, spt, mgt = ev
+    gap, p_keep, max_paths = cfg.gap, cfg.p_keep, cfg.max_paths
+    upath, umodel, ustart, udf, ulz, ust = (st.unit_path, st.unit_model, st.unit_start,
+                                            st.unit_df, st.unit_lz, st.unit_state)
+    cnt, free = st.counters, st.free_slots
+    pid, pnode, pstart, pslot, pseg, pinit, pll = (st.path_id, st.path_node, st.path_start,
+                                                   st.path_slot, st.path_seg, st.path_init,
+                                                   st.path_ll)
+    evt, candt, keept = ev.events, ev.cand_ll, ev.kept
     # pruning: rank, keep mass P_prune, drop those gap below the best
     nP = cnt[C_P]
     order, w, keep, remap = scr[9:]
@@ -552,10 +601,10 @@ def _step2_covariances(nb, act, mid, ust):  # pragma: no cover - compiled
     for i in range(nb):
         u = act[i]
         s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
-        ust[u, 0, 2] = s00
-        ust[u, 0, 3] = 0.0
-        ust[u, 0, 4] = s10
-        ust[u, 0, 5] = s11
+        ust[u, 0, R2_S00] = s00
+        ust[u, 0, R2_S01] = 0.0
+        ust[u, 0, R2_S10] = s10
+        ust[u, 0, R2_S11] = s11
 
 
 @numba.njit(cache=True, inline="always")
@@ -568,79 +617,395 @@ def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
     return velocity_step(p, x)
 
 
+@numba.njit(cache=True, inline="always")
+def _two_regressors(mi, k, x, row, col, tt, start):  # pragma: no cover - compiled
+    """A two-parameter model's regressors at sample ``tt`` (buffer row ``row``): ``[1,
+    y(t-1)]`` (AR(1) with a constant), ``[y(t-1), y(t-2)]`` (AR(2)) or ``[1, t - start]``."""
+    if mi[k, MI_REG] == REG_AR:
+        if mi[k, MI_MEAN]:
+            return 1.0, x[row - 1, col]
+        return x[row - 1, col], x[row - 2, col]
+    return 1.0, float(tt - start)
+
+
+@numba.njit(cache=True, inline="always")
+def _regressors(mi, k, x, row, col, tt, start, H):  # pragma: no cover - compiled
+    """Any model's regressors at sample ``tt`` into ``H[0]``: AR (the constant first) or
+    ``[1, t - start]``."""
+    if mi[k, MI_REG] == REG_AR:
+        j = 0
+        if mi[k, MI_MEAN]:
+            H[0, 0] = 1.0
+            j = 1
+        for i in range(1, mi[k, MI_ORDER] + 1):
+            H[0, j + i - 1] = x[row - i, col]
+    else:
+        H[0, 0] = 1.0
+        H[0, 1] = float(tt - start)
+
+
+@numba.njit(cache=True, inline="always")
+def _step_scratch(qmax):  # pragma: no cover - compiled
+    """The general filter step's scratch: the regressors and their orthogonal form, the
+    pre-array, the structure factor and the noise's square root (inlined, so each is a
+    fresh allocation the compiler knows aliases nothing)."""
+    return (np.zeros((2, qmax)), np.zeros((qmax + 1, qmax + 1)), np.zeros((qmax + 1, qmax)),
+            np.zeros((qmax, qmax)), np.zeros((qmax, 1)), np.zeros((1, 1)), np.zeros((1, 1)))
+
+
+@numba.njit(cache=True)
+def _event_scratch(n_units, n_paths, S, deg):  # pragma: no cover - compiled
+    """:func:`_spawn`'s and :func:`_prune`'s scratch: alarms, candidates (at most the
+    graph's out-degree per alarm), the ranking, the kept paths and their new places."""
+    nuc = n_units * S
+    return (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
+            np.empty(S, np.int64), np.empty(nuc * deg, np.int64),
+            np.empty(nuc * deg, np.int64), np.empty(nuc * deg),
+            np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.bool_),
+            np.empty(n_paths, np.int64), np.empty(n_paths), np.empty(n_paths, np.int64),
+            np.empty(n_paths, np.int64))
+
+
+@numba.njit(cache=True)
+def _graph_bounds(cfg):  # pragma: no cover - compiled
+    """Whether any model is scored directly, the most models of a node, and the graph's
+    out-degree (an alarm's candidates are its node's successors)."""
+    mi = cfg.model_info
+    direct = False
+    for k in range(mi.shape[0]):
+        direct = direct or mi[k, MI_REG] >= REG_VELOCITY
+    maxk = 0
+    for j in range(cfg.log_t.shape[1]):
+        maxk = max(maxk, cfg.kind_ptr[j + 1] - cfg.kind_ptr[j])
+    return direct, maxk, max(1, cfg.n_succ.max())
+
+
+@numba.njit(cache=True, inline="always")
+def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no cover
+    """One sample of :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one
+    scalar filter (m = 1), operation for operation, on the state row ``ust[u, c]``
+    (:func:`state_width`'s layout), the regressors in ``H[0]`` of the scratch ``sc``
+    (:func:`_step_scratch`).  Returns the log-likelihood, ``-al^2 / 2`` and the normalised
+    innovation ``al``."""
+    H, A, Z, L2, Zs, V2, Zv = sc
+    oS = qmax
+    oL = qmax + qmax * qmax
+    oV = qmax + 2 * qmax * qmax
+    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+    if mode == 1:
+        for i in range(q):
+            Zs[i, 0] = H[0, i]
+            for j in range(q):
+                L2[i, j] = ust[u, c, oL + i * qmax + j]
+        tri_append_n(L2, Zs, q, 1)
+        for i in range(q):
+            for j in range(q):
+                ust[u, c, oL + i * qmax + j] = L2[i, j]
+    if mode != 0:
+        for i in range(q):
+            s = H[0, i]
+            for kk in range(i):
+                d = ust[u, c, oL + kk * qmax + kk]
+                if d != 0.0:
+                    s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
+            H[1, i] = s
+    else:
+        for i in range(q):
+            H[1, i] = H[0, i]
+    # innovation (A.34)
+    s = y
+    for i in range(q):
+        s -= H[1, i] * ust[u, c, i]
+    nu = s
+    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+    for i in range(q + 1):
+        for j in range(q + 1):
+            A[i, j] = 0.0
+    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
+    for j in range(q):
+        s = 0.0
+        for kk in range(j, q):
+            s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
+        Z[0, j] = s
+    for i in range(q):
+        for j in range(q):
+            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
+    # Householder reduction to the post-array (A.33)
+    tri_append_n(A, Z, q + 1, q)
+    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+    d = A[0, 0]
+    al = nu / d if d != 0.0 else np.nan
+    lc = 0.0
+    logdet = 0.0
+    lc -= 0.5 * al * al
+    logdet += math.log(A[0, 0])
+    for i in range(q):
+        s = 0.0
+        s += A[1 + i, 0] * al
+        ust[u, c, i] += s
+        for j in range(q):
+            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
+    ll = lc - logdet - _HALF_LOG_2PI
+    # running square-root innovation variance (A.38)
+    if est:
+        cn = ust[u, c, oV + 2] + 1.0
+        ust[u, c, oV + 2] = cn
+        nn = pcount + cn
+        c_old = math.sqrt(1.0 - 1.0 / nn)
+        c_new = math.sqrt(1.0 / nn)
+        Zv[0, 0] = c_new * nu
+        V2[0, 0] = ust[u, c, oV] * c_old
+        tri_append_n(V2, Zv, 1, 1)
+        ust[u, c, oV] = V2[0, 0]
+    return ll, lc, al
+
+
+@numba.njit(cache=True, inline="always")
+def _step2_channel(ust, u, c, y, g0, g1, mode, est, pcount):  # pragma: no cover - compiled
+    """:func:`_kalman_channel` for two parameters, on scalars (:func:`_step2`), the state
+    row ``ust[u, c]`` written back.  Returns the log-likelihood, ``-al^2 / 2`` and ``al``."""
+    (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
+     ll) = _step2(y, g0, g1, mode, est, pcount, ust[u, c, R2_TH0], ust[u, c, R2_TH1],
+                  ust[u, c, R2_S00], ust[u, c, R2_S01], ust[u, c, R2_S10], ust[u, c, R2_S11],
+                  ust[u, c, R2_L00], ust[u, c, R2_L10], ust[u, c, R2_L11], ust[u, c, R2_VE],
+                  ust[u, c, R2_LV], ust[u, c, R2_VC])
+    ust[u, c, R2_TH0] = th0
+    ust[u, c, R2_TH1] = th1
+    ust[u, c, R2_S00] = s00
+    ust[u, c, R2_S01] = s01
+    ust[u, c, R2_S10] = s10
+    ust[u, c, R2_S11] = s11
+    if mode == 1:
+        ust[u, c, R2_L00] = l00
+        ust[u, c, R2_L10] = l10
+        ust[u, c, R2_L11] = l11
+    if est:
+        ust[u, c, R2_VE] = ve
+        ust[u, c, R2_VC] = vc
+    return ll, lc, al
+
+
+@numba.njit(cache=True, inline="always")
+def _filter_step(mi, mf, x, ust, ustart, u, k, tt, row, qc, qmax, sc):  # pragma: no cover
+    """A Kalman instance ``u`` (model ``k``) on sample ``tt``: its log-likelihood,
+    chi-square and normalised innovation, its channels added as ``run_kalman`` adds them
+    (each channel :func:`_step2_channel` when every model has two parameters, else
+    :func:`_kalman_channel`)."""
+    q = qc if qc > 0 else mi[k, MI_Q]
+    C, mode, est = mi[k, MI_CHANNELS], mi[k, MI_MODE], mi[k, MI_EST] != 0
+    pcount = mf[k]
+    ll_sum = 0.0
+    chi = 0.0
+    zs = 0.0
+    for c in range(C):
+        col = mi[k, MI_COL] + c
+        if qc == 2:
+            g0, g1 = _two_regressors(mi, k, x, row, col, tt, ustart[u])
+            ll, lc, al = _step2_channel(ust, u, c, x[row, col], g0, g1, mode, est, pcount)
+        else:
+            _regressors(mi, k, x, row, col, tt, ustart[u], sc[0])
+            ll, lc, al = _kalman_channel(ust, u, c, q, qmax, x[row, col], mode, est, pcount,
+                                         sc)
+        if C == 1:
+            ll_sum = ll
+            chi = lc * -2.0
+            zs = al
+        else:
+            ll_sum += ll
+            chi += -2.0 * lc
+            zs += al
+    if C > 1:
+        zs = zs * (1.0 / math.sqrt(C))
+    return ll_sum, chi, zs
+
+
+@numba.njit(cache=True, inline="always")
+def _direct_score(mi, mp, x, ust, u, k, tt, row, vt, vll, vchi, vz, wk):  # pragma: no cover
+    """A directly scored instance ``u`` (model ``k``) on sample ``tt``: its log-likelihood,
+    chi-square and rival margin (0 but for a Gaussian).  A stateless model's score of a
+    sample (``vt[k]``: the sample model ``k`` was last scored at; ``vll``, ``vchi``,
+    ``vz``: its scores) is computed once for all its instances."""
+    reg = mi[k, MI_REG]
+    if (reg == REG_VELOCITY or reg == REG_GAUSSIAN) and vt[k] == tt:
+        return vll[k], vchi[k], vz[k]
+    col, C = mi[k, MI_COL], mi[k, MI_CHANNELS]
+    if reg == REG_GAUSSIAN:
+        # z: the best rival's log-likelihood margin (its rival test's increment)
+        ll, chi, z = gaussian_step(mp[k], x[row, col:col + C])
+        vt[k], vll[k], vchi[k], vz[k] = tt, ll, chi, z
+        return ll, chi, z
+    # z = 0: its mean tests never fire; no channel filters
+    ll, chi = _direct_step(reg, mp[k], ust[u, 0], x[row, col:col + C], wk)
+    if reg == REG_VELOCITY:
+        vt[k], vll[k], vchi[k], vz[k] = tt, ll, chi, 0.0
+    return ll, chi, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _detectors(sa, sb, src, df, lz, u, k, tt, chi, z, top):  # pragma: no cover - compiled
+    """Instance ``u``'s detector row at sample ``tt``: 6.18 on ``a + b x`` for every test
+    (``a``, ``b``: ``sa[k]``, ``sb[k]``; ``x``: the chi-square, or where ``src`` is 1 the
+    normalised innovation or rival margin ``z``), the last zeros noted.  Returns the
+    largest statistic so far of the sample (``top``)."""
+    for si in range(df.shape[1]):
+        x = sa[k, si] + sb[k, si] * (chi if src[si] == 0 else z)
+        dv = cusum_step(df[u, si], x)
+        df[u, si] = dv
+        # selects, not branches: a branch on the step's result that the processor
+        # mispredicts holds the next instance's step until this one has finished, which
+        # serialises the instances' dependent chains
+        last = lz[u, si]
+        lz[u, si] = tt if dv == 0.0 else last
+        top = dv if dv > top else top
+    return top
+
+
+@numba.njit(cache=True)
+def _event_fits(cfg, st, ev, t, deg, maxk):  # pragma: no cover - compiled
+    """Whether the arrays hold the event at ``t``: its crossed tests and ended transient
+    paths bound its candidates (each alarm at most the graph's out-degree ``deg``, each
+    candidate at most ``maxk`` instances)."""
+    cnt, udf, thr = st.counters, st.unit_df, cfg.threshold
+    pnode, pstart, tmax = st.path_node, st.path_start, cfg.max_duration
+    nP, nU = cnt[C_P], cnt[C_U]
+    nA = 0
+    for u in range(nU):
+        for si in range(udf.shape[1]):
+            if udf[u, si] > thr:
+                nA += 1
+    for p in range(nP):
+        tm = tmax[pnode[p]]
+        if tm > 0 and t - pstart[p] >= tm:
+            nA += 1
+    nC = nA * deg
+    return (nP + nC <= st.path_id.shape[0] and nU + nC * maxk <= st.unit_path.shape[0]
+            and cnt[C_SLOTS] + max(nC - cnt[C_FREE], 0) <= st.hist.shape[1]
+            and cnt[C_SEG] + nC <= st.seg_node.shape[0]
+            and cnt[C_EV] + 1 <= ev.events.shape[0] and cnt[C_AL] + nA <= ev.alarms.shape[0]
+            and cnt[C_CAND] + nP + nC <= ev.cand_ll.shape[0]
+            and cnt[C_KEEP] + nP + nC <= ev.kept.shape[0]
+            and cnt[C_SP] + nC <= ev.spawned.shape[0] and cnt[C_MG] + nC <= ev.merged.shape[0])
+
+
+@numba.njit(cache=True, inline="always")
+def _node_probabilities(pll, pnode, nP, K, ro, nprob, mapn, wp):  # pragma: no cover
+    """Row ``ro`` of the node probabilities (6.5: the paths' normalised likelihoods summed
+    per node) and the best path's node."""
+    best_p = 0
+    for p in range(1, nP):
+        if pll[p] > pll[best_p]:
+            best_p = p
+    for k in range(K):
+        nprob[ro, k] = 0.0
+    if nP == 1:                                 # exp(0) / exp(0)
+        nprob[ro, pnode[0]] = 1.0
+    else:
+        top_ll = pll[best_p]
+        tot = 0.0
+        for p in range(nP):
+            wp[p] = math.exp(pll[p] - top_ll)
+            tot += wp[p]
+        for p in range(nP):
+            nprob[ro, pnode[p]] += wp[p] / tot
+    mapn[ro] = pnode[best_p]
+
+
+@numba.njit(cache=True, inline="always")
+def _catch_up_sums(newp, n_new, ccll, inc, ua, ct, pstart, pslot, ha, hr):  # pragma: no cover
+    """The catch-up's sample ``ct``: each new path begun by then adds its instances'
+    log-likelihoods (``inc`` from instance ``ua``) and writes its history row ``hr``."""
+    for i in range(n_new):
+        p = newp[i, 0]
+        if pstart[p] > ct:
+            continue
+        cll = ccll[i]
+        for u in range(newp[i, 1], newp[i, 2]):
+            cll += inc[u - ua]
+        ccll[i] = cll
+        ha[hr, pslot[p]] = cll
+
+
+@numba.njit(cache=True, inline="always")
+def _path_sums(pll, upath, inc, nP, nU, ha, hr, pslot, gap, tmax, pnode, pstart,
+               t):  # pragma: no cover - compiled
+    """After sample ``t``: each path's log-likelihood (6.10) and its history row ``hr``;
+    whether a path fell ``gap`` below the best or a transient node reached its longest
+    duration (an event besides a crossed test)."""
+    event = False
+    for u in range(nU):
+        pll[upath[u]] += inc[u]
+    best = -np.inf
+    for p in range(nP):
+        if pll[p] > best:
+            best = pll[p]
+    for p in range(nP):
+        ha[hr, pslot[p]] = pll[p]
+        if pll[p] < best - gap:
+            event = True
+        tm = tmax[pnode[p]]
+        if tm > 0 and t - pstart[p] >= tm:
+            event = True
+    return event
+
+
 @numba.njit(cache=True)
 def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
     ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
-    the sample whose event did not fit the arrays (every crossed test with its own change
-    time, every successor new); the caller grows them and resumes at ``t`` with
-    ``pending`` (the sample itself is done, its event is not).  ``qt``: a tuple as long as
-    the parameter count every model shares (the loops of the filter step then have
-    compile-time bounds), or empty when their counts differ.
+    the sample whose event did not fit the arrays (:func:`_event_fits`: every crossed test
+    with its own change time, every successor new); the caller grows them and resumes at
+    ``t`` with ``pending`` (the sample itself is done, its event is not).  ``cfg``,
+    ``st``, ``ev``: :class:`CoreConfig`, :class:`CoreState`, :class:`CoreEvents`.
+    ``qt``: a tuple as long as the parameter count every model shares (the loops of the
+    filter step then have compile-time bounds), or empty when their counts differ.
 
-    One loop advances either every unit by the current sample or, after an event, the
-    units of the new paths begun by the catch-up sample (their detectors run, no
-    thresholding), so the filter step and the detector row are written once, here, with
-    no array crossing a call in the hot loop.  The filter step is
-    :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one scalar filter
-    (m = 1), operation for operation, on the unit's state row (``state_width``); for two
-    parameters and one channel, :func:`_step2_a` over the sample's units, then
-    :func:`_step2_c` and the detectors over them, then after the sample's bookkeeping
-    :func:`_step2_b` (their covariances).
+    One loop advances either every instance by the current sample or, after an event,
+    the instances of the new paths begun by the catch-up sample (their detectors run, no
+    thresholding).  Per sample: for two parameters and one channel, the filter steps of
+    the sample's Kalman instances in passes (below); every other instance by
+    :func:`_filter_step` or :func:`_direct_score` and its detector row
+    (:func:`_detectors`); then the catch-up's sums or the paths' (6.10) and at an event
+    :func:`_spawn`, the catch-up and :func:`_prune`; then the node probabilities
+    (:func:`_node_probabilities`).
+
+    The per-sample loops read the arrays as locals and the two-parameter passes are
+    written out here: an array taken from a tuple or handed to a helper inside them costs
+    reference counting per instance, which made the two-parameter step 2.5x slower.
     """
-    (mi, mf, sa, sb, ssrc, pst, thr, gap, p_keep, max_paths, succ, n_succ, logT, nk_ptr,
-     nk_list, q_max, mp, tmax) = cfg
-    (upath, umodel, ustart, udf, ulz, ust, xa, xbase, ha, hbase, cnt, pid, pnode, pstart,
-     pslot, pseg, pinit, pll, free, aa, abase, snode, sstart, sprev) = st
-    evt, alt, candt, keept, spt, mgt = ev
-    inc = np.empty(upath.shape[0])            # per-unit log-likelihood increments
-    act = np.empty(upath.shape[0], np.int64)  # a sample's instances (two-pass step)
-    mid = np.empty((upath.shape[0], 8))       # and their state between the passes
-    newp = np.empty((pid.shape[0], 3), np.int64)   # an event's new paths: path, units
-    wp = np.empty(pid.shape[0])               # path weights of a sample
-    S = udf.shape[1]
-    K = logT.shape[1]
+    mi, mf, mp, sa, sb, ssrc = (cfg.model_info, cfg.noise_prior_count, cfg.model_params,
+                                cfg.side_a, cfg.side_b, cfg.side_src)
+    thr, gap, tmax = cfg.threshold, cfg.gap, cfg.max_duration
+    upath, umodel, ustart, udf, ulz, ust = (st.unit_path, st.unit_model, st.unit_start,
+                                            st.unit_df, st.unit_lz, st.unit_state)
+    xa, xbase, ha, hbase, cnt = st.x, st.x_base, st.hist, st.hist_base, st.counters
+    pnode, pstart, pslot, pinit, pll = (st.path_node, st.path_start, st.path_slot,
+                                        st.path_init, st.path_ll)
+    n_units, n_paths = upath.shape[0], pll.shape[0]
+    inc = np.empty(n_units)                   # per-instance log-likelihood increments
+    act = np.empty(n_units, np.int64)         # a sample's instances (two-pass step)
+    mid = np.empty((n_units, 8))              # and their state between the passes
+    newp = np.empty((n_paths, 3), np.int64)   # an event's new paths: path, instances
+    wp = np.empty(n_paths)                    # path weights of a sample
+    ccll = np.empty(n_paths)                  # the new paths' log-likelihoods in the catch-up
+    K = cfg.log_t.shape[1]
     qc = len(qt)
-    qmax = qc if qc > 0 else q_max
-    # the step's scratch (H: the regressors and their orthogonal form), allocated here:
-    # distinct from every other array for the compiler
-    H = np.zeros((2, qmax))
-    A = np.zeros((qmax + 1, qmax + 1))
-    Z = np.zeros((qmax + 1, qmax))
-    L2 = np.zeros((qmax, qmax))
-    Zs = np.zeros((qmax, 1))
-    V2 = np.zeros((1, 1))
-    Zv = np.zeros((1, 1))
-    oS = qmax
-    oL = qmax + qmax * qmax
-    oV = qmax + 2 * qmax * qmax
-    maxk = 0
-    for j in range(K):
-        maxk = max(maxk, nk_ptr[j + 1] - nk_ptr[j])
-    wk = np.empty(CONSTRAINT_SCRATCH)        # the direct steps' scratch
+    qmax = qc if qc > 0 else cfg.q_max
+    sc = _step_scratch(qmax)
+    wk = np.empty(CONSTRAINT_SCRATCH)         # the direct steps' scratch
     # a stateless model's score of sample vt[k] (computed once for all its instances)
     vt = np.full(mi.shape[0], -1 << 62, np.int64)
     vll = np.empty(mi.shape[0])
     vchi = np.empty(mi.shape[0])
     vz = np.empty(mi.shape[0])
-    direct = False                           # any model scored directly
-    for k in range(mi.shape[0]):
-        direct = direct or mi[k, 0] >= REG_VELOCITY
+    direct, maxk, deg = _graph_bounds(cfg)
+    scr = _event_scratch(n_units, n_paths, udf.shape[1], deg)
+    two_pass = qc == 2 and ust.shape[1] == 1
     t = t_from
     catch = False            # catching up the new paths of an event
     nb = 0                   # instances whose covariance update is pending (pass 3)
     n_new = 0
     ct = 0                   # the catch-up's sample
-    ccll = np.empty(pid.shape[0])   # the new paths' log-likelihoods in the catch-up
-    # the events' scratch (alarms, candidates; ranking, kept paths, their new places)
-    nuc, npc = upath.shape[0] * S, pid.shape[0]
-    # an alarm's candidates are its node's successors: at most the graph's out-degree
-    deg = max(1, n_succ.max())
-    scr = (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
-           np.empty(S, np.int64), np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.int64),
-           np.empty(nuc * deg), np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.bool_),
-           np.empty(npc, np.int64), np.empty(npc), np.empty(npc, np.int64),
-           np.empty(npc, np.int64))
+    nP, nU = 0, 0
     while True:
         if not catch:
             if t >= t_to:
@@ -651,21 +1016,22 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
-        fast = False
-        if qc == 2 and ust.shape[1] == 1:
-            # two parameters, one channel: the step in two passes over the sample's
-            # instances, each pass short enough that the processor runs the instances'
-            # dependent chains (square roots and divisions) side by side
+        if two_pass:
+            # two parameters, one channel: the filter step in passes over the sample's
+            # Kalman instances, each short enough that the processor runs the instances'
+            # dependent chains (square roots and divisions) side by side: the structure
+            # update and first Householder row (_step2_a), then the update, statistics and
+            # detectors (_step2_c), the covariances after the bookkeeping (pass 3)
             na = 0
             for u in range(ua, ub):
                 if catch and ustart[u] > tt:
                     continue                    # a new instance not yet begun
                 k = umodel[u]
-                if mi[k, 0] >= REG_VELOCITY:
+                if mi[k, MI_REG] >= REG_VELOCITY:
                     continue                    # scored directly: the general loop below
-                mode, est, col = mi[k, 6], mi[k, 7] != 0, mi[k, 4]
-                if mi[k, 0] == REG_AR:
-                    if mi[k, 2]:
+                mode, est, col = mi[k, MI_MODE], mi[k, MI_EST] != 0, mi[k, MI_COL]
+                if mi[k, MI_REG] == REG_AR:     # _two_regressors, written out
+                    if mi[k, MI_MEAN]:
                         g0 = 1.0
                         g1 = xa[row - 1, col]
                     else:
@@ -675,14 +1041,15 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     g0 = 1.0
                     g1 = float(tt - ustart[u])
                 (l00, l10, l11, nu, a00, a10, a20, z10, z11, z20,
-                 z21) = _step2_a(xa[row, col], g0, g1, mode, ust[u, 0, 0], ust[u, 0, 1],
-                                 ust[u, 0, 2], ust[u, 0, 3], ust[u, 0, 4], ust[u, 0, 5],
-                                 ust[u, 0, 6], ust[u, 0, 8], ust[u, 0, 9],
-                                 ust[u, 0, 10] if est else ust[u, 0, 11])
+                 z21) = _step2_a(xa[row, col], g0, g1, mode, ust[u, 0, R2_TH0],
+                                 ust[u, 0, R2_TH1], ust[u, 0, R2_S00], ust[u, 0, R2_S01],
+                                 ust[u, 0, R2_S10], ust[u, 0, R2_S11], ust[u, 0, R2_L00],
+                                 ust[u, 0, R2_L10], ust[u, 0, R2_L11],
+                                 ust[u, 0, R2_VE] if est else ust[u, 0, R2_LV])
                 if mode == 1:
-                    ust[u, 0, 6] = l00
-                    ust[u, 0, 8] = l10
-                    ust[u, 0, 9] = l11
+                    ust[u, 0, R2_L00] = l00
+                    ust[u, 0, R2_L10] = l10
+                    ust[u, 0, R2_L11] = l11
                 act[na] = u
                 mid[na, 0] = nu
                 mid[na, 1] = a00
@@ -696,18 +1063,18 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             for i in range(na):
                 u = act[i]
                 k = umodel[u]
-                est = mi[k, 7] != 0
+                est = mi[k, MI_EST] != 0
                 th0, th1, ve, vc, al, lc, ll = _step2_c(mid[i, 0], mid[i, 1], mid[i, 2],
-                                                        mid[i, 3], ust[u, 0, 0], ust[u, 0, 1],
-                                                        est, mf[k], ust[u, 0, 10],
-                                                        ust[u, 0, 12])
-                ust[u, 0, 0] = th0
-                ust[u, 0, 1] = th1
+                                                        mid[i, 3], ust[u, 0, R2_TH0],
+                                                        ust[u, 0, R2_TH1], est, mf[k],
+                                                        ust[u, 0, R2_VE], ust[u, 0, R2_VC])
+                ust[u, 0, R2_TH0] = th0
+                ust[u, 0, R2_TH1] = th1
                 if est:
-                    ust[u, 0, 10] = ve
-                    ust[u, 0, 12] = vc
+                    ust[u, 0, R2_VE] = ve
+                    ust[u, 0, R2_VC] = vc
                 chi = lc * -2.0
-                for si in range(S):
+                for si in range(udf.shape[1]):   # _detectors, written out
                     x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else al)
                     dv = cusum_step(udf[u, si], x)
                     udf[u, si] = dv
@@ -716,182 +1083,24 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                     top = dv if dv > top else top
                 inc[u - ua] = ll
             nb = na                             # their covariances: pass 3 (_step2_b)
-            fast = True
             if not direct:
                 ub = ua                         # done: the general loop below is empty
         for u in range(ua, ub):
             if catch and ustart[u] > tt:
                 continue                        # a new instance not yet begun
             k = umodel[u]
-            reg = mi[k, 0]
-            if fast and reg < REG_VELOCITY:
-                continue                        # stepped in the two passes above
-            q = qc if qc > 0 else mi[k, 3]
-            C, mode, est, pcount = mi[k, 5], mi[k, 6], mi[k, 7] != 0, mf[k]
-            ll_sum = 0.0
-            chi = 0.0
-            zs = 0.0
-            if (reg == REG_VELOCITY or reg == REG_GAUSSIAN) and vt[k] == tt:
-                # stateless: every instance scores the same
-                ll_sum, chi, zs = vll[k], vchi[k], vz[k]
-                C = 0
-            elif reg == REG_GAUSSIAN:
-                # z: the best rival's log-likelihood margin (its rival test's increment)
-                col = mi[k, 4]
-                ll_sum, chi, zs = gaussian_step(mp[k], xa[row, col:col + C])
-                vt[k], vll[k], vchi[k], vz[k] = tt, ll_sum, chi, zs
-                C = 0
-            elif reg >= REG_VELOCITY:
-                # scored directly (z = 0: its mean tests never fire); no channel filters
-                col = mi[k, 4]
-                ll_sum, chi = _direct_step(reg, mp[k], ust[u, 0], xa[row, col:col + C], wk)
-                if reg == REG_VELOCITY:
-                    vt[k], vll[k], vchi[k], vz[k] = tt, ll_sum, chi, 0.0
-                C = 0
-            for c in range(C):
-                col = mi[k, 4] + c
-                if qc == 2:
-                    # two parameters: the same step on scalars (_step2)
-                    if mi[k, 0] == REG_AR:
-                        if mi[k, 2]:
-                            g0 = 1.0
-                            g1 = xa[row - 1, col]
-                        else:
-                            g0 = xa[row - 1, col]
-                            g1 = xa[row - 2, col]
-                    else:
-                        g0 = 1.0
-                        g1 = float(tt - ustart[u])
-                    (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
-                     ll) = _step2(xa[row, col], g0, g1, mode, est, pcount, ust[u, c, 0],
-                                  ust[u, c, 1], ust[u, c, 2], ust[u, c, 3], ust[u, c, 4],
-                                  ust[u, c, 5], ust[u, c, 6], ust[u, c, 8], ust[u, c, 9],
-                                  ust[u, c, 10], ust[u, c, 11], ust[u, c, 12])
-                    ust[u, c, 0] = th0
-                    ust[u, c, 1] = th1
-                    ust[u, c, 2] = s00
-                    ust[u, c, 3] = s01
-                    ust[u, c, 4] = s10
-                    ust[u, c, 5] = s11
-                    if mode == 1:
-                        ust[u, c, 6] = l00
-                        ust[u, c, 8] = l10
-                        ust[u, c, 9] = l11
-                    if est:
-                        ust[u, c, 10] = ve
-                        ust[u, c, 12] = vc
-                else:
-                    # regressors: AR (with the constant first) or [1, t - start]
-                    if mi[k, 0] == REG_AR:
-                        j = 0
-                        if mi[k, 2]:
-                            H[0, 0] = 1.0
-                            j = 1
-                        for i in range(1, mi[k, 1] + 1):
-                            H[0, j + i - 1] = xa[row - i, col]
-                    else:
-                        H[0, 0] = 1.0
-                        H[0, 1] = float(tt - ustart[u])
-                    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-                    if mode == 1:
-                        for i in range(q):
-                            Zs[i, 0] = H[0, i]
-                            for j in range(q):
-                                L2[i, j] = ust[u, c, oL + i * qmax + j]
-                        tri_append_n(L2, Zs, q, 1)
-                        for i in range(q):
-                            for j in range(q):
-                                ust[u, c, oL + i * qmax + j] = L2[i, j]
-                    if mode != 0:
-                        for i in range(q):
-                            s = H[0, i]
-                            for kk in range(i):
-                                d = ust[u, c, oL + kk * qmax + kk]
-                                if d != 0.0:
-                                    s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
-                            H[1, i] = s
-                    else:
-                        for i in range(q):
-                            H[1, i] = H[0, i]
-                    # innovation (A.34)
-                    s = xa[row, col]
-                    for i in range(q):
-                        s -= H[1, i] * ust[u, c, i]
-                    nu = s
-                    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-                    for i in range(q + 1):
-                        for j in range(q + 1):
-                            A[i, j] = 0.0
-                    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
-                    for j in range(q):
-                        s = 0.0
-                        for kk in range(j, q):
-                            s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
-                        Z[0, j] = s
-                    for i in range(q):
-                        for j in range(q):
-                            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
-                    # Householder reduction to the post-array (A.33)
-                    tri_append_n(A, Z, q + 1, q)
-                    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-                    d = A[0, 0]
-                    al = nu / d if d != 0.0 else np.nan
-                    lc = 0.0
-                    logdet = 0.0
-                    lc -= 0.5 * al * al
-                    logdet += math.log(A[0, 0])
-                    for i in range(q):
-                        s = 0.0
-                        s += A[1 + i, 0] * al
-                        ust[u, c, i] += s
-                        for j in range(q):
-                            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
-                    ll = lc - logdet - _HALF_LOG_2PI
-                    # running square-root innovation variance (A.38)
-                    if est:
-                        cn = ust[u, c, oV + 2] + 1.0
-                        ust[u, c, oV + 2] = cn
-                        nn = pcount + cn
-                        c_old = math.sqrt(1.0 - 1.0 / nn)
-                        c_new = math.sqrt(1.0 / nn)
-                        Zv[0, 0] = c_new * nu
-                        V2[0, 0] = ust[u, c, oV] * c_old
-                        tri_append_n(V2, Zv, 1, 1)
-                        ust[u, c, oV] = V2[0, 0]
-                # channels add (run_kalman): log-likelihood, chi-square, normalised innovation
-                if C == 1:
-                    ll_sum = ll
-                    chi = lc * -2.0
-                    zs = al
-                else:
-                    ll_sum += ll
-                    chi += -2.0 * lc
-                    zs += al
-            if C > 1:
-                zs = zs * (1.0 / math.sqrt(C))
-            # the detector row (6.18 on a + b x for every test; last zeros noted)
-            for si in range(S):
-                x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else zs)
-                dv = cusum_step(udf[u, si], x)
-                udf[u, si] = dv
-                # selects, not branches: a branch on the step's result that the
-                # processor mispredicts holds the next instance's step until this one
-                # has finished, which serialises the instances' dependent chains
-                lz = ulz[u, si]
-                ulz[u, si] = tt if dv == 0.0 else lz
-                top = dv if dv > top else top
-            inc[u - ua] = ll_sum
+            if mi[k, MI_REG] >= REG_VELOCITY:
+                ll, chi, z = _direct_score(mi, mp, xa, ust, u, k, tt, row, vt, vll, vchi, vz,
+                                           wk)
+            elif two_pass:
+                continue                        # stepped in the passes above
+            else:
+                ll, chi, z = _filter_step(mi, mf, xa, ust, ustart, u, k, tt, row, qc, qmax,
+                                          sc)
+            top = _detectors(sa, sb, ssrc, udf, ulz, u, k, tt, chi, z, top)
+            inc[u - ua] = ll
         if catch:
-            # catch-up: each new path begun by ct, its log-likelihood after sample ct
-            for i in range(n_new):
-                p = newp[i, 0]
-                if pstart[p] > ct:
-                    continue
-                cll = ccll[i]
-                for u in range(newp[i, 1], newp[i, 2]):
-                    cll += inc[u - ua]
-                ccll[i] = cll
-                ha[ct + 1 - hbase, pslot[p]] = cll
+            _catch_up_sums(newp, n_new, ccll, inc, ua, ct, pstart, pslot, ha, ct + 1 - hbase)
             # pass 3 of the two-parameter step, after the sample's bookkeeping
             _step2_covariances(nb, act, mid, ust)
             nb = 0
@@ -903,48 +1112,19 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             catch = False
             _prune(t, cfg, st, ev, scr)
         else:
-            # path sums (6.10), history, and the events: a crossing or a path gap below
+            # path sums (6.10), history, and the events: a crossing, a path gap below the
+            # best, a transient node at its longest duration
             if pending:
                 event = True
                 pending = False
             else:
-                event = top > thr
-                for u in range(nU):
-                    pll[upath[u]] += inc[u]
-                best = -np.inf
-                for p in range(nP):
-                    if pll[p] > best:
-                        best = pll[p]
-                hr = t + 1 - hbase
-                for p in range(nP):
-                    ha[hr, pslot[p]] = pll[p]
-                    if pll[p] < best - gap:
-                        event = True
-                    tm = tmax[pnode[p]]
-                    if tm > 0 and t - pstart[p] >= tm:
-                        event = True
+                event = _path_sums(pll, upath, inc, nP, nU, ha, t + 1 - hbase, pslot, gap, tmax,
+                                   pnode, pstart, t) or top > thr
             # pass 3 of the two-parameter step, after the sample's bookkeeping
             _step2_covariances(nb, act, mid, ust)
             nb = 0
             if event:
-                # room for the event: its crossed tests bound the candidates
-                nA = 0
-                for u in range(nU):
-                    for si in range(S):
-                        if udf[u, si] > thr:
-                            nA += 1
-                for p in range(nP):
-                    tm = tmax[pnode[p]]
-                    if tm > 0 and t - pstart[p] >= tm:
-                        nA += 1
-                nC = nA * deg
-                if not (nP + nC <= pid.shape[0] and nU + nC * maxk <= upath.shape[0]
-                        and cnt[C_SLOTS] + max(nC - cnt[C_FREE], 0) <= ha.shape[1]
-                        and cnt[C_SEG] + nC <= snode.shape[0] and cnt[C_EV] + 1 <= evt.shape[0]
-                        and cnt[C_AL] + nA <= alt.shape[0]
-                        and cnt[C_CAND] + nP + nC <= candt.shape[0]
-                        and cnt[C_KEEP] + nP + nC <= keept.shape[0]
-                        and cnt[C_SP] + nC <= spt.shape[0] and cnt[C_MG] + nC <= mgt.shape[0]):
+                if not _event_fits(cfg, st, ev, t, deg, maxk):
                     return FULL, t
                 n_new = _spawn(t, cfg, st, ev, newp, scr)
                 if n_new > 0:
@@ -1039,7 +1219,7 @@ class Core:
         mf = np.array([s.get("noise_prior_count", 0.0) for s in specs], np.float64)
         # per node, the longest a transient node is held (samples; 0: no limit)
         tmax = np.zeros(K, np.int64) if tmax is None else tmax
-        self.cfg = (mi, mf, np.ascontiguousarray(side_a, np.float64),
+        self.cfg = CoreConfig(mi, mf, np.ascontiguousarray(side_a, np.float64),
                     np.ascontiguousarray(side_b, np.float64),
                     np.ascontiguousarray(side_src, np.int64),
                     pst, float(threshold), float(gap), float(p_keep),
@@ -1071,7 +1251,7 @@ class Core:
 
     def _alloc_units(self, n: int) -> None:
         old = getattr(self, "units_", None)
-        S, C, q = self.S, self.cmax, self.qmax
+        S, C = self.S, self.cmax
         new = {"path": np.zeros(n, np.int64), "model": np.zeros(n, np.int64),
                "start": np.zeros(n, np.int64), "df": np.zeros((n, S)),
                "lz": np.zeros((n, S), np.int64), "st": np.zeros((n, C, self.width))}
@@ -1090,7 +1270,7 @@ class Core:
         self.segs_ = new
 
     def _alloc_events(self, n_ev: int, n_al: int, n_ll: int) -> None:
-        self.ev = (np.zeros((n_ev, N_EV_COLS), np.int64), np.zeros((n_al, 4), np.int64),
+        self.ev = CoreEvents(np.zeros((n_ev, N_EV_COLS), np.int64), np.zeros((n_al, 4), np.int64),
                    np.zeros(n_ll), np.zeros(n_ll, np.int64), np.zeros((n_al, 2), np.int64),
                    np.zeros((n_al, 2), np.int64))
 
@@ -1098,8 +1278,8 @@ class Core:
         """Grow the arrays for the event pending at the sample :func:`run_core` stopped at."""
         c = self.cnt
         nP, nU = int(c[C_P]), int(c[C_U])
-        nA = int((self.units_["df"][:nU] > self.cfg[6]).sum())
-        tmax = self.cfg[17][self.paths_["node"][:nP]]
+        nA = int((self.units_["df"][:nU] > self.cfg.threshold).sum())
+        tmax = self.cfg.max_duration[self.paths_["node"][:nP]]
         nA += int(((tmax > 0) & (self._t_event - self.paths_["start"][:nP] >= tmax)).sum())
         nC = nA * self.deg
         if nP + nC > len(self.paths_["id"]):
@@ -1133,7 +1313,7 @@ class Core:
         p, u, s = self.paths_, self.units_, self.segs_
         if self._acts is None or self._acts.base is not act.a:
             self._acts = act.a[:, 0]
-        return (u["path"], u["model"], u["start"], u["df"], u["lz"], u["st"], xbuf.a,
+        return CoreState(u["path"], u["model"], u["start"], u["df"], u["lz"], u["st"], xbuf.a,
                 xbuf.t0 - xbuf.off, hist.a, hist.t0 - hist.off, self.cnt, p["id"], p["node"],
                 p["start"], p["slot"], p["seg"], p["init"], p["ll"], p["free"], self._acts,
                 act.t0 - act.off, s["node"], s["start"], s["prev"])
@@ -1162,7 +1342,7 @@ class Core:
         c[C_SLOTS] = max(int(c[C_SLOTS]), slot + 1)
         for k in kinds:
             u = self.units_
-            _init_unit(int(c[C_U]), i, k, start, lz, self.cfg[5], u["path"], u["model"],
+            _init_unit(int(c[C_U]), i, k, start, lz, self.cfg.prior_state, u["path"], u["model"],
                        u["start"], u["df"], u["lz"], u["st"])
             c[C_U] += 1
 
