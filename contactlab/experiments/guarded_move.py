@@ -384,6 +384,31 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
                caption="The 9.1.1 signal facts (contactlab/experiments/apparatus_facts.py, "
                        "criteria written before the setup was changed), measured on the "
                        "training and the test runs.")
+    _results_table(page, res, fixed, stick, rot, ntr)
+    _path_tables(page, res, fixed, stick, rot)
+    _point_tables(page, res, graph, still, rates, rates_fixed, secs)
+    page.figure(fig_trial(sig, graph), name="fig-9-1",
+                caption=f"Fig 9.1 (ours): test run {sig['id']}: the measured force and "
+                        "velocity, and the final MAP node over time beside the simulator's "
+                        "labels mapped to nodes.")
+    page.figure(fig_trial(sig_ss, stick_slip_graph()), name="fig-9-1-stick-slip",
+                caption=f"Test run {sig_ss['id']} on the stick-slip graph (9.1.2's stuck "
+                        "nodes 3s-5s, 8.29's friction compensation): force, velocity and the "
+                        "final MAP node over time beside the simulator's labels mapped to its "
+                        "nodes (floor-fixed -> 3s, floor-moving -> 3).")
+    page.heading("Where ours differ and why")
+    for text in _differences(res, rot, still, rates, gm, ntr, facts, fixed, rates_fixed,
+                             stick):
+        page.paragraph(text)
+    paths = page.write()
+    summary = _summary(res, rot, fixed, stick, ntr, facts, still, rates, rates_fixed, secs,
+                       paths, seed)
+    write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def _results_table(page, res, fixed, stick, rot, ntr) -> None:
+    """The test runs marked correctly on each graph and setting, beside the thesis."""
     rows = [["graph of 9.1.1 (features 0-5)", f"{THESIS['correct']}/{THESIS['trials']}",
              f"{_count(res, 'correct')}/{ntr}", f"{_count(res, 'final')}/{ntr}",
              f"{_count(res, 'strict')}/{ntr}", f"{_count(res, 'distractor')}",
@@ -423,6 +448,10 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
                        "to the last change between contact nodes, per run. The stick-slip "
                        "rows read a stuck node (3s, 4s, 5s) as its surface (3, 4, 5); their "
                        "points are right when stuck and sliding are told apart too.")
+
+
+def _path_tables(page, res, fixed, stick, rot) -> None:
+    """Each test run's final MAP path on each graph."""
     page.table([[tid, " ".join(f"{n}@{s:.2f}" for n, s in e["merged_path"]),
                  "yes" if e["score"]["correct"] else "no",
                  "yes" if e["score"]["final"] else "no"]
@@ -448,6 +477,11 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
                 for deg in ROTATIONS for tid, e in rot[deg]["trials"].items()],
                columns=["feature 4", "run", "final MAP path (node@start s)", "ends on 3"],
                caption="The rotated test's paths (node 4 is feature 3's Z rotated about x).")
+
+
+def _point_tables(page, res, graph, still, rates, rates_fixed, secs) -> None:
+    """The point confusion, where the finger is still or slides, the floor models' rates
+    per sample and the runtime."""
     names = list(graph.node_names)
     m = np.asarray(res["confusion"]["matrix"])
     page.table([[f"true {names[i]}", *[int(x) for x in row]] for i, row in enumerate(m)
@@ -479,52 +513,41 @@ def _report(res, rot, gm, sig, still, rates, secs, graph, facts, fixed_run, stic
     page.table([[k, f"{v:.1f} s"] for k, v in secs.items()],
                columns=["setting", "recognition of the test runs"],
                caption="Runtime on this machine (one core).")
-    page.figure(fig_trial(sig, graph), name="fig-9-1",
-                caption=f"Fig 9.1 (ours): test run {sig['id']}: the measured force and "
-                        "velocity, and the final MAP node over time beside the simulator's "
-                        "labels mapped to nodes.")
-    page.figure(fig_trial(sig_ss, stick_slip_graph()), name="fig-9-1-stick-slip",
-                caption=f"Test run {sig_ss['id']} on the stick-slip graph (9.1.2's stuck "
-                        "nodes 3s-5s, 8.29's friction compensation): force, velocity and the "
-                        "final MAP node over time beside the simulator's labels mapped to its "
-                        "nodes (floor-fixed -> 3s, floor-moving -> 3).")
-    page.heading("Where ours differ and why")
-    for text in _differences(res, rot, still, rates, gm, ntr, facts, fixed, rates_fixed,
-                             stick):
-        page.paragraph(text)
-    paths = page.write()
-    summary = {"experiment": "guarded-move", "seed": seed,
-               "correct": _count(res, "correct"), "final": _count(res, "final"),
-               "strict": _count(res, "strict"),
-               "trials": ntr, "accuracy": res["accuracy"],
-               "rotated": {f"{d:g}": {"correct": _count(rot[d], "correct"),
-                                      "final": _count(rot[d], "final"),
-                                      "strict": _count(rot[d], "strict"),
-                                      "distractor": _count(rot[d], "distractor"),
-                                      "decided_after": {t: decided_after(e["merged_path"])
-                                                        for t, e in rot[d]["trials"].items()},
-                                      "paths": {t: e["merged_path"]
-                                                for t, e in rot[d]["trials"].items()}}
-                           for d in ROTATIONS},
-               "paths": {tid: e["merged_path"] for tid, e in res["trials"].items()},
-               "frames_fixed": {"correct": _count(fixed, "correct"),
-                                "final": _count(fixed, "final"),
-                                "distractor": _count(fixed, "distractor"),
-                                "accuracy": fixed["accuracy"],
-                                "paths": {t: e["merged_path"]
-                                          for t, e in fixed["trials"].items()}},
-               "stick_slip": {k: {
-                   "correct": _count(r, "correct"), "final": _count(r, "final"),
-                   "strict": _count(r, "strict"), "distractor": _count(r, "distractor"),
-                   "accuracy": r["accuracy"],
-                   "paths": {t: e["merged_path"] for t, e in r["trials"].items()}}
-                   for k, r in stick.items()},
-               "headline": _headline(res, rot, ntr, fixed, stick), "seconds": secs,
-               "signal_facts": {str(k): v for k, v in facts.items()},
-               "still_points": still, "floor_rates": rates, "floor_rates_fixed": rates_fixed,
-               "report": {k: str(v) for k, v in paths.items()}}
-    write_text_atomic(out_dir / "results.json", json.dumps(summary, indent=2) + "\n")
-    return summary
+
+
+def _summary(res, rot, fixed, stick, ntr, facts, still, rates, rates_fixed, secs, paths,
+             seed) -> dict:
+    """The page's results.json."""
+    return {"experiment": "guarded-move", "seed": seed,
+           "correct": _count(res, "correct"), "final": _count(res, "final"),
+           "strict": _count(res, "strict"),
+           "trials": ntr, "accuracy": res["accuracy"],
+           "rotated": {f"{d:g}": {"correct": _count(rot[d], "correct"),
+                                  "final": _count(rot[d], "final"),
+                                  "strict": _count(rot[d], "strict"),
+                                  "distractor": _count(rot[d], "distractor"),
+                                  "decided_after": {t: decided_after(e["merged_path"])
+                                                    for t, e in rot[d]["trials"].items()},
+                                  "paths": {t: e["merged_path"]
+                                            for t, e in rot[d]["trials"].items()}}
+                       for d in ROTATIONS},
+           "paths": {tid: e["merged_path"] for tid, e in res["trials"].items()},
+           "frames_fixed": {"correct": _count(fixed, "correct"),
+                            "final": _count(fixed, "final"),
+                            "distractor": _count(fixed, "distractor"),
+                            "accuracy": fixed["accuracy"],
+                            "paths": {t: e["merged_path"]
+                                      for t, e in fixed["trials"].items()}},
+           "stick_slip": {k: {
+               "correct": _count(r, "correct"), "final": _count(r, "final"),
+               "strict": _count(r, "strict"), "distractor": _count(r, "distractor"),
+               "accuracy": r["accuracy"],
+               "paths": {t: e["merged_path"] for t, e in r["trials"].items()}}
+               for k, r in stick.items()},
+           "headline": _headline(res, rot, ntr, fixed, stick), "seconds": secs,
+           "signal_facts": {str(k): v for k, v in facts.items()},
+           "still_points": still, "floor_rates": rates, "floor_rates_fixed": rates_fixed,
+           "report": {k: str(v) for k, v in paths.items()}}
 
 
 def _decisions(r) -> str:
@@ -767,6 +790,18 @@ def _differences(res, rot, still, rates, gm, ntr, facts, fixed, rates_fixed,
         "graph declares both sides so that the fall of energy after an impact is detected. "
         "Both sides make the observer keep more paths: recognition is several times slower.",
     ]
+    out.extend(_rotation_differences(res, rot))
+    out.append(
+        "History: with the earlier setup (100 N/m, the command 5 mm under the surface, the "
+        "exploration at 0.25-0.35 Hz, the sensor not zeroed, fixed frames) 0 of 10 runs were "
+        "correct: the still finger decided (stuck on the surface Z scored -12.9 nats a sample "
+        "against XZ -8.2 and YZ -8.8, and paths re-entered a distractor at every stick).")
+    return out
+
+
+def _rotation_differences(res, rot) -> list[str]:
+    """Per rotation of feature 4: how the runs ended and why (8.70's term)."""
+    out = []
     for d in ROTATIONS:
         r = rot[d]
         dec = [decided_after(e["merged_path"]) for e in r["trials"].values()]
@@ -786,9 +821,4 @@ def _differences(res, rot, still, rates, gm, ntr, facts, fixed, rates_fixed,
             "contact's first samples keeps the lead; the unrotated graph's runs end on "
             + ", ".join(res["trials"][t]["merged_path"][-1][0] for t in r["trials"])
             + " here.")
-    out.append(
-        "History: with the earlier setup (100 N/m, the command 5 mm under the surface, the "
-        "exploration at 0.25-0.35 Hz, the sensor not zeroed, fixed frames) 0 of 10 runs were "
-        "correct: the still finger decided (stuck on the surface Z scored -12.9 nats a sample "
-        "against XZ -8.2 and YZ -8.8, and paths re-entered a distractor at every stick).")
     return out

@@ -305,8 +305,16 @@ def _ratio_stats(rows, num, den, *, min_alarms=100, min_t2=4.0):
 
 
 def write_report(res: dict, out_dir: Path) -> dict:
-    mc = res["mc"]
-    op = res["operating_point"]
+    page = _page(res, out_dir)
+    _operating_point_table(page, res)
+    _ph_against_mc(page, res)
+    _lp_against_mc(page, res)
+    _equal_false_alarms(page, res)
+    return page.write()
+
+
+def _page(res: dict, out_dir: Path) -> ReportPage:
+    """The page: the setting, the choices where the thesis is ambiguous, figs 6.3 and 6.5."""
     cfg = res["settings"]
     page = ReportPage(title="ph-roc: ROC of Page-Hinkley and lowpass+threshold "
                             "(thesis 6.3.1, figs 6.3, 6.5)", out_dir=out_dir)
@@ -350,9 +358,13 @@ def write_report(res: dict, out_dir: Path) -> dict:
     page.figure(_fig_compare(res), name="roc-compare",
                 caption="Both detectors by Monte Carlo on the same axes, per s.")
 
-    # operating point table
-    p = op["thesis"]
-    ph, lp = op["ph"], op["lp"]
+    return page
+
+
+def _operating_point_table(page: ReportPage, res: dict) -> None:
+    """The thesis's reported operating point beside ours."""
+    op = res["operating_point"]
+    p, ph, lp = op["thesis"], op["ph"], op["lp"]
     rows = [
         ["PH s=1, T^2=15: t_F", f"{p['ph_tF']:.0e}", f"{ph['wald_tF']:.3g}",
          f"{ph['siegmund_tF']:.3g}", _mc_cell(ph["tF"], ph["tF_stderr"], ph["n_alarms"])],
@@ -368,6 +380,13 @@ def write_report(res: dict, out_dir: Path) -> dict:
                               "corrected approximation", "Monte Carlo (± s.e., alarms)"],
                caption="The thesis's reported operating point beside ours.")
 
+
+
+def _ph_against_mc(page: ReportPage, res: dict) -> None:
+    """Page-Hinkley: Wald's and Siegmund's approximations against Monte Carlo."""
+    mc = res["mc"]
+    op = res["operating_point"]
+    p, ph = op["thesis"], op["ph"]
     lo_w, hi_w, n_w = _ratio_stats(mc["ph"], "tF", "wald_tF")
     lo_s, hi_s, n_s = _ratio_stats(mc["ph"], "tF", "siegmund_tF")
     d_rows = [r for r in mc["ph"] if r["tD"] is not None and r["T2"] >= 4]
@@ -404,6 +423,14 @@ def write_report(res: dict, out_dir: Path) -> dict:
                caption="Page-Hinkley per setting. Empty Monte Carlo t_F: above the simulation "
                        "budget; there the curves rest on the approximations.")
 
+
+
+def _lp_against_mc(page: ReportPage, res: dict) -> None:
+    """The lowpass: Hall's bound, the per-step estimate and the rise time against Monte
+    Carlo."""
+    mc = res["mc"]
+    op = res["operating_point"]
+    ph, lp = op["ph"], op["lp"]
     lo_h, hi_h, n_h = _ratio_stats(mc["lp"], "tF", "hall_tF", min_t2=LP_MIN_T2)
     lo_o, hi_o, _ = _ratio_stats(mc["lp"], "tF", "ou_tF", min_t2=LP_MIN_T2)
     lpd = [r for r in mc["lp"] if r["tD"] is not None and r["a"] >= 0.9]
@@ -447,6 +474,10 @@ def write_report(res: dict, out_dir: Path) -> dict:
                        "delay runs (of the total) that alarmed "
                        "during the burn-in before the change; the delay is over the rest.")
 
+
+
+def _equal_false_alarms(page: ReportPage, res: dict) -> None:
+    """Which detector is better at equal false-alarm time."""
     comp = res["comparison"]
     page.heading("Which detector is better at equal false-alarm time")
     verdict = _verdicts(comp)
@@ -472,8 +503,6 @@ def write_report(res: dict, out_dir: Path) -> dict:
                         "lowpass - PH delay (steady)"],
                caption="Equal false-alarm comparison, both detectors started from their H0 "
                        "steady state.")
-    paths = page.write()
-    return paths
 
 
 def _verdicts(comp) -> list[str]:

@@ -282,77 +282,39 @@ def _no_label(lab, seen, path, label_map, field, unmatched=()) -> DataError:
                      f"{', '.join(sorted(seen))}{hint})", file=str(path), field=field)
 
 
-def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
-                block: int = D.BLOCK,
-                reduce: str = D.GRAPH_REDUCE, trials=None, quiet: bool = True,
-                command: str | None = None, label_map: dict | None = None) -> GraphModels:
-    """Fit every trained model ``graph`` names from the labelled trials of ``archive``.
+@dataclass
+class _LabelledData:
+    """What :func:`train_graph` reads from an archive's labelled trials: the temporal
+    models' block features and the impact segments per label, the kinematic models' runs
+    per (signal, label), the labels seen (after and before the label map), the trials
+    used, their rate and each transient node's longest labelled run."""
 
-    Parameters
-    ----------
-    archive : path of an archive with ground-truth labels named like the graph's
-        ``trained`` labels.
-    graph : a :class:`FeatureGraph` or a graph file path.
-    order, mean, block : the temporal models' AR(order) (+ mean) and training
-        block length (7.3: a mean and one AR coefficient, units of 100).
-    reduce : ``"mean"`` (channel mean) or ``"none"`` (see :func:`trial_signals`).
-    trials : trial ids to use (default all).
-    label_map : archive label name -> graph label (unmapped labels ignored).
+    feats: dict
+    segs: dict
+    kin_runs: dict
+    seen_labels: set
+    raw_labels: set
+    ids_used: list
+    fs: float | None
+    longest: dict
 
-    Raises DataError (one line, file and field) for a label with no data, too
-    few blocks or impacts, a frame the data do not determine, or a graph whose
-    temporal models read different signals.
-    """
+
+def _read_labelled(path, trials, label_map, *, quiet, labels, all_signals, signal,
+                   kin_signals, kin_labels, temporal_specs, impact_specs, transient, order,
+                   mean, block, reduce) -> _LabelledData:
+    """Each labelled trial's signals cut into the runs of each label (:func:`train_graph`)."""
     from contactlab.archive import open_archive
     from contactlab.progress import progress
     from contactlab.temporal.blocks import cut_blocks
-    from contactlab.temporal.features import BlockFeatures, block_features
-    from contactlab.temporal.model import fit_class
+    from contactlab.temporal.features import block_features
 
-    if not isinstance(graph, FeatureGraph):
-        graph = load_graph(graph)
-    if reduce not in REDUCE:
-        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
-    gsrc = graph.source or "<graph>"
-    temporal_specs, impact_specs = {}, {}
-    for name, spec in graph.models.items():
-        if spec.kind == "temporal":
-            temporal_specs.setdefault(spec.trained, spec)
-        elif spec.kind == "impact" and "theta_mean" not in spec.params:
-            impact_specs.setdefault(spec.trained, spec)
-    kin_specs = kinematic_specs(graph)
-    kin_labels = {lab for spec in kin_specs.values() for lab in spec.trained_labels}
-    signals = {s.signal for s in temporal_specs.values()}
-    if not temporal_specs and not kin_specs:
-        raise DataError("the graph names no model to train", file=gsrc, field="models")
-    if len(signals) > 1:
-        raise DataError(f"temporal models read different signals {sorted(signals)}; one "
-                        "models file holds one signal", file=gsrc, field="models")
-    signal = signals.pop() if signals else "wrench"
-    bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
-           if s.signal not in _TRAINED_SIGNALS]
-    if bad:
-        raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
-                        f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
-    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
-    kin_signals = {spec.signal for spec in kin_specs.values()}
-    all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
-                         | ({signal} if temporal_specs else set()))
     kin_runs: dict = {}
-    path = Path(archive)
     feats = {lab: [] for lab in temporal_specs}
     segs: dict[str, list] = {lab: [] for lab in impact_specs}
     seen_labels: set = set()
     raw_labels: set = set()
     ids_used = []
     fs = None
-    # a transient node's labelled runs: its own name's, else those its impact models are
-    # trained on (9.1.1's impact node "1" reads the "impact" labels); not those of its
-    # other models (free-contact's impact reads the contact's frame, trained on contact)
-    transient = {n.name: [n.name] + [lab for m in n.model_names
-                                     if graph.models[m].kind == "impact"
-                                     for lab in graph.models[m].trained_labels]
-                 for n in graph.nodes if n.transient}
     longest: dict[str, float] = {}
     with open_archive(path) as arch:
         ids = arch.select(trials)
@@ -384,10 +346,17 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
                                                              block=block, starts=starts))
                     if lab in impact_specs and impact_specs[lab].signal == s:
                         segs[lab].extend(y[a:b] for a, b in mask_runs(codes == k) if b - a >= 3)
-    if not ids_used:
-        raise DataError("no trial has ground-truth labels", file=str(path),
-                        field="/trials/*/ground_truth/labels")
-    check_map_sources(label_map, raw_labels, file=str(path), field="/trials/*/ground_truth/labels")
+    return _LabelledData(feats, segs, kin_runs, seen_labels, raw_labels, ids_used, fs,
+                         longest)
+
+
+def _fit_temporal(feats, temporal_specs, seen_labels, path, label_map, *, order, mean,
+                  block) -> dict:
+    """The temporal models of 7.3 (:func:`~contactlab.temporal.model.fit_class`) from each
+    label's block features."""
+    from contactlab.temporal.features import BlockFeatures
+    from contactlab.temporal.model import fit_class
+
     temporal = {}
     for lab, parts in feats.items():
         spec = temporal_specs[lab]
@@ -400,6 +369,12 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             temporal[lab] = fit_class(lab, f, block=block)
         except ValueError as exc:
             raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
+    return temporal
+
+
+def _fit_impacts(segs, impact_specs, seen_labels, path, label_map) -> dict:
+    """The impact models (:meth:`ImpactFeature.from_segments`) from each label's
+    segments."""
     impacts = {}
     for lab, ss in segs.items():
         spec = impact_specs[lab]
@@ -412,6 +387,81 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
             raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
         m.n_segments_ = len(ss)
         impacts[lab] = m
+    return impacts
+
+
+def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
+                block: int = D.BLOCK,
+                reduce: str = D.GRAPH_REDUCE, trials=None, quiet: bool = True,
+                command: str | None = None, label_map: dict | None = None) -> GraphModels:
+    """Fit every trained model ``graph`` names from the labelled trials of ``archive``.
+
+    Parameters
+    ----------
+    archive : path of an archive with ground-truth labels named like the graph's
+        ``trained`` labels.
+    graph : a :class:`FeatureGraph` or a graph file path.
+    order, mean, block : the temporal models' AR(order) (+ mean) and training
+        block length (7.3: a mean and one AR coefficient, units of 100).
+    reduce : ``"mean"`` (channel mean) or ``"none"`` (see :func:`trial_signals`).
+    trials : trial ids to use (default all).
+    label_map : archive label name -> graph label (unmapped labels ignored).
+
+    Raises DataError (one line, file and field) for a label with no data, too
+    few blocks or impacts, a frame the data do not determine, or a graph whose
+    temporal models read different signals.
+    """
+    if not isinstance(graph, FeatureGraph):
+        graph = load_graph(graph)
+    if reduce not in REDUCE:
+        raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
+    gsrc = graph.source or "<graph>"
+    temporal_specs, impact_specs = {}, {}
+    for name, spec in graph.models.items():
+        if spec.kind == "temporal":
+            temporal_specs.setdefault(spec.trained, spec)
+        elif spec.kind == "impact" and "theta_mean" not in spec.params:
+            impact_specs.setdefault(spec.trained, spec)
+    kin_specs = kinematic_specs(graph)
+    kin_labels = {lab for spec in kin_specs.values() for lab in spec.trained_labels}
+    signals = {s.signal for s in temporal_specs.values()}
+    if not temporal_specs and not kin_specs:
+        raise DataError("the graph names no model to train", file=gsrc, field="models")
+    if len(signals) > 1:
+        raise DataError(f"temporal models read different signals {sorted(signals)}; one "
+                        "models file holds one signal", file=gsrc, field="models")
+    signal = signals.pop() if signals else "wrench"
+    bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
+           if s.signal not in _TRAINED_SIGNALS]
+    if bad:
+        raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
+                        f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
+    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
+    kin_signals = {spec.signal for spec in kin_specs.values()}
+    all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
+                         | ({signal} if temporal_specs else set()))
+    path = Path(archive)
+    # a transient node's labelled runs: its own name's, else those its impact models are
+    # trained on (9.1.1's impact node "1" reads the "impact" labels); not those of its
+    # other models (free-contact's impact reads the contact's frame, trained on contact)
+    transient = {n.name: [n.name] + [lab for m in n.model_names
+                                     if graph.models[m].kind == "impact"
+                                     for lab in graph.models[m].trained_labels]
+                 for n in graph.nodes if n.transient}
+    data = _read_labelled(path, trials, label_map, quiet=quiet, labels=labels,
+                          all_signals=all_signals, signal=signal, kin_signals=kin_signals,
+                          kin_labels=kin_labels, temporal_specs=temporal_specs,
+                          impact_specs=impact_specs, transient=transient, order=order,
+                          mean=mean, block=block, reduce=reduce)
+    feats, segs, kin_runs, seen_labels = data.feats, data.segs, data.kin_runs, data.seen_labels
+    raw_labels, ids_used, fs, longest = data.raw_labels, data.ids_used, data.fs, data.longest
+    if not ids_used:
+        raise DataError("no trial has ground-truth labels", file=str(path),
+                        field="/trials/*/ground_truth/labels")
+    check_map_sources(label_map, raw_labels, file=str(path), field="/trials/*/ground_truth/labels")
+    temporal = _fit_temporal(feats, temporal_specs, seen_labels, path, label_map,
+                             order=order, mean=mean, block=block)
+    impacts = _fit_impacts(segs, impact_specs, seen_labels, path, label_map)
     missing = sorted(lab for lab in kin_labels if lab not in seen_labels)
     if missing:
         unmatched = [src for src in (label_map or {}) if str(src) not in raw_labels]
