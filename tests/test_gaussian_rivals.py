@@ -162,3 +162,35 @@ def test_the_compiled_core_gives_the_general_forms_results_with_rivals():
     assert core._core is not None and general._core is None
     assert len([e for e in slow.events if e.model]) >= 2
     assert_same_observer_results(fast, slow)
+
+
+def test_the_test_against_r_rivals_alarms_at_t_plus_log_r():
+    """Page's test against the best of R known successors alarms when the cumulative
+    margin (6.18 on max_r ll_r - ll) reaches T + log R: the maximum of R tests would
+    otherwise alarm about R times as often.  Oracle: the margins from scipy's densities,
+    the cumulative sum reset at zero, its first crossing of T + log 3."""
+    from scipy.stats import norm
+
+    y, n0 = _broad_then_narrow(4)
+    A = GaussianFeature.from_segments([y[:n0]], name="A", signal="x")
+    rivals = {"B": (1.0, 0.3), "C": (1.2, 0.3), "D": (0.8, 0.3)}
+    ms = {"A": A, **{k: _gauss(k, [m], [[s * s]], signal="x") for k, (m, s) in rivals.items()}}
+    g = _chain(["A", "B", "C", "D"], ["A -> B", "A -> C", "A -> D"])
+    T = 8.0
+    obs = Observer(g, ms, threshold=T)
+    res = observe(obs, y)
+    alarms = [e for e in res.events if e.model]
+    assert alarms[0].model == "A"
+    first = alarms[0].time
+    x = y[:, 0]
+    ll_a = multivariate_normal(A.mean, A.cov).logpdf(y)
+    z = np.max([norm(m, s).logpdf(x) for m, s in rivals.values()], axis=0) - ll_a
+    stat, cross = 0.0, None
+    for t, zt in enumerate(z):
+        stat = max(0.0, stat + zt)
+        if stat > T + np.log(3):
+            cross = t
+            break
+    assert cross is not None and n0 <= cross and first == cross
+    k = obs.tests_.index("rival")
+    assert obs._side_b[obs._model_names.index("A"), k] == pytest.approx(T / (T + np.log(3)))

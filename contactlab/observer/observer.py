@@ -762,9 +762,18 @@ class Observer:
             elif side == "decrease":
                 a[:, k], b[:, k] = 0.5 * (dim * np.log(q)), 0.5 * (1.0 - q)
             elif side == "rival":
-                # Page's test against the best known successor: the increment is the
-                # model's rival margin z itself (weighted already)
-                a[:, k], b[:, k] = 0.0, 1.0
+                # Page's test against the best of a model's R known successors: the
+                # increment is its rival margin z (weighted already), scaled by
+                # T / (T + log R), so the statistic reaches T when the unscaled one reaches
+                # T + log R: the maximum of R tests, each with false alarms every ~e^T
+                # samples, alarms about R times as often (the union bound), and log R on
+                # the threshold keeps one test's false-alarm time (Siegmund's
+                # approximation, 6.3.1).  Scaling commutes with 6.18's max(0, .), so the
+                # last zeros, and so the change times, are the unscaled test's.
+                n_riv = np.array([max(len(getattr(self.models[n], "rivals", ())), 1)
+                                  for n in self._model_names], dtype=np.float64)
+                a[:, k] = 0.0
+                b[:, k] = self.threshold / (self.threshold + np.log(n_riv))
             else:
                 # a change size of 1 or less has no mean alternative: that test never
                 # accumulates (increments of -inf, as for a side the model does not test)
