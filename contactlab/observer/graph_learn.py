@@ -19,10 +19,16 @@ segmentation) states the graph directly:
   AR(1)-with-mean temporal model of the wrench where the rate reaches 250 Hz;
 * **edges** -- every change between two mapped labels seen in a trial's label sequence
   (unmapped samples are skipped: a label outside the task neither starts nor ends a
-  phase), with the **transition probabilities** ``p(i -> j) = n_ij / n_i`` counted over
-  the trials, written to the graph's edge set (``probabilities``; the observer adds
-  ``log p`` when a path changes node, 6.4); the graph's one action ``task`` is every
-  sample's, so a recording without an action channel needs none;
+  phase), with the **transition probabilities** ``p(i -> j) = n_ij / N_i`` per sample,
+  ``N_i`` the samples labelled ``i`` at the rate the observer reads (the conditioned
+  rate, :func:`contactlab.signals.factor_for`), counted over the trials: the supervised
+  HMM peer's off-diagonal transition probabilities, the rest of each node's mass being
+  no change.  They are written to the graph's edge set (``probabilities``); the
+  observer adds ``log p`` when a path changes node (6.4), so a change costs what it
+  costs the HMM, and a path cannot pass through a phase in a few samples for free (a
+  per-change ``n_ij / n_i`` of 1 along a chain of phases charged nothing: on Baxter's
+  pick-and-place the path ran through a whole phase in 60 ms).  The graph's one action
+  ``task`` is every sample's, so a recording without an action channel needs none;
 * **initial probabilities** -- the share of trials whose first mapped label is each node;
 * labelled samples the map leaves out (Baxter's 0 before and after the task) get a node
   of their own, :data:`OUTSIDE`, so that some model explains them (otherwise the
@@ -55,7 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from contactlab.errors import DataError
-from contactlab.signals import relabel
+from contactlab.signals import factor_for, relabel
 
 __all__ = ["label_sequences", "count_transitions", "graph_from_labels", "learn_from_labels",
            "base_document",
@@ -133,12 +139,14 @@ def _base_nodes(base: dict, nodes: list[str]) -> dict:
 
 def graph_from_labels(sequences, label_map: dict, *, name: str = "learned",
                       families: dict | None = None, sources: str = "",
-                      base: dict | None = None) -> dict:
+                      base: dict | None = None, samples: dict | None = None) -> dict:
     """The graph document (``datasets_spec/GRAPHS.md``) of the module notes from label
     sequences; ``families`` maps a node to its extra model declarations
     (``{role: (model name, declaration)}``).  ``base`` (a graph document): the nodes keep
     that graph's models, transient flags and labels, and only the edges, their
-    probabilities and the initial probabilities are learned."""
+    probabilities and the initial probabilities are learned.  ``samples``: each node's
+    labelled samples at the rate the observer reads (then each edge's probability is per
+    sample, ``n_ij / N_i``; without them ``n_ij / n_i``, per change)."""
     nodes = _node_order(label_map)
     declared = _base_nodes(base, nodes) if base is not None else {}
     first, pairs = count_transitions(sequences)
@@ -198,11 +206,16 @@ def graph_from_labels(sequences, label_map: dict, *, name: str = "learned",
             if key in base:
                 doc[key] = base[key]
     if edges:
+        per = {a: max(samples.get(a, 0), out_n[a]) if samples else out_n[a] for a, _ in edges}
         doc["edge_sets"] = [{"actions": [ACTION],
                              "edges": [f"{a} -> {b}" for a, b in edges],
-                             "probabilities": [round(pairs[(a, b)] / out_n[a], 6)
-                                               for a, b in edges]}]
+                             "probabilities": [_prob(pairs[(a, b)] / per[a]) for a, b in edges]}]
     return doc
+
+
+def _prob(p: float) -> float:
+    """A probability as the graph file keeps it: six significant digits."""
+    return float(f"{p:.6g}")
 
 
 def _families(extra, stats: dict, rate_hz: float) -> dict:
@@ -260,6 +273,7 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
         full = with_outside
     nodes = _node_order(full)
     force = {n: [] for n in nodes}
+    samples: Counter = Counter()
     has_pos = True
     raw_labels: set = set()
     for path in archives:
@@ -273,6 +287,9 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                 seq, runs = label_sequences(trial, full)
                 if not seq:
                     continue
+                factor = factor_for(float(trial.rate_hz))     # the conditioned rate's
+                for a, b, k in runs:
+                    samples[seq[k]] += (b - a) / factor
                 sequences.append(seq)
                 used.append(f"{path.name}:{tid}")
                 rates.append(float(trial.rate_hz))
@@ -294,7 +311,7 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
     src = ", ".join(Path(a).name for a in archives)
     doc = graph_from_labels(sequences, full, name=name or "learned", families=fam,
                             sources=f"learned from the labels of {len(sequences)} trials of {src}",
-                            base=base)
+                            base=base, samples=samples)
     first, pairs = count_transitions(sequences)
     summary = {"trials": used, "nodes": nodes,
                "label_map": ",".join(f"{k}={v}" for k, v in full.items()),
