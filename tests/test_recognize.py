@@ -217,6 +217,18 @@ def test_detection_delays_by_hand():
     assert d["missed"] == 1 and d["extra"] == 2 and d["transitions"] == 2
 
 
+def test_detection_delays_take_a_short_run_as_the_run_before_it():
+    # A, a 2-sample flicker of B, A again, then B for good and a 1-sample C inside it
+    truth = np.array([0] * 10 + [1] * 2 + [0] * 8 + [1] * 5 + [2] + [1] * 10)
+    path = [("A", 0), ("B", 21)]
+    every = detection_delays(truth, path, ["A", "B", "C"], window=5)
+    assert every["transitions"] == 5 and every["missed"] == 4
+    d = detection_delays(truth, path, ["A", "B", "C"], window=5, min_run=3)
+    # one transition left, A -> B at 20, marked at 21
+    assert d["transitions"] == 1 and d["missed"] == 0
+    assert d["counts"] == {"0": 0, "1": 1, "2": 0, "3": 0, ">3": 0} and d["delays"] == [1]
+
+
 def test_recognize_on_two_workers_matches_a_serial_run(files):
     kw = dict(graph=files["graph"], models=files["models"], write=False)
     serial = recognize_archive(files["test"], **kw)

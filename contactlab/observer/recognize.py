@@ -76,15 +76,17 @@ def merge_path(path) -> list[tuple[str, int]]:
     return out
 
 
-def detection_delays(truth, path, node_names, *, window: int = 50) -> dict:
-    """Delay table of 7.3.2 for one trial (see the module notes).
+def detection_delays(truth, path, node_names, *, window: int = 50, min_run: int = 0) -> dict:
+    """Delay table of 7.3.2 for one trial (see the module notes).  ``min_run``: labelled
+    runs shorter than this many samples are taken as the run before them (a label's
+    flicker is no transition to detect; 0 counts every label change).
 
     Returns ``{"counts": {bin: n}, "missed": n, "extra": n, "delays": [signed]}``.
     """
     names = list(node_names)
     t = np.asarray(truth, np.int64)
     idx = np.flatnonzero(t >= 0)
-    lab = t[idx]
+    lab = _debounced(t[idx], min_run) if min_run > 1 else t[idx]
     ch = np.flatnonzero(np.diff(lab) != 0) + 1
     true_tr = [(int(lab[c]), int(idx[c])) for c in ch]
     marks = [(names.index(n), s) for n, s in merge_path(path)[1:]]
@@ -115,6 +117,21 @@ def detection_delays(truth, path, node_names, *, window: int = 50) -> dict:
         counts[str(abs(d)) if abs(d) <= 3 else ">3"] += 1
     return {"counts": counts, "missed": missed, "extra": len(marks) - len(used),
             "delays": delays, "transitions": len(true_tr)}
+
+
+def _debounced(lab: np.ndarray, min_run: int) -> np.ndarray:
+    """``lab`` with each run shorter than ``min_run`` samples given the label of the run
+    before it (the first run kept), repeated until none is left."""
+    lab = lab.copy()
+    while True:
+        ch = np.flatnonzero(np.diff(lab) != 0) + 1
+        starts = np.r_[0, ch]
+        runs = np.diff(np.r_[starts, len(lab)])
+        short = np.flatnonzero(runs[1:] < min_run) + 1
+        if len(short) == 0:
+            return lab
+        k = short[0]
+        lab[starts[k]:starts[k] + runs[k]] = lab[starts[k] - 1]
 
 
 def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray | None:
