@@ -888,29 +888,6 @@ def _event_fits(cfg, st, ev, t, deg, maxk):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _node_probabilities(pll, pnode, nP, K, ro, nprob, mapn, wp):  # pragma: no cover
-    """Row ``ro`` of the node probabilities (6.5: the paths' normalised likelihoods summed
-    per node) and the best path's node."""
-    best_p = 0
-    for p in range(1, nP):
-        if pll[p] > pll[best_p]:
-            best_p = p
-    for k in range(K):
-        nprob[ro, k] = 0.0
-    if nP == 1:                                 # exp(0) / exp(0)
-        nprob[ro, pnode[0]] = 1.0
-    else:
-        top_ll = pll[best_p]
-        tot = 0.0
-        for p in range(nP):
-            wp[p] = math.exp(pll[p] - top_ll)
-            tot += wp[p]
-        for p in range(nP):
-            nprob[ro, pnode[p]] += wp[p] / tot
-    mapn[ro] = pnode[best_p]
-
-
-@numba.njit(cache=True, inline="always")
 def _catch_up_sums(newp, n_new, ccll, inc, ua, ct, pstart, pslot, ha, hr):  # pragma: no cover
     """The catch-up's sample ``ct``: each new path begun by then adds its instances'
     log-likelihoods (``inc`` from instance ``ua``) and writes its history row ``hr``."""
@@ -965,8 +942,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     the sample's Kalman instances in passes (below); every other instance by
     :func:`_filter_step` or :func:`_direct_score` and its detector row
     (:func:`_detectors`); then the catch-up's sums or the paths' (6.10) and at an event
-    :func:`_spawn`, the catch-up and :func:`_prune`; then the node probabilities
-    (:func:`_node_probabilities`).
+    :func:`_spawn`, the catch-up and :func:`_prune`; then the node probabilities.
 
     The per-sample loops read the arrays as locals and the two-parameter passes are
     written out here: an array taken from a tuple or handed to a helper inside them costs
@@ -1073,14 +1049,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                 if est:
                     ust[u, 0, R2_VE] = ve
                     ust[u, 0, R2_VC] = vc
-                chi = lc * -2.0
-                for si in range(udf.shape[1]):   # _detectors, written out
-                    x = sa[k, si] + sb[k, si] * (chi if ssrc[si] == 0 else al)
-                    dv = cusum_step(udf[u, si], x)
-                    udf[u, si] = dv
-                    lz = ulz[u, si]
-                    ulz[u, si] = tt if dv == 0.0 else lz
-                    top = dv if dv > top else top
+                top = _detectors(sa, sb, ssrc, udf, ulz, u, k, tt, lc * -2.0, al, top)
                 inc[u - ua] = ll
             nb = na                             # their covariances: pass 3 (_step2_b)
             if not direct:
