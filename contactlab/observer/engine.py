@@ -680,13 +680,15 @@ def _graph_bounds(cfg):  # pragma: no cover - compiled
     return direct, maxk, max(1, cfg.n_succ.max())
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no cover
     """One sample of :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one
     scalar filter (m = 1), operation for operation, on the state row ``ust[u, c]``
     (:func:`state_width`'s layout), the regressors in ``H[0]`` of the scratch ``sc``
     (:func:`_step_scratch`).  Returns the log-likelihood, ``-al^2 / 2`` and the normalised
-    innovation ``al``."""
+    innovation ``al``.  Compiled apart, not inlined: it serves only models of differing
+    parameter counts, where a call per channel costs less than compiling the step into
+    every specialisation of :func:`run_core` (3 s of each)."""
     H, A, Z, L2, Zs, V2, Zv = sc
     oS = qmax
     oL = qmax + qmax * qmax
@@ -760,10 +762,12 @@ def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no
     return ll, lc, al
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _step2_channel(ust, u, c, y, g0, g1, mode, est, pcount):  # pragma: no cover - compiled
     """:func:`_kalman_channel` for two parameters, on scalars (:func:`_step2`), the state
-    row ``ust[u, c]`` written back.  Returns the log-likelihood, ``-al^2 / 2`` and ``al``."""
+    row ``ust[u, c]`` written back.  Returns the log-likelihood, ``-al^2 / 2`` and ``al``
+    (compiled apart, as :func:`_kalman_channel`: it serves two-parameter models of several
+    channels)."""
     (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
      ll) = _step2(y, g0, g1, mode, est, pcount, ust[u, c, R2_TH0], ust[u, c, R2_TH1],
                   ust[u, c, R2_S00], ust[u, c, R2_S01], ust[u, c, R2_S10], ust[u, c, R2_S11],
