@@ -121,17 +121,15 @@ def detection_delays(truth, path, node_names, *, window: int = 50, min_run: int 
 
 def _debounced(lab: np.ndarray, min_run: int) -> np.ndarray:
     """``lab`` with each run shorter than ``min_run`` samples given the label of the run
-    before it (the first run kept), repeated until none is left."""
+    before it as that run stands after its own merge (the first run kept); one pass over
+    the runs."""
     lab = lab.copy()
-    while True:
-        ch = np.flatnonzero(np.diff(lab) != 0) + 1
-        starts = np.r_[0, ch]
-        runs = np.diff(np.r_[starts, len(lab)])
-        short = np.flatnonzero(runs[1:] < min_run) + 1
-        if len(short) == 0:
-            return lab
-        k = short[0]
-        lab[starts[k]:starts[k] + runs[k]] = lab[starts[k] - 1]
+    starts = np.r_[0, np.flatnonzero(np.diff(lab) != 0) + 1]
+    stops = np.r_[starts[1:], len(lab)]
+    for a, b in zip(starts[1:], stops[1:]):
+        if b - a < min_run:
+            lab[a:b] = lab[a - 1]
+    return lab
 
 
 def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray | None:
