@@ -70,7 +70,7 @@ demo: $(STAMP)
 
 ## Run the test suite.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadscope
 
 ## Build the documentation site into docs/_build/html/index.html (Sphinx, numpydoc,
 ## the verbs' help, the file formats, the API from the docstrings, and the examples,

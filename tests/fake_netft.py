@@ -108,6 +108,7 @@ class FakeNetFT:
         return False
 
     def _send_script(self, peer) -> None:
+        t0 = time.monotonic()
         for i, item in enumerate(self.script):
             if self._closing.is_set() or self._stop_requested():
                 return
@@ -118,6 +119,8 @@ class FakeNetFT:
                 return
             self.sent += 1
             if self.pace_hz and (i + 1) % 10 == 0:
-                time.sleep(10 / self.pace_hz)
+                # to a schedule, not a sleep per block: a late wake-up (a loaded machine)
+                # is made up by the next blocks, so the box's rate stays pace_hz
+                time.sleep(max(0.0, t0 + (i + 1) / self.pace_hz - time.monotonic()))
             elif i % 20 == 19:
                 time.sleep(0.001)   # let the receiver drain; loopback UDP can overflow too
