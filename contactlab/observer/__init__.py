@@ -4,6 +4,7 @@ the change-triggered beam Viterbi search of section 6.4.
 - :mod:`.graph` -- :class:`FeatureGraph` and the TOML loader/validator (:func:`load_graph`).
 - :mod:`.models` -- the feature models (one interface, one module per family).
 - :mod:`.paths` -- path histories, change events, trimmed buffers.
+- :mod:`.events` -- 6.4's decisions at a detected change (alarms, candidates, pruning).
 - :mod:`.observer` -- :class:`Observer` (incremental, ``process(chunk)``) and :func:`observe`.
 
 Example::

@@ -39,7 +39,8 @@ inlined into them, or arrays taken from the state tuples inside them, cost refer
 counting per instance, which measured 1.3-2.5x slower on the 7.3 graphs; every other
 part is a named helper (:func:`_filter_step`, :func:`_direct_score`,
 :func:`_detectors`, :func:`_path_sums`, :func:`_catch_up_sums`, :func:`_event_fits`,
-:func:`_spawn`, :func:`_prune`).
+:func:`_spawn`, :func:`_prune`); an event's decisions are
+:mod:`~contactlab.observer.events`', which the general form uses too.
 
 State: paths (id, node, start, initial and current log-likelihood, column of the
 log-likelihood history, segment), instances ("units": path, model, start,
@@ -61,6 +62,7 @@ import numpy as np
 
 from contactlab.detection.cusum import cusum_step
 from contactlab.estimators.householder import tri_append_n
+from contactlab.observer.events import best_candidates, collect_alarms, keep_set
 from contactlab.observer.models.constraint import SCRATCH as CONSTRAINT_SCRATCH
 from contactlab.observer.models.constraint import constraint_step
 from contactlab.observer.models.gaussian import gaussian_step
@@ -165,95 +167,21 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
     aa, abase = st.actions, st.action_base
     snode, sstart, sprev = st.seg_node, st.seg_start, st.seg_prev
     evt, alt, spt, mgt = ev.events, ev.alarms, ev.spawned, ev.merged
-    S = udf.shape[1]
     nP, nU = cnt[C_P], cnt[C_U]
-    # alarms: every test that crossed, each distinct change time (its last zero + 1)
-    al_p, al_k, al_r, rs, c_j, c_r, c_init, c_prev, is_new = scr[:9]
-    nA = 0
-    for u in range(nU):
-        nr = 0
-        for s in range(S):
-            if udf[u, s] > thr:
-                r = ulz[u, s] + 1
-                dup = False
-                for i in range(nr):
-                    if rs[i] == r:
-                        dup = True
-                if not dup:
-                    i = nr
-                    while i > 0 and rs[i - 1] > r:
-                        rs[i] = rs[i - 1]
-                        i -= 1
-                    rs[i] = r
-                    nr += 1
-        if nr == 0:
-            continue
-        for s in range(S):                       # step 4: reset the spawning model's test
-            udf[u, s] = 0.0
-            ulz[u, s] = ta
-        for i in range(nr):
-            al_p[nA] = upath[u]
-            al_k[nA] = umodel[u]
-            al_r[nA] = rs[i]
-            nA += 1
-    # a transient node held for its longest duration ends (tmax): an alarm at the end
-    # of its duration, to every successor but itself, and the path is dropped below
-    nA_det = nA
-    for p in range(nP):
-        tm = tmax[pnode[p]]
-        if tm > 0 and ta - pstart[p] >= tm:
-            for u in range(nU):
-                if upath[u] == p:
-                    al_p[nA] = p
-                    al_k[nA] = umodel[u]
-                    al_r[nA] = pstart[p] + tm
-                    nA += 1
-                    break
-    # candidates (step 1) in alarm order, each from its best tracked predecessor
-    nC = 0
-    for i in range(nA):
-        r = al_r[i]
-        a1 = aa[r - abase] + 1
-        node = pnode[al_p[i]]
-        for jj in range(n_succ[a1, node]):
-            j = succ[a1, node, jj]
-            if i >= nA_det and j == node:
-                continue                         # an ended transient goes on elsewhere
-            seen = False
-            for c in range(nC):
-                if c_j[c] == j and c_r[c] == r:
-                    seen = True
-                    break
-            if seen:
-                continue
-            best = -np.inf
-            prev = -1
-            hr = r - hbase
-            for p in range(nP):
-                if pstart[p] < r:           # an instance explains a sample (fig 6.2)
-                    v = ha[hr, pslot[p]] + logT[a1, pnode[p], j]
-                    if v > best:
-                        best = v
-                        prev = pseg[p]
-            c_j[nC] = j
-            c_r[nC] = r
-            c_init[nC] = best
-            c_prev[nC] = prev
-            nC += 1
-    # maximisation over (node, start) (step 2)
+    al_p, al_k, al_r, rs, c_j, c_r, c_init, c_prev, c_found = scr[:9]
+    nA, nA_det = collect_alarms(ta, thr, tmax, udf, ulz, upath, umodel, nU, pnode, pstart, nP,
+                                al_p, al_k, al_r, rs)
+    nC = best_candidates(nA, nA_det, al_p, al_r, pnode, pstart, pslot, nP, ha, hbase, aa,
+                         abase, succ, n_succ, logT, c_j, c_r, c_init, c_prev, c_found)
+    for c in range(nC):                          # the predecessors' segments, before merges
+        if c_prev[c] >= 0:
+            c_prev[c] = pseg[c_prev[c]]
+    # maximisation over (node, start) (step 2): a tracked instance takes a better start
     sp0, mg0 = cnt[C_SP], cnt[C_MG]
     for c in range(nC):
-        is_new[c] = False
-    for c in range(nC):
+        found = c_found[c]
         j, r, init = c_j[c], c_r[c], c_init[c]
-        found = -1
-        for p in range(nP):
-            if pnode[p] == j and pstart[p] == r:
-                found = p
-                break
-        if found < 0:
-            is_new[c] = True
-        elif init > pinit[found]:
+        if found >= 0 and init > pinit[found]:
             delta = init - pinit[found]
             pll[found] += delta
             sl = pslot[found]
@@ -269,7 +197,7 @@ def _spawn(ta, cfg, st, ev, newp, scr):  # pragma: no cover - compiled
             cnt[C_MG] += 1
     n_new = 0
     for c in range(nC):
-        if not is_new[c] or c_prev[c] < 0:       # no path began before r
+        if c_found[c] >= 0 or c_prev[c] < 0:     # tracked, or no path began before r
             continue
         j, r, init = c_j[c], c_r[c], c_init[c]
         p = cnt[C_P]
@@ -337,34 +265,9 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
                                                    st.path_slot, st.path_seg, st.path_init,
                                                    st.path_ll)
     evt, candt, keept = ev.events, ev.cand_ll, ev.kept
-    # pruning: rank, keep mass P_prune, drop those gap below the best
     nP = cnt[C_P]
     order, w, keep, remap = scr[9:]
-    for i in range(nP):                         # stable sort, largest first
-        x = pll[i]
-        j = i
-        while j > 0 and pll[order[j - 1]] < x:
-            order[j] = order[j - 1]
-            j -= 1
-        order[j] = i
-    top = pll[order[0]]
-    tot = 0.0
-    for i in range(nP):
-        w[i] = math.exp(pll[i] - top)
-        tot += w[i]
-    n_keep = nP
-    cum = 0.0
-    for i in range(nP):
-        cum += w[order[i]] / tot
-        if cum >= p_keep:
-            n_keep = i + 1
-            break
-    nk = 0
-    for i in range(n_keep):
-        if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
-            keep[nk] = order[i]
-            nk += 1
-    keep[:nk].sort()
+    nk = keep_set(pll, nP, p_keep, gap, max_paths, order, w, keep)
     # the event record
     e = cnt[C_EV]
     evt[e, E_CAND0] = cnt[C_CAND]
@@ -661,7 +564,7 @@ def _event_scratch(n_units, n_paths, S, deg):  # pragma: no cover - compiled
     return (np.empty(nuc, np.int64), np.empty(nuc, np.int64), np.empty(nuc, np.int64),
             np.empty(S, np.int64), np.empty(nuc * deg, np.int64),
             np.empty(nuc * deg, np.int64), np.empty(nuc * deg),
-            np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.bool_),
+            np.empty(nuc * deg, np.int64), np.empty(nuc * deg, np.int64),
             np.empty(n_paths, np.int64), np.empty(n_paths), np.empty(n_paths, np.int64),
             np.empty(n_paths, np.int64))
 

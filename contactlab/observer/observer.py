@@ -35,7 +35,9 @@ maximisation, catch-up and pruning -- runs in :mod:`contactlab.observer.engine`'
 compiled loop over flat arrays, and an event costs microseconds.  Otherwise (a
 model with only a ``run``) the general form below runs the models through their
 ``run``; the two give the same events, paths and path log-likelihoods (tests
-compare them).
+compare them).  Both take an event's decisions -- the alarms, the candidates and their
+best predecessors, the pruning's kept set -- from one place,
+:mod:`contactlab.observer.events`, and apply them to their own paths.
 
 In the general form, models whose instances advance by
 the same arithmetic from their own state (equal
@@ -95,6 +97,7 @@ import numpy as np
 from contactlab import defaults as D
 from contactlab.detection.cusum import all_finite, cusum_step
 from contactlab.observer.engine import Core
+from contactlab.observer.events import best_candidates, collect_alarms, keep_set
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
@@ -413,7 +416,6 @@ class Observer:
         self._membership = np.zeros((0, self.graph.n_nodes))
         self._succ: dict = {}
         self._log_edge: dict = {}
-        self._log_table: dict = {}
         self.reset()
 
     # -- state -----------------------------------------------------------------------
@@ -540,10 +542,7 @@ class Observer:
         self._model_dim = np.array([m.dim(self._channels[m.signal]) for m in ms], dtype=float)
         self._model_q = np.array([m.change_size or self.change_size for m in ms], dtype=float)
         self._side_tables()
-        tables = self.graph._tables.get(self.transitions)
-        if tables is None:                      # one build per graph, not per observer
-            tables = self.graph._tables[self.transitions] = self._core_tables()
-        succ, n_succ, log_t = tables
+        succ, n_succ, log_t = self._tables()
         self._core = Core(specs=specs, node_kinds=self._node_kinds, side_a=self._side_a,
                           side_b=self._side_b, side_src=self._side_src,
                           threshold=self.threshold, gap=self.gap,
@@ -560,13 +559,13 @@ class Observer:
 
     def _core_tables(self) -> tuple:
         """Per action code (none first): each node's successors, their count, and
-        ``log p(i -> j)`` (:meth:`_transition_table`'s, ``-inf`` off the edges)."""
+        ``log p(i -> j)`` (:meth:`_log_transition`, ``-inf`` off the edges)."""
         K = self.graph.n_nodes
         codes = [None] + list(range(len(self.graph.actions or ())))
         succ = np.zeros((len(codes), K, K), dtype=np.int64)
         n_succ = np.zeros((len(codes), K), dtype=np.int64)
         log_t = np.full((len(codes), K, K), -np.inf)
-        for a1, a in enumerate(codes):           # log_t: _transition_table's, edge by edge
+        for a1, a in enumerate(codes):
             for i in range(K):
                 js = self._successors(i, a)
                 n_succ[a1, i] = len(js)
@@ -821,61 +820,46 @@ class Observer:
 
     # -- events ----------------------------------------------------------------------
     def _handle_event(self, ta: int, end: int) -> None:
-        """6.4, "if a change in any model is detected": spawn, maximise, prune."""
-        thr = self.threshold
-        alarms = []
-        for u in np.flatnonzero((self._df > thr).any(axis=1)).tolist():
-            # every test that crossed is a detected change with its own change time (each
-            # the maximiser of 6.15 under its alternative); a big jump makes all of them
-            # cross, and the one with the largest statistic may date from an old excursion
-            rs = sorted({z + 1 for d, z in zip(self._df[u].tolist(), self._lz[u].tolist())
-                         if d > thr})
-            self._df[u] = 0.0                   # step 4: reset the spawning model's test
-            self._lz[u] = ta
-            alarms.extend((int(self._u_path[u]), self._model_names[self._u_model[u]], r)
-                          for r in rs)
-        # a transient node held for its longest duration ends: an alarm at the end of its
-        # duration to every successor but itself; the path is dropped (below)
-        n_det = len(alarms)
-        for pi, p in enumerate(self._paths):
-            tm = int(self._tmax[p.node])
-            if tm > 0 and ta - p.start >= tm:
-                u = int(np.flatnonzero(self._u_path == pi)[0])
-                alarms.append((pi, self._model_names[self._u_model[u]], p.start + tm))
-        # candidates (step 1) with the maximisation over (node, start) (step 2)
-        by_start: dict[int, tuple] = {}           # start -> (action, [successor nodes])
-        cands: dict[tuple[int, int], tuple[float, Segment] | None] = {}   # in alarm order
-        for i, (pi, _, r) in enumerate(alarms):
-            if r not in by_start:
-                a = int(self._act.rows(r, r + 1)[0, 0])
-                by_start[r] = (None if a < 0 else a, [])
-            a, js = by_start[r]
-            node = self._paths[pi].node
-            for j in self._successors(node, a):
-                if i >= n_det and j == node:
-                    continue                    # an ended transient goes on elsewhere
-                if (j, r) not in cands:
-                    cands[(j, r)] = None
-                    js.append(j)
-        for r, (a, js) in by_start.items():
-            cands.update(zip([(j, r) for j in js], self._best_predecessors(js, r, a)))
-        tracked = {(p.node, p.start): i for i, p in enumerate(self._paths)}
-        spawned, merged = [], []
-        new = []
-        for (j, r), (init, prev) in cands.items():
-            if (j, r) in tracked:
-                i = tracked[(j, r)]
-                p = self._paths[i]
+        """6.4, "if a change in any model is detected": the alarms and candidates with
+        their best predecessors (:mod:`~contactlab.observer.events`, the compiled core's
+        own), then the merges, the new paths and the pruning on the banks."""
+        nodes, slots, _ = self._path_arrays()
+        starts = np.array([p.start for p in self._paths], dtype=np.int64)
+        U, S = self._df.shape
+        n_al = U * (S + 1)                      # each test's time, and transients' ends
+        n_c = n_al * max(1, int(self._tables()[1].max()))   # an alarm's successors
+        al_p, al_k, al_r = (np.empty(n_al, np.int64) for _ in range(3))
+        n_alarms, n_det = collect_alarms(ta, self.threshold, self._tmax, self._df, self._lz,
+                                         self._u_path, self._u_model, U, nodes, starts,
+                                         len(self._paths), al_p, al_k, al_r,
+                                         np.empty(S, np.int64))
+        c_j, c_r, c_from, c_found = (np.empty(n_c, np.int64) for _ in range(4))
+        c_init = np.empty(n_c)
+        succ, n_succ, log_t = self._tables()
+        act = self._act
+        n_c = best_candidates(n_alarms, n_det, al_p, al_r, nodes, starts, slots, len(self._paths),
+                              self._hist.a, self._hist.t0 - self._hist.off, act.a[:, 0],
+                              act.t0 - act.off, succ, n_succ, log_t, c_j, c_r, c_init, c_from,
+                              c_found)
+        alarms = [(int(p), self._model_names[k], int(r))
+                  for p, k, r in zip(al_p[:n_alarms], al_k[:n_alarms], al_r[:n_alarms])]
+        # the predecessors' segments, taken before any merge changes them
+        prevs = [self._paths[f].seg if f >= 0 else None for f in c_from[:n_c].tolist()]
+        spawned, merged, new = [], [], []
+        for j, r, init, prev, f in zip(c_j[:n_c].tolist(), c_r[:n_c].tolist(),
+                                       c_init[:n_c].tolist(), prevs, c_found[:n_c].tolist()):
+            if f >= 0:                          # step 2: a tracked instance, a better start
+                p = self._paths[f]
                 if init > p.init:
                     delta = init - p.init
-                    self._ll[i] += delta
+                    self._ll[f] += delta
                     self._hist.rows(r, ta + 2)[:, p.slot] += delta
                     p.init = init
                     p.seg = Segment(j, r, prev)
                     merged.append((self.graph.nodes[j].name, r))
             elif prev is not None:
                 new.append((j, r, init, prev))
-        for pi, _, _ in alarms[n_det:]:
+        for pi, _, _ in alarms[n_det:]:         # the ended transients leave
             self._ll[pi] = -math.inf
         n_units = len(self._u_path)
         if new:
@@ -886,46 +870,19 @@ class Observer:
         n_new = len(self._u_path) - n_units if kept is None else int(kept[n_units:].sum())
         self._run_on(n_new, ta + 1, end)
 
+    def _tables(self) -> tuple:
+        """The graph's successor and ``log p(i -> j)`` tables (:meth:`_core_tables`), one
+        build per graph and transitions setting."""
+        tables = self.graph._tables.get(self.transitions)
+        if tables is None:
+            tables = self.graph._tables[self.transitions] = self._core_tables()
+        return tables
+
     def _successors(self, node: int, action) -> tuple[int, ...]:
         key = (node, action)
         if key not in self._succ:
             self._succ[key] = self.graph.successors(node, action)
         return self._succ[key]
-
-    def _best_predecessors(self, js: list, r: int, action) -> list[tuple[float, Segment]]:
-        """For each node j of ``js``, the best tracked path into instance ``(j, r)``: the
-        highest path log-likelihood after sample ``r - 1`` (plus ``log p(i -> j)``) over the
-        tracked paths started before ``r`` whose node may go to ``j`` (the maximisation of
-        6.1/6.5 over the predecessors of a feature instance); the first such path on ties,
-        ``(-inf, None)`` if none.  An instance explains at least one measurement (the
-        lattice of fig 6.2), so a path started at ``r`` is no predecessor at ``r``: else one
-        change would carry a path through a chain of nodes of no samples each (9.2: "104
-        must be detected before 90 can be hypothesized").  A handful of paths:
-        plain Python floats (the same double additions as numpy's)."""
-        row = self._hist.rows(r, r + 1)[0, self._path_arrays()[1]].tolist()
-        T = self._transition_table(action)
-        out = []
-        for j in js:
-            best, prev = -math.inf, None
-            for p, v in zip(self._paths, row):
-                if p.start < r:
-                    v += T[p.node][j]
-                    if v > best:
-                        best, prev = v, p.seg
-            out.append((best, prev))
-        return out
-
-    def _transition_table(self, action) -> list[list[float]]:
-        """``[i][j]``: ``log p(i -> j | action)`` where i may go to j
-        (:meth:`_log_transition`), ``-inf`` elsewhere."""
-        if action not in self._log_table:
-            K = self.graph.n_nodes
-            T = [[-math.inf] * K for _ in range(K)]
-            for i in range(K):
-                for j in self._successors(i, action):
-                    T[i][j] = self._log_transition(i, j, action)
-            self._log_table[action] = T
-        return self._log_table[action]
 
     def _log_transition(self, i: int, j: int, action) -> float:
         """``log p(i -> j | action)`` from the graph's edge probabilities (0 where the graph
@@ -1044,16 +1001,12 @@ class Observer:
         """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events.
         Returns the mask of the units kept (None: all)."""
         ll = self._ll
-        order = np.argsort(-ll, kind="stable")
-        w = np.exp(ll - ll[order[0]])
-        w /= w.sum()
-        cum = np.cumsum(w[order])
-        n_keep = int(np.searchsorted(cum, self.p_prune * (1 - 1e-12)) + 1)
-        keep = order[:min(n_keep, len(order))]
-        keep = keep[ll[keep] >= ll[order[0]] - self.gap]
-        if self.max_paths is not None:
-            keep = keep[:self.max_paths]
-        keep = np.sort(keep)
+        n = len(ll)
+        keep = np.empty(n, np.int64)
+        nk = keep_set(ll, n, self.p_prune * (1 - 1e-12), self.gap,
+                      -1 if self.max_paths is None else self.max_paths,
+                      np.empty(n, np.int64), np.empty(n), keep)
+        keep = keep[:nk]
         cand_ll = ll.copy()
         if alarms:
             for k, (pi, model, r) in enumerate(alarms):
