@@ -22,22 +22,13 @@ which differ from numpy's by a few units in the last place.
 
 The filter step is :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for
 one scalar filter (m = 1, every channel of the linear feature models is one),
-operation for operation (:func:`_kalman_channel`; the detectors call
-:func:`~contactlab.detection.cusum.cusum_step`).  When all models share one parameter
-count the loop is compiled for it (the step's loops then have constant bounds: half
-the cost).  When that count is two (AR(1) with a mean, the impact model's level and
-slope: every hf model of 7.3) the step is written out on scalars (:func:`_step2_a`,
-:func:`_step2_b`, :func:`_step2_c`; the same operations, so the results are the
-general step's to the bit), which keeps its state in registers.  Its cost is one
-dependent chain per instance and sample (three square roots and three divisions of
-the Householder rows, ~60-80 ns); the instances of a sample are independent, so the
-step runs in passes over them (the first row; the update, statistics and detectors;
-after the sample's bookkeeping, the covariance rows) and the processor overlaps their
-chains, and after an event the new paths are caught up together, sample by sample,
-for the same reason.  Those passes are written out in :func:`run_core`: helpers
-inlined into them, or arrays taken from the state tuples inside them, cost reference
-counting per instance, which measured 1.3-2.5x slower on the 7.3 graphs; every other
-part is a named helper (:func:`_filter_step`, :func:`_direct_score`,
+operation for operation (:func:`_kalman_channel`, compiled apart, takes the parameter
+count as an argument, so the loop is compiled once for every count; the detectors call
+:func:`~contactlab.detection.cusum.cusum_step`).  A written-out two-parameter step on scalars (the
+state in registers, the instances in passes so that their dependent chains overlap)
+measured no faster on the 7.3 graphs (the hour of y_h at 2,300-2,900x real time with it
+and 2,500-2,900x without) and was one more copy of the square-root step, so it is gone.
+Every part of the loop is a named helper (:func:`_filter_step`, :func:`_direct_score`,
 :func:`_detectors`, :func:`_path_sums`, :func:`_catch_up_sums`, :func:`_event_fits`,
 :func:`_spawn`, :func:`_prune`); an event's decisions are
 :mod:`~contactlab.observer.events`', which the general form uses too.
@@ -96,10 +87,6 @@ N_EV_COLS = 11
 #: measurement buffer, channels, regressor structure (``kalman.MODE_*``), whether the noise
 #: is estimated on-line
 MI_REG, MI_ORDER, MI_MEAN, MI_Q, MI_COL, MI_CHANNELS, MI_MODE, MI_EST = range(8)
-#: the state row of a two-parameter instance (``state_width(2)``): theta, S (row-major),
-#: L (row-major, lower), the running and the fixed square-root noise, the running count
-R2_TH0, R2_TH1, R2_S00, R2_S01, R2_S10, R2_S11, R2_L00, R2_L01, R2_L10, R2_L11 = range(10)
-R2_VE, R2_LV, R2_VC = 10, 11, 12
 
 
 #: the core's configuration, fixed for one observer: each model's row (``MI_*``
@@ -311,206 +298,6 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _step2_a(y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11,
-             lv):  # pragma: no cover - compiled
-    """The first part of :func:`_step2`: the structure update, the innovation, the
-    pre-array and its first Householder row (``lv``: the noise's square root in use).
-    Returns the structure factor, the innovation and the post-array's entries so far."""
-    # structure update (A.41): tri_append_n(L, psi^T, 2, 1) written out
-    if mode == 1:
-        z0, z1 = g0, g1
-        s = 0.0
-        s += z0 * z0
-        a = l00
-        if s == 0.0:
-            if a < 0.0:
-                l00 = -l00
-                l10 = -l10
-        else:
-            nrm = math.sqrt(a * a + s)
-            if a <= 0.0:
-                v0 = a - nrm
-            else:
-                v0 = -s / (a + nrm)
-            beta = 2.0 / (v0 * v0 + s)
-            w = l10 * v0
-            w += z1 * z0
-            w *= beta
-            l10 -= w * v0
-            z1 -= w * z0
-            l00 = nrm
-        s = 0.0
-        s += z1 * z1
-        a = l11
-        if s == 0.0:
-            if a < 0.0:
-                l11 = -l11
-        else:
-            l11 = math.sqrt(a * a + s)
-    # orthogonal regressors psi~ (A.40, A.42)
-    h0 = g0
-    h1 = g1
-    if mode != 0:
-        d = l00
-        if d != 0.0:
-            h1 -= (l10 / d) * h0
-    # innovation (A.34)
-    nu = y
-    nu -= h0 * th0
-    nu -= h1 * th1
-    # pre-array (A.32) [[Lv, 0 | psi S], [0, 0 | S]] and tri_append_n(A, Z, 3, 2) (A.33)
-    a00 = lv
-    a10 = 0.0
-    a20 = 0.0
-    z00 = 0.0
-    z00 += h0 * s00
-    z00 += h1 * s10
-    z01 = 0.0
-    z01 += h1 * s11
-    z10, z11, z20, z21 = s00, s01, s10, s11
-    # row 0
-    s = 0.0
-    s += z00 * z00
-    s += z01 * z01
-    a = a00
-    if s == 0.0:
-        if a < 0.0:
-            a00 = -a00
-            a10 = -a10
-            a20 = -a20
-    else:
-        nrm = math.sqrt(a * a + s)
-        if a <= 0.0:
-            v0 = a - nrm
-        else:
-            v0 = -s / (a + nrm)
-        beta = 2.0 / (v0 * v0 + s)
-        w = a10 * v0
-        w += z10 * z00
-        w += z11 * z01
-        w *= beta
-        a10 -= w * v0
-        z10 -= w * z00
-        z11 -= w * z01
-        w = a20 * v0
-        w += z20 * z00
-        w += z21 * z01
-        w *= beta
-        a20 -= w * v0
-        z20 -= w * z00
-        z21 -= w * z01
-        a00 = nrm
-    return l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21
-
-
-@numba.njit(cache=True, inline="always")
-def _step2_b(z10, z11, z20, z21):  # pragma: no cover - compiled
-    """:func:`_step2`'s second and third Householder rows from :func:`_step2_a`'s
-    output: the new square-root covariance ``S`` (its upper entry stays zero)."""
-    a11 = 0.0
-    a21 = 0.0
-    a22 = 0.0
-    # rows 1 and 2 begin with a11 = a21 = a22 = 0, which shortens them exactly: with
-    # s = (0 + x^2) + y^2 (never -0) and a = +0, a * a + s is s; s == 0 leaves them (a < 0
-    # fails); nrm = sqrt(s) > 0 (or NaN), so v0 = a - nrm is -nrm and v0 * v0 is nrm * nrm;
-    # w = a21 * v0 = -0 and -0 + x is x for every x.  The dependent chain from one sample to
-    # the next runs through these rows, so each addition saved is saved per step.
-    # row 1
-    s = z10 * z10
-    s += z11 * z11
-    if s != 0.0:
-        nrm = math.sqrt(s)
-        v0 = -nrm
-        beta = 2.0 / (nrm * nrm + s)
-        w = z20 * z10
-        w += z21 * z11
-        w *= beta
-        a21 -= w * v0
-        z20 -= w * z10
-        z21 -= w * z11
-        a11 = nrm
-    # row 2
-    s = z20 * z20
-    s += z21 * z21
-    if s != 0.0:
-        a22 = math.sqrt(s)
-    return a11, a21, a22
-
-
-@numba.njit(cache=True, inline="always")
-def _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc):  # pragma: no cover - compiled
-    """:func:`_step2`'s update and statistics from :func:`_step2_a`'s output (they do not
-    need the second and third rows): the parameters, the running noise estimate, the
-    normalised innovation, ``-al^2 / 2`` and the log-likelihood."""
-    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-    d = a00
-    al = nu / d if d != 0.0 else np.nan
-    lc = 0.0
-    logdet = 0.0
-    lc -= 0.5 * al * al
-    logdet += math.log(a00)
-    s = 0.0
-    s += a10 * al
-    th0 += s
-    s = 0.0
-    s += a20 * al
-    th1 += s
-    ll = lc - logdet - _HALF_LOG_2PI
-    # running square-root innovation variance (A.38): tri_append_n(V, Zv, 1, 1)
-    if est:
-        vc = vc + 1.0
-        nn = pcount + vc
-        c_old = math.sqrt(1.0 - 1.0 / nn)
-        c_new = math.sqrt(1.0 / nn)
-        zv = c_new * nu
-        v2 = ve * c_old
-        s = 0.0
-        s += zv * zv
-        a = v2
-        if s == 0.0:
-            if a < 0.0:
-                v2 = -v2
-        else:
-            v2 = math.sqrt(a * a + s)
-        ve = v2
-    # the post-array's upper entry A[1, 2] stays zero: S01 = 0
-    return th0, th1, ve, vc, al, lc, ll
-
-
-@numba.njit(cache=True, inline="always")
-def _step2(y, g0, g1, mode, est, pcount, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, lv,
-           vc):  # pragma: no cover - compiled
-    """One filter step for two parameters on scalars: :func:`run_core`'s general step
-    (``kalman_step``'s kernel for m = 1) written out for q = 2, operation for operation, so
-    the state stays in registers (the general step's scratch arrays live in memory, and
-    every pass through memory lengthens the step's dependent chain).  ``g0, g1``: the
-    regressors; state: parameters, their square-root covariance ``S`` (row-major), the
-    structure factor ``L`` (lower), the square-root noise estimate and its count, the fixed
-    square-root noise.  Returns the new state, the innovation, its normalised form, the
-    quadratic term ``-al^2 / 2`` and the log-likelihood."""
-    l00, l10, l11, nu, a00, a10, a20, z10, z11, z20, z21 = _step2_a(
-        y, g0, g1, mode, th0, th1, s00, s01, s10, s11, l00, l10, l11, ve if est else lv)
-    s00, s10, s11 = _step2_b(z10, z11, z20, z21)
-    th0, th1, ve, vc, al, lc, ll = _step2_c(nu, a00, a10, a20, th0, th1, est, pcount, ve, vc)
-    return th0, th1, s00, 0.0, s10, s11, l00, l10, l11, ve, vc, al, lc, ll
-
-
-@numba.njit(cache=True, inline="always")
-def _step2_covariances(nb, act, mid, ust):  # pragma: no cover - compiled
-    """Pass 3 of the two-parameter step: the covariances (:func:`_step2_b`, the dependent
-    chain's second half) of the sample's ``nb`` instances ``act``, from their pass-1 rows
-    in ``mid``; run after the sample's bookkeeping, right before the next sample's first
-    rows, so the bookkeeping is done in the chains' shadow."""
-    for i in range(nb):
-        u = act[i]
-        s00, s10, s11 = _step2_b(mid[i, 4], mid[i, 5], mid[i, 6], mid[i, 7])
-        ust[u, 0, R2_S00] = s00
-        ust[u, 0, R2_S01] = 0.0
-        ust[u, 0, R2_S10] = s10
-        ust[u, 0, R2_S11] = s11
-
-
-@numba.njit(cache=True, inline="always")
 def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
     """A directly scored model's log-likelihood and chi-square of one sample ``x`` (its
     signal's columns), its state row ``s`` advanced (``w``: scratch); the Gaussian model,
@@ -518,17 +305,6 @@ def _direct_step(reg, p, s, x, w):  # pragma: no cover - compiled
     if reg == REG_CONSTRAINT:
         return constraint_step(p, s, x, w)
     return velocity_step(p, x)
-
-
-@numba.njit(cache=True, inline="always")
-def _two_regressors(mi, k, x, row, col, tt, start):  # pragma: no cover - compiled
-    """A two-parameter model's regressors at sample ``tt`` (buffer row ``row``): ``[1,
-    y(t-1)]`` (AR(1) with a constant), ``[y(t-1), y(t-2)]`` (AR(2)) or ``[1, t - start]``."""
-    if mi[k, MI_REG] == REG_AR:
-        if mi[k, MI_MEAN]:
-            return 1.0, x[row - 1, col]
-        return x[row - 1, col], x[row - 2, col]
-    return 1.0, float(tt - start)
 
 
 @numba.njit(cache=True, inline="always")
@@ -589,9 +365,8 @@ def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no
     scalar filter (m = 1), operation for operation, on the state row ``ust[u, c]``
     (:func:`state_width`'s layout), the regressors in ``H[0]`` of the scratch ``sc``
     (:func:`_step_scratch`).  Returns the log-likelihood, ``-al^2 / 2`` and the normalised
-    innovation ``al``.  Compiled apart, not inlined: it serves only models of differing
-    parameter counts, where a call per channel costs less than compiling the step into
-    every specialisation of :func:`run_core` (3 s of each)."""
+    innovation ``al``.  Compiled apart, not inlined: a call per channel costs less than
+    compiling the step into every specialisation of :func:`run_core` (3 s of each)."""
     H, A, Z, L2, Zs, V2, Zv = sc
     oS = qmax
     oL = qmax + qmax * qmax
@@ -665,40 +440,12 @@ def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no
     return ll, lc, al
 
 
-@numba.njit(cache=True)
-def _step2_channel(ust, u, c, y, g0, g1, mode, est, pcount):  # pragma: no cover - compiled
-    """:func:`_kalman_channel` for two parameters, on scalars (:func:`_step2`), the state
-    row ``ust[u, c]`` written back.  Returns the log-likelihood, ``-al^2 / 2`` and ``al``
-    (compiled apart, as :func:`_kalman_channel`: it serves two-parameter models of several
-    channels)."""
-    (th0, th1, s00, s01, s10, s11, l00, l10, l11, ve, vc, al, lc,
-     ll) = _step2(y, g0, g1, mode, est, pcount, ust[u, c, R2_TH0], ust[u, c, R2_TH1],
-                  ust[u, c, R2_S00], ust[u, c, R2_S01], ust[u, c, R2_S10], ust[u, c, R2_S11],
-                  ust[u, c, R2_L00], ust[u, c, R2_L10], ust[u, c, R2_L11], ust[u, c, R2_VE],
-                  ust[u, c, R2_LV], ust[u, c, R2_VC])
-    ust[u, c, R2_TH0] = th0
-    ust[u, c, R2_TH1] = th1
-    ust[u, c, R2_S00] = s00
-    ust[u, c, R2_S01] = s01
-    ust[u, c, R2_S10] = s10
-    ust[u, c, R2_S11] = s11
-    if mode == 1:
-        ust[u, c, R2_L00] = l00
-        ust[u, c, R2_L10] = l10
-        ust[u, c, R2_L11] = l11
-    if est:
-        ust[u, c, R2_VE] = ve
-        ust[u, c, R2_VC] = vc
-    return ll, lc, al
-
-
 @numba.njit(cache=True, inline="always")
-def _filter_step(mi, mf, x, ust, ustart, u, k, tt, row, qc, qmax, sc):  # pragma: no cover
+def _filter_step(mi, mf, x, ust, ustart, u, k, tt, row, qmax, sc):  # pragma: no cover
     """A Kalman instance ``u`` (model ``k``) on sample ``tt``: its log-likelihood,
     chi-square and normalised innovation, its channels added as ``run_kalman`` adds them
-    (each channel :func:`_step2_channel` when every model has two parameters, else
-    :func:`_kalman_channel`)."""
-    q = qc if qc > 0 else mi[k, MI_Q]
+    (each channel :func:`_kalman_channel`)."""
+    q = mi[k, MI_Q]
     C, mode, est = mi[k, MI_CHANNELS], mi[k, MI_MODE], mi[k, MI_EST] != 0
     pcount = mf[k]
     ll_sum = 0.0
@@ -706,13 +453,8 @@ def _filter_step(mi, mf, x, ust, ustart, u, k, tt, row, qc, qmax, sc):  # pragma
     zs = 0.0
     for c in range(C):
         col = mi[k, MI_COL] + c
-        if qc == 2:
-            g0, g1 = _two_regressors(mi, k, x, row, col, tt, ustart[u])
-            ll, lc, al = _step2_channel(ust, u, c, x[row, col], g0, g1, mode, est, pcount)
-        else:
-            _regressors(mi, k, x, row, col, tt, ustart[u], sc[0])
-            ll, lc, al = _kalman_channel(ust, u, c, q, qmax, x[row, col], mode, est, pcount,
-                                         sc)
+        _regressors(mi, k, x, row, col, tt, ustart[u], sc[0])
+        ll, lc, al = _kalman_channel(ust, u, c, q, qmax, x[row, col], mode, est, pcount, sc)
         if C == 1:
             ll_sum = ll
             chi = lc * -2.0
@@ -833,27 +575,19 @@ def _path_sums(pll, upath, inc, nP, nU, ha, hr, pslot, gap, tmax, pnode, pstart,
 
 
 @numba.njit(cache=True)
-def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pragma: no cover
+def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending):  # pragma: no cover
     """Samples ``t_from .. t_to - 1`` (global indices; ``nprob``/``mapn`` rows from
     ``t_out``).  Returns ``(status, t)``: :data:`OK` and ``t_to``, or :data:`FULL` and
     the sample whose event did not fit the arrays (:func:`_event_fits`: every crossed test
     with its own change time, every successor new); the caller grows them and resumes at
     ``t`` with ``pending`` (the sample itself is done, its event is not).  ``cfg``,
     ``st``, ``ev``: :class:`CoreConfig`, :class:`CoreState`, :class:`CoreEvents`.
-    ``qt``: a tuple as long as the parameter count every model shares (the loops of the
-    filter step then have compile-time bounds), or empty when their counts differ.
 
     One loop advances either every instance by the current sample or, after an event,
     the instances of the new paths begun by the catch-up sample (their detectors run, no
-    thresholding).  Per sample: for two parameters and one channel, the filter steps of
-    the sample's Kalman instances in passes (below); every other instance by
-    :func:`_filter_step` or :func:`_direct_score` and its detector row
-    (:func:`_detectors`); then the catch-up's sums or the paths' (6.10) and at an event
+    thresholding).  Per sample: every instance by :func:`_filter_step` or
+    :func:`_direct_score` and its detector row (:func:`_detectors`); then the catch-up's sums or the paths' (6.10) and at an event
     :func:`_spawn`, the catch-up and :func:`_prune`; then the node probabilities.
-
-    The per-sample loops read the arrays as locals and the two-parameter passes are
-    written out here: an array taken from a tuple or handed to a helper inside them costs
-    reference counting per instance, which made the two-parameter step 2.5x slower.
     """
     mi, mf, mp, sa, sb, ssrc = (cfg.model_info, cfg.noise_prior_count, cfg.model_params,
                                 cfg.side_a, cfg.side_b, cfg.side_src)
@@ -865,14 +599,11 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
                                         st.path_init, st.path_ll)
     n_units, n_paths = upath.shape[0], pll.shape[0]
     inc = np.empty(n_units)                   # per-instance log-likelihood increments
-    act = np.empty(n_units, np.int64)         # a sample's instances (two-pass step)
-    mid = np.empty((n_units, 8))              # and their state between the passes
     newp = np.empty((n_paths, 3), np.int64)   # an event's new paths: path, instances
     wp = np.empty(n_paths)                    # path weights of a sample
     ccll = np.empty(n_paths)                  # the new paths' log-likelihoods in the catch-up
     K = cfg.log_t.shape[1]
-    qc = len(qt)
-    qmax = qc if qc > 0 else cfg.q_max
+    qmax = cfg.q_max
     sc = _step_scratch(qmax)
     wk = np.empty(CONSTRAINT_SCRATCH)         # the direct steps' scratch
     # a stateless model's score of sample vt[k] (computed once for all its instances)
@@ -882,10 +613,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
     vz = np.empty(mi.shape[0])
     direct, maxk, deg = _graph_bounds(cfg)
     scr = _event_scratch(n_units, n_paths, udf.shape[1], deg)
-    two_pass = qc == 2 and ust.shape[1] == 1
     t = t_from
     catch = False            # catching up the new paths of an event
-    nb = 0                   # instances whose covariance update is pending (pass 3)
     n_new = 0
     ct = 0                   # the catch-up's sample
     nP, nU = 0, 0
@@ -899,68 +628,6 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             ua, ub, tt = newp[0, 1], newp[n_new - 1, 2], ct
         row = tt - xbase
         top = 0.0
-        if two_pass:
-            # two parameters, one channel: the filter step in passes over the sample's
-            # Kalman instances, each short enough that the processor runs the instances'
-            # dependent chains (square roots and divisions) side by side: the structure
-            # update and first Householder row (_step2_a), then the update, statistics and
-            # detectors (_step2_c), the covariances after the bookkeeping (pass 3)
-            na = 0
-            for u in range(ua, ub):
-                if catch and ustart[u] > tt:
-                    continue                    # a new instance not yet begun
-                k = umodel[u]
-                if mi[k, MI_REG] >= REG_VELOCITY:
-                    continue                    # scored directly: the general loop below
-                mode, est, col = mi[k, MI_MODE], mi[k, MI_EST] != 0, mi[k, MI_COL]
-                if mi[k, MI_REG] == REG_AR:     # _two_regressors, written out
-                    if mi[k, MI_MEAN]:
-                        g0 = 1.0
-                        g1 = xa[row - 1, col]
-                    else:
-                        g0 = xa[row - 1, col]
-                        g1 = xa[row - 2, col]
-                else:
-                    g0 = 1.0
-                    g1 = float(tt - ustart[u])
-                (l00, l10, l11, nu, a00, a10, a20, z10, z11, z20,
-                 z21) = _step2_a(xa[row, col], g0, g1, mode, ust[u, 0, R2_TH0],
-                                 ust[u, 0, R2_TH1], ust[u, 0, R2_S00], ust[u, 0, R2_S01],
-                                 ust[u, 0, R2_S10], ust[u, 0, R2_S11], ust[u, 0, R2_L00],
-                                 ust[u, 0, R2_L10], ust[u, 0, R2_L11],
-                                 ust[u, 0, R2_VE] if est else ust[u, 0, R2_LV])
-                if mode == 1:
-                    ust[u, 0, R2_L00] = l00
-                    ust[u, 0, R2_L10] = l10
-                    ust[u, 0, R2_L11] = l11
-                act[na] = u
-                mid[na, 0] = nu
-                mid[na, 1] = a00
-                mid[na, 2] = a10
-                mid[na, 3] = a20
-                mid[na, 4] = z10
-                mid[na, 5] = z11
-                mid[na, 6] = z20
-                mid[na, 7] = z21
-                na += 1
-            for i in range(na):
-                u = act[i]
-                k = umodel[u]
-                est = mi[k, MI_EST] != 0
-                th0, th1, ve, vc, al, lc, ll = _step2_c(mid[i, 0], mid[i, 1], mid[i, 2],
-                                                        mid[i, 3], ust[u, 0, R2_TH0],
-                                                        ust[u, 0, R2_TH1], est, mf[k],
-                                                        ust[u, 0, R2_VE], ust[u, 0, R2_VC])
-                ust[u, 0, R2_TH0] = th0
-                ust[u, 0, R2_TH1] = th1
-                if est:
-                    ust[u, 0, R2_VE] = ve
-                    ust[u, 0, R2_VC] = vc
-                top = _detectors(sa, sb, ssrc, udf, ulz, u, k, tt, lc * -2.0, al, top)
-                inc[u - ua] = ll
-            nb = na                             # their covariances: pass 3 (_step2_b)
-            if not direct:
-                ub = ua                         # done: the general loop below is empty
         for u in range(ua, ub):
             if catch and ustart[u] > tt:
                 continue                        # a new instance not yet begun
@@ -968,18 +635,13 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             if mi[k, MI_REG] >= REG_VELOCITY:
                 ll, chi, z = _direct_score(mi, mp, xa, ust, u, k, tt, row, vt, vll, vchi, vz,
                                            wk)
-            elif two_pass:
-                continue                        # stepped in the passes above
             else:
-                ll, chi, z = _filter_step(mi, mf, xa, ust, ustart, u, k, tt, row, qc, qmax,
+                ll, chi, z = _filter_step(mi, mf, xa, ust, ustart, u, k, tt, row, qmax,
                                           sc)
             top = _detectors(sa, sb, ssrc, udf, ulz, u, k, tt, chi, z, top)
             inc[u - ua] = ll
         if catch:
             _catch_up_sums(newp, n_new, ccll, inc, ua, ct, pstart, pslot, ha, ct + 1 - hbase)
-            # pass 3 of the two-parameter step, after the sample's bookkeeping
-            _step2_covariances(nb, act, mid, ust)
-            nb = 0
             ct += 1
             if ct <= t:
                 continue
@@ -996,9 +658,6 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending, qt):  # pra
             else:
                 event = _path_sums(pll, upath, inc, nP, nU, ha, t + 1 - hbase, pslot, gap, tmax,
                                    pnode, pstart, t) or top > thr
-            # pass 3 of the two-parameter step, after the sample's bookkeeping
-            _step2_covariances(nb, act, mid, ust)
-            nb = 0
             if event:
                 if not _event_fits(cfg, st, ev, t, deg, maxk):
                     return FULL, t
@@ -1061,7 +720,6 @@ class Core:
         self.qmax, self.cmax = qmax, cmax
         # a directly scored model keeps one state row (channel 0) of its own layout
         self.width = max([state_width(qmax)] + [len(s["prior"]) for s in direct])
-        self.qt = (0,) * qmax if kal and all(s["q"] == qmax for s in kal) else ()
         K = len(node_kinds)
         self.K = K
         # each model's prior state row per channel (layout of state_width); its parameter
@@ -1246,7 +904,7 @@ class Core:
                 self.ensure_room(hist)
             status, t = run_core(t, t_to, t_out, self.cfg, self.state(xbuf, hist, act), self.ev,
                                  node_prob, map_node,
-                                 pending, self.qt)
+                                 pending)
             c = self.cnt
             if c[C_EV]:
                 ev = self.ev
