@@ -51,7 +51,7 @@ import numpy as np
 
 from contactlab.estimators._arrays import (as_f64, batch_vector, sqrt_matrix,
                                            vector_regression)
-from contactlab.estimators.householder import forward_subst, tri_append
+from contactlab.estimators.householder import forward_subst, tri_append_n
 
 __all__ = ["SquareRootKalman", "KalmanResult", "kalman_step", "STRUCTURES"]
 
@@ -65,25 +65,119 @@ STRUCTURES = {"plain": MODE_PLAIN, "track": MODE_TRACK, "fixed": MODE_FIXED}
 
 
 @numba.njit(cache=True)
+def step_scratch(m, p):  # pragma: no cover - compiled
+    """:func:`sqrt_step`'s scratch for ``m`` measurements and ``p`` parameters (at most):
+    the pre-array, its appended columns, the orthogonal regressors, the noise's and the
+    structure's appended columns, the innovation and its normalised form, the
+    measurement."""
+    q = m + p
+    return (np.zeros((q, q)), np.zeros((q, p)), np.zeros((m, p)), np.zeros((m, 1)),
+            np.zeros((p, m)), np.zeros(m), np.zeros(m), np.zeros(m))
+
+
+@numba.njit(cache=True, inline="always")
+def sqrt_step(psi, y, th, S, Ls, Ve, Lv, estimate, mode, count, prior_count, m, p,
+              sc):  # pragma: no cover - compiled
+    """One sample of one square-root Kalman filter (A.32-A.39), optionally on orthogonal
+    regressors (A.40-A.42): the one step of the package, which the batch kernel below and
+    the observer's compiled core (:func:`contactlab.observer.engine._kalman_channel`)
+    both call.
+
+    ``psi`` (>= m, >= p) regressors and ``y`` (>= m) measurements of the sample; the
+    state, updated in place: ``th`` (p) parameters, ``S`` (p, p) their square-root
+    covariance, ``Ls`` (p, p) the regressors' structure factor (``mode`` 1), ``Ve`` (m, m)
+    the running square-root noise (``estimate``), ``Lv`` (m, m) the fixed one; ``count``
+    innovations absorbed so far.  Arrays may be larger than m, p (their leading blocks
+    are used).  ``sc``: :func:`step_scratch`, whose pre-array holds the post-array of A.33
+    afterwards (``F`` in its leading m x m block) and whose ``nu``, ``al`` the innovation
+    and its normalised form.  Returns ``(l_c, log-likelihood, count)``."""
+    A, Z, h, Zv, Zs, nu, al = sc[0], sc[1], sc[2], sc[3], sc[4], sc[5], sc[6]
+    q = m + p
+    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
+    if mode == 1:
+        for i in range(p):
+            for r in range(m):
+                Zs[i, r] = psi[r, i]
+        tri_append_n(Ls, Zs, p, m)
+    if mode != 0:
+        for r in range(m):
+            for i in range(p):
+                s = psi[r, i]
+                for k in range(i):
+                    d = Ls[k, k]
+                    if d != 0.0:
+                        s -= (Ls[i, k] / d) * h[r, k]
+                h[r, i] = s
+    else:
+        for r in range(m):
+            for i in range(p):
+                h[r, i] = psi[r, i]
+    # innovation (A.34)
+    for r in range(m):
+        s = y[r]
+        for i in range(p):
+            s -= h[r, i] * th[i]
+        nu[r] = s
+    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
+    for i in range(q):
+        for j in range(q):
+            A[i, j] = 0.0
+    for i in range(m):
+        for j in range(i + 1):
+            A[i, j] = Ve[i, j] if estimate else Lv[i, j]
+    for r in range(m):
+        for j in range(p):
+            s = 0.0
+            for k in range(j, p):
+                s += h[r, k] * S[k, j]
+            Z[r, j] = s
+    for i in range(p):
+        for j in range(p):
+            Z[m + i, j] = S[i, j]
+    # Householder reduction to the post-array (A.33)
+    tri_append_n(A, Z, q, p)
+    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
+    forward_subst(A, nu, al, m)
+    lc = 0.0
+    logdet = 0.0
+    for r in range(m):
+        lc -= 0.5 * al[r] * al[r]
+        logdet += math.log(A[r, r])
+    for i in range(p):
+        s = 0.0
+        for r in range(m):
+            s += A[m + i, r] * al[r]
+        th[i] += s
+        for j in range(p):
+            S[i, j] = A[m + i, m + j]
+    ll = lc - logdet - 0.5 * m * _LOG_2PI
+    # running square-root innovation variance (A.38)
+    if estimate:
+        count += 1.0
+        nn = prior_count + count
+        c_old = math.sqrt(1.0 - 1.0 / nn)
+        c_new = math.sqrt(1.0 / nn)
+        for i in range(m):
+            Zv[i, 0] = c_new * nu[i]
+            for j in range(m):
+                Ve[i, j] *= c_old
+        tri_append_n(Ve, Zv, m, 1)
+    return lc, ll, count
+
+
+@numba.njit(cache=True)
 def _kalman_kernel(psi, y, theta_all, S_all, Lv_fixed, Ve_all, vcount, prior_count,
                    estimate, mode, Ls_all,
-                   nu_out, alpha_out, F_out, theta_out, lc_out, ll_out):
-    """Batch square-root Kalman filter (A.32-A.39), optionally on orthogonal
-    regressors (A.40-A.42).  State arrays are updated in place."""
+                   nu_out, alpha_out, F_out, theta_out, lc_out, ll_out):  # pragma: no cover
+    """Batch square-root Kalman filter: :func:`sqrt_step` for every filter and sample.
+    State arrays are updated in place."""
     N, B, m, p = psi.shape
-    q = m + p
-    A = np.empty((q, q))
-    Z = np.empty((q, p))
-    h = np.empty((m, p))
+    sc = step_scratch(m, p)
+    A, nu, al = sc[0], sc[5], sc[6]
     th = np.empty(p)
     S = np.empty((p, p))
     Ve = np.empty((m, m))
-    Zv = np.empty((m, 1))
     Ls = np.empty((p, p))
-    Zs = np.empty((p, m))
-    nu = np.empty(m)
-    al = np.empty(m)
-    half_log_2pi_m = 0.5 * m * _LOG_2PI
     for b in range(B):
         for i in range(p):
             th[i] = theta_all[b, i]
@@ -95,81 +189,17 @@ def _kalman_kernel(psi, y, theta_all, S_all, Lv_fixed, Ve_all, vcount, prior_cou
                 Ve[i, j] = Ve_all[b, i, j]
         cnt = vcount[b]
         for t in range(N):
-            # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-            if mode == 1:
-                for i in range(p):
-                    for r in range(m):
-                        Zs[i, r] = psi[t, b, r, i]
-                tri_append(Ls, Zs)
-            if mode != 0:
-                for r in range(m):
-                    for i in range(p):
-                        s = psi[t, b, r, i]
-                        for k in range(i):
-                            d = Ls[k, k]
-                            if d != 0.0:
-                                s -= (Ls[i, k] / d) * h[r, k]
-                        h[r, i] = s
-            else:
-                for r in range(m):
-                    for i in range(p):
-                        h[r, i] = psi[t, b, r, i]
-            # innovation (A.34)
+            lc, ll, cnt = sqrt_step(psi[t, b], y[t, b], th, S, Ls, Ve, Lv_fixed[b],
+                                    estimate, mode, cnt, prior_count, m, p, sc)
             for r in range(m):
-                s = y[t, b, r]
-                for i in range(p):
-                    s -= h[r, i] * th[i]
-                nu[r] = s
-            # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-            for i in range(q):
-                for j in range(q):
-                    A[i, j] = 0.0
-            for i in range(m):
-                for j in range(i + 1):
-                    A[i, j] = Ve[i, j] if estimate else Lv_fixed[b, i, j]
-            for r in range(m):
-                for j in range(p):
-                    s = 0.0
-                    for k in range(j, p):
-                        s += h[r, k] * S[k, j]
-                    Z[r, j] = s
-            for i in range(p):
-                for j in range(p):
-                    Z[m + i, j] = S[i, j]
-            # Householder reduction to the post-array (A.33)
-            tri_append(A, Z)
-            # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-            forward_subst(A, nu, al, m)
-            lc = 0.0
-            logdet = 0.0
-            for r in range(m):
-                lc -= 0.5 * al[r] * al[r]
-                logdet += math.log(A[r, r])
                 nu_out[t, b, r] = nu[r]
                 alpha_out[t, b, r] = al[r]
                 for j in range(m):
                     F_out[t, b, r, j] = A[r, j]
             for i in range(p):
-                s = 0.0
-                for r in range(m):
-                    s += A[m + i, r] * al[r]
-                th[i] += s
                 theta_out[t, b, i] = th[i]
-                for j in range(p):
-                    S[i, j] = A[m + i, m + j]
             lc_out[t, b] = lc
-            ll_out[t, b] = lc - logdet - half_log_2pi_m
-            # running square-root innovation variance (A.38)
-            if estimate:
-                cnt += 1.0
-                nn = prior_count + cnt
-                c_old = math.sqrt(1.0 - 1.0 / nn)
-                c_new = math.sqrt(1.0 / nn)
-                for i in range(m):
-                    Zv[i, 0] = c_new * nu[i]
-                    for j in range(m):
-                        Ve[i, j] *= c_old
-                tri_append(Ve, Zv)
+            ll_out[t, b] = ll
         for i in range(p):
             theta_all[b, i] = th[i]
             for j in range(p):

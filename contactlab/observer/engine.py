@@ -20,14 +20,15 @@ log-likelihoods are the general form's to the bit (the tests run both); the node
 probabilities and the pruning weights use the C library's ``exp`` and plain sums,
 which differ from numpy's by a few units in the last place.
 
-The filter step is :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for
-one scalar filter (m = 1, every channel of the linear feature models is one),
-operation for operation (:func:`_kalman_channel`, compiled apart, takes the parameter
-count as an argument, so the loop is compiled once for every count; the detectors call
-:func:`~contactlab.detection.cusum.cusum_step`).  A written-out two-parameter step on scalars (the
-state in registers, the instances in passes so that their dependent chains overlap)
-measured no faster on the 7.3 graphs (the hour of y_h at 2,300-2,900x real time with it
-and 2,500-2,900x without) and was one more copy of the square-root step, so it is gone.
+The filter step is the package's one square-root Kalman step,
+:func:`~contactlab.estimators.kalman.sqrt_step`, for one scalar filter (m = 1, every
+channel of the linear feature models is one) on the instance's state row
+(:func:`_kalman_channel`, compiled apart, takes the parameter count as an argument, so the
+loop is compiled once for every count; the detectors call
+:func:`~contactlab.detection.cusum.cusum_step`).  A written-out two-parameter step on
+scalars (the state in registers, the instances in passes so that their dependent chains
+overlap) measured no faster on the 7.3 graphs (the hour of y_h at 2,300-2,900x real time
+with it and 2,500-2,900x without) and was one more copy of the step, so it is gone.
 Every part of the loop is a named helper (:func:`_filter_step`, :func:`_direct_score`,
 :func:`_detectors`, :func:`_path_sums`, :func:`_catch_up_sums`, :func:`_event_fits`,
 :func:`_spawn`, :func:`_prune`); an event's decisions are
@@ -52,7 +53,7 @@ import numba
 import numpy as np
 
 from contactlab.detection.cusum import cusum_step
-from contactlab.estimators.householder import tri_append_n
+from contactlab.estimators.kalman import sqrt_step, step_scratch
 from contactlab.observer.events import best_candidates, collect_alarms, keep_set
 from contactlab.observer.models.constraint import SCRATCH as CONSTRAINT_SCRATCH
 from contactlab.observer.models.constraint import constraint_step
@@ -325,11 +326,9 @@ def _regressors(mi, k, x, row, col, tt, start, H):  # pragma: no cover - compile
 
 @numba.njit(cache=True, inline="always")
 def _step_scratch(qmax):  # pragma: no cover - compiled
-    """The general filter step's scratch: the regressors and their orthogonal form, the
-    pre-array, the structure factor and the noise's square root (inlined, so each is a
-    fresh allocation the compiler knows aliases nothing)."""
-    return (np.zeros((2, qmax)), np.zeros((qmax + 1, qmax + 1)), np.zeros((qmax + 1, qmax)),
-            np.zeros((qmax, qmax)), np.zeros((qmax, 1)), np.zeros((1, 1)), np.zeros((1, 1)))
+    """The filter step's scratch: the regressors, the measurement and
+    :func:`~contactlab.estimators.kalman.sqrt_step`'s own."""
+    return np.zeros((1, qmax)), np.zeros(1), step_scratch(1, qmax)
 
 
 @numba.njit(cache=True)
@@ -361,83 +360,24 @@ def _graph_bounds(cfg):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _kalman_channel(ust, u, c, q, qmax, y, mode, est, pcount, sc):  # pragma: no cover
-    """One sample of :func:`~contactlab.estimators.kalman.kalman_step`'s kernel for one
-    scalar filter (m = 1), operation for operation, on the state row ``ust[u, c]``
-    (:func:`state_width`'s layout), the regressors in ``H[0]`` of the scratch ``sc``
-    (:func:`_step_scratch`).  Returns the log-likelihood, ``-al^2 / 2`` and the normalised
-    innovation ``al``.  Compiled apart, not inlined: a call per channel costs less than
-    compiling the step into every specialisation of :func:`run_core` (3 s of each)."""
-    H, A, Z, L2, Zs, V2, Zv = sc
+    """One sample of one scalar filter (m = 1) by the package's square-root step
+    (:func:`~contactlab.estimators.kalman.sqrt_step`) on the state row ``ust[u, c]``
+    (:func:`state_width`'s layout, read in place as the step's arrays), the regressors in
+    ``H[0]`` of the scratch ``sc`` (:func:`_step_scratch`).  Returns the log-likelihood,
+    ``-al^2 / 2`` and the normalised innovation ``al``.  Compiled apart, not inlined: a
+    call per channel costs less than compiling the step into every specialisation of
+    :func:`run_core` (3 s of each)."""
+    H, yv, ssc = sc
+    row = ust[u, c]
     oS = qmax
     oL = qmax + qmax * qmax
     oV = qmax + 2 * qmax * qmax
-    # orthogonal regressors: structure update (A.41), psi~ R = psi (A.40, A.42)
-    if mode == 1:
-        for i in range(q):
-            Zs[i, 0] = H[0, i]
-            for j in range(q):
-                L2[i, j] = ust[u, c, oL + i * qmax + j]
-        tri_append_n(L2, Zs, q, 1)
-        for i in range(q):
-            for j in range(q):
-                ust[u, c, oL + i * qmax + j] = L2[i, j]
-    if mode != 0:
-        for i in range(q):
-            s = H[0, i]
-            for kk in range(i):
-                d = ust[u, c, oL + kk * qmax + kk]
-                if d != 0.0:
-                    s -= (ust[u, c, oL + i * qmax + kk] / d) * H[1, kk]
-            H[1, i] = s
-    else:
-        for i in range(q):
-            H[1, i] = H[0, i]
-    # innovation (A.34)
-    s = y
-    for i in range(q):
-        s -= H[1, i] * ust[u, c, i]
-    nu = s
-    # pre-array (A.32), columns permuted: [[Lv, 0 | psi S], [0, 0 | S]]
-    for i in range(q + 1):
-        for j in range(q + 1):
-            A[i, j] = 0.0
-    A[0, 0] = ust[u, c, oV] if est else ust[u, c, oV + 1]
-    for j in range(q):
-        s = 0.0
-        for kk in range(j, q):
-            s += H[1, kk] * ust[u, c, oS + kk * qmax + j]
-        Z[0, j] = s
-    for i in range(q):
-        for j in range(q):
-            Z[1 + i, j] = ust[u, c, oS + i * qmax + j]
-    # Householder reduction to the post-array (A.33)
-    tri_append_n(A, Z, q + 1, q)
-    # normalised innovation (A.35), update (A.36), statistics (A.37, A.39)
-    d = A[0, 0]
-    al = nu / d if d != 0.0 else np.nan
-    lc = 0.0
-    logdet = 0.0
-    lc -= 0.5 * al * al
-    logdet += math.log(A[0, 0])
-    for i in range(q):
-        s = 0.0
-        s += A[1 + i, 0] * al
-        ust[u, c, i] += s
-        for j in range(q):
-            ust[u, c, oS + i * qmax + j] = A[1 + i, 1 + j]
-    ll = lc - logdet - _HALF_LOG_2PI
-    # running square-root innovation variance (A.38)
-    if est:
-        cn = ust[u, c, oV + 2] + 1.0
-        ust[u, c, oV + 2] = cn
-        nn = pcount + cn
-        c_old = math.sqrt(1.0 - 1.0 / nn)
-        c_new = math.sqrt(1.0 / nn)
-        Zv[0, 0] = c_new * nu
-        V2[0, 0] = ust[u, c, oV] * c_old
-        tri_append_n(V2, Zv, 1, 1)
-        ust[u, c, oV] = V2[0, 0]
-    return ll, lc, al
+    yv[0] = y
+    lc, ll, row[oV + 2] = sqrt_step(
+        H, yv, row[:qmax], row[oS:oL].reshape((qmax, qmax)),
+        row[oL:oV].reshape((qmax, qmax)), row[oV:oV + 1].reshape((1, 1)),
+        row[oV + 1:oV + 2].reshape((1, 1)), est, mode, row[oV + 2], pcount, 1, q, ssc)
+    return ll, lc, ssc[6][0]
 
 
 @numba.njit(cache=True, inline="always")
