@@ -114,7 +114,7 @@ def _run(graph, models, y, *, chunk=CHUNK, track=False):
     obs = Observer(graph, models)
     longest = 0
     for a in range(0, len(y), chunk):
-        obs.process(y[a:a + chunk])
+        obs.update(y[a:a + chunk])
         if track:
             longest = max(longest, obs.buffer_len_)
     return obs, longest

@@ -19,7 +19,7 @@ Arrays are time-first: ``(N,)`` for one channel or ``(N, C)`` for C channels,
 all processed together; outputs keep the input's dimensionality.  Everything
 is causal.  Each batch function is the one-chunk case of a streaming class
 (:class:`LowpassDecimator`, :class:`LogEnergy`, :class:`Differencer`,
-:class:`StrainConditioner`, :class:`VelocityEstimator`) whose ``process(chunk)``
+:class:`StrainConditioner`, :class:`VelocityEstimator`) whose ``update(chunk)``
 on consecutive chunks returns exactly the batch result.
 
 Output sample times (input sample indices n = 0, 1, ... at ``fs``):
@@ -136,7 +136,7 @@ class Differencer:
         self.last_ = None
         return self
 
-    def process(self, chunk) -> np.ndarray:
+    def update(self, chunk) -> np.ndarray:
         x, squeeze = _as_2d(chunk, "chunk")
         if len(x) == 0:
             return _out(np.empty((0, x.shape[1])), squeeze)
@@ -185,7 +185,7 @@ class LowpassDecimator:
         self.n_in_ = 0
         return self
 
-    def process(self, chunk) -> np.ndarray:
+    def update(self, chunk) -> np.ndarray:
         x, squeeze = _as_2d(chunk, "chunk")
         if len(x) == 0:
             return _out(np.empty((0, x.shape[1])), squeeze)
@@ -248,7 +248,7 @@ class LogEnergy:
         self.n_out_ = 0
         return self
 
-    def process(self, chunk) -> np.ndarray:
+    def update(self, chunk) -> np.ndarray:
         x, squeeze = _as_2d(chunk, "chunk")
         h = np.log(np.maximum(np.abs(x), self.floor))
         if self.skip_:
@@ -286,7 +286,7 @@ def difference(y, *, prepend=None) -> np.ndarray:
     d = Differencer()
     if prepend is not None:
         d.last_ = np.broadcast_to(np.asarray(prepend, dtype=np.float64), (x.shape[1],)).copy()
-    return _out(d.process(x), squeeze)
+    return _out(d.update(x), squeeze)
 
 
 def lowpass_decimate(y, *, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2,
@@ -299,7 +299,7 @@ def lowpass_decimate(y, *, fs: float = 1000.0, cutoff_hz: float = 125.0, order: 
     sample ``factor * k``; see :func:`lowpass_delay` for the filter delay.
     """
     return LowpassDecimator(fs=fs, cutoff_hz=cutoff_hz, order=order, factor=factor,
-                            initial=initial).process(y)
+                            initial=initial).update(y)
 
 
 def quantisation_floor(y) -> float:
@@ -320,7 +320,7 @@ def log_energy(y, *, block: int = 8, factor: int = 4,
     factor*k + block]``; ``(N - block) // factor + 1`` outputs (none if
     ``N < block``).  See the module notes on the choice of ``floor``.
     """
-    return LogEnergy(block=block, factor=factor, floor=floor).process(y)
+    return LogEnergy(block=block, factor=factor, floor=floor).update(y)
 
 
 def velocity_from_position(p, *, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2,
@@ -334,12 +334,12 @@ def velocity_from_position(p, *, fs: float = 1000.0, cutoff_hz: float = 125.0, o
     before the record), so the filter starts from rest with velocity 0.  The
     backward difference adds half a sample to the filter delay.
     """
-    return VelocityEstimator(fs=fs, cutoff_hz=cutoff_hz, order=order, factor=factor).process(p)
+    return VelocityEstimator(fs=fs, cutoff_hz=cutoff_hz, order=order, factor=factor).update(p)
 
 
 @dataclass(frozen=True)
 class Conditioned:
-    """Output of :func:`condition_strains` / :meth:`StrainConditioner.process`.
+    """Output of :func:`condition_strains` / :meth:`StrainConditioner.update`.
 
     Attributes
     ----------
@@ -375,7 +375,7 @@ class Conditioned:
 class StrainConditioner:
     """Streaming form of :func:`condition_strains` (the 7.1 pipeline).
 
-    ``process(chunk)`` on consecutive chunks of the 1000 Hz strains returns the
+    ``update(chunk)`` on consecutive chunks of the 1000 Hz strains returns the
     new 250 Hz outputs as a :class:`Conditioned` whose indices continue from
     the previous chunk; concatenating them gives the batch result exactly.
     """
@@ -404,11 +404,11 @@ class StrainConditioner:
         self._n_low = 0
         return self
 
-    def process(self, chunk) -> Conditioned:
+    def update(self, chunk) -> Conditioned:
         x, squeeze = _as_2d(chunk, "strain")
-        low = self._low.process(x)
+        low = self._low.update(x)
         k0 = self._energy.n_out_
-        hf = self._energy.process(self._diff.process(x))
+        hf = self._energy.update(self._diff.update(x))
         low_index = self.factor * np.arange(self._n_low, self._n_low + len(low))
         hf_index = self.factor * np.arange(k0, k0 + len(hf)) + self.block
         self._n_low += len(low)
@@ -433,9 +433,9 @@ class VelocityEstimator:
         self._low.reset()
         return self
 
-    def process(self, chunk) -> np.ndarray:
+    def update(self, chunk) -> np.ndarray:
         x, squeeze = _as_2d(chunk, "position")
-        return _out(self._low.process(self._diff.process(x) * self.fs), squeeze)
+        return _out(self._low.update(self._diff.update(x) * self.fs), squeeze)
 
 
 def condition_strains(strain, *, fs: float = 1000.0, cutoff_hz: float = 125.0, order: int = 2,
@@ -450,4 +450,4 @@ def condition_strains(strain, *, fs: float = 1000.0, cutoff_hz: float = 125.0, o
     ``log_floor = lsb / 2``.
     """
     return StrainConditioner(fs=fs, cutoff_hz=cutoff_hz, order=order, factor=factor, block=block,
-                             log_floor=log_floor, initial=initial).process(strain)
+                             log_floor=log_floor, initial=initial).update(strain)

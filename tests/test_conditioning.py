@@ -130,13 +130,13 @@ def test_streaming_chunks_equal_batch_exactly(strains):
     rng = np.random.default_rng(5)
     batch = condition_strains(strains)
     conditioner = StrainConditioner()
-    parts = [conditioner.process(strains[a:b]) for a, b in _chunks(len(strains), rng)]
+    parts = [conditioner.update(strains[a:b]) for a, b in _chunks(len(strains), rng)]
     for field in ("low", "hf", "low_index", "hf_index"):
         joined = np.concatenate([getattr(p, field) for p in parts])
         np.testing.assert_array_equal(joined, getattr(batch, field), err_msg=field)
     # one sample at a time, too
     conditioner.reset()
-    ones = [conditioner.process(strains[i:i + 1]) for i in range(200)]
+    ones = [conditioner.update(strains[i:i + 1]) for i in range(200)]
     np.testing.assert_array_equal(np.concatenate([p.low for p in ones]),
                                   condition_strains(strains[:200]).low)
     np.testing.assert_array_equal(np.concatenate([p.hf for p in ones]),
@@ -149,13 +149,13 @@ def test_streaming_stages_with_odd_blocks_and_factors():
     for block, factor in [(8, 4), (5, 3), (2, 7), (1, 1)]:
         whole = log_energy(x, block=block, factor=factor)
         stage = LogEnergy(block=block, factor=factor)
-        parts = [stage.process(x[a:b]) for a, b in _chunks(len(x), rng)]
+        parts = [stage.update(x[a:b]) for a, b in _chunks(len(x), rng)]
         np.testing.assert_array_equal(np.concatenate(parts), whole)
         want = np.array([np.log(np.abs(x[factor * k:factor * k + block])).mean(axis=0)
                          for k in range((500 - block) // factor + 1)])
         np.testing.assert_allclose(whole, want, atol=1e-12)
     lp = LowpassDecimator(factor=3)
-    parts = [lp.process(x[a:b]) for a, b in _chunks(len(x), rng)]
+    parts = [lp.update(x[a:b]) for a, b in _chunks(len(x), rng)]
     np.testing.assert_array_equal(np.concatenate(parts), lowpass_decimate(x, factor=3))
 
 
@@ -194,7 +194,7 @@ def test_velocity_from_position_matches_difference_then_butterworth():
     assert np.abs(got[20:, 1] - 0.2).max() < 0.02
     # streaming
     est = VelocityEstimator()
-    parts = [est.process(pos[a:b]) for a, b in _chunks(len(pos), rng)]
+    parts = [est.update(pos[a:b]) for a, b in _chunks(len(pos), rng)]
     np.testing.assert_array_equal(np.concatenate(parts), got)
 
 

@@ -93,7 +93,7 @@ def test_composite_node_logliks_add():
            "models": {"S": {"kind": "temporal"}, "F": {"kind": "velocity-fixed", "sigma": 0.01}},
            "nodes": [{"name": "N", "models": {"hf": "S", "velocity": "F"}, "self_transition": False}]}
     obs = Observer(parse_graph(doc), {"S": temporal, "F": fixed}, threshold=1e9)
-    obs.process({"hf": hf, "velocity": vel})
+    obs.update({"hf": hf, "velocity": vel})
     Psi = np.c_[np.ones(n - 1), hf[:-1]]
     cov = Psi @ np.diag([0.09, 0.09]) @ Psi.T + np.eye(n - 1)
     oracle = (stats.multivariate_normal(np.zeros(n - 1), cov).logpdf(hf[1:])
@@ -310,7 +310,7 @@ def test_action_dependent_edges_gate_transitions():
     path = merge_short(moving.map_path, 20, 1000)
     assert [k for k, _ in path] == ["A", "B"] and abs(path[1][1] - 500) <= 15
     with pytest.raises(ValueError, match="action"):
-        Observer(g, ar_models()).process(y[:10])
+        Observer(g, ar_models()).update(y[:10])
 
 
 def test_buffers_stay_bounded_on_a_long_stream():
@@ -323,7 +323,7 @@ def test_buffers_stay_bounded_on_a_long_stream():
     obs = Observer(graph(list("ABCD")), ar_models(params), sides="both")
     longest = 0
     for a in range(0, n, 2000):
-        obs.process(y[a:a + 2000])
+        obs.update(y[a:a + 2000])
         longest = max(longest, obs.buffer_len_, len(obs._hist))
         assert len(obs.paths()) <= 16
     assert longest < 20_000

@@ -55,7 +55,7 @@ def test_live_conditioning_equals_batch_for_any_split(signals, reduce, velocity,
         lc = LiveConditioner(signals, rate_hz=rate, fields=[k for k in raw if k != "time"],
                              reduce=reduce)
         bounds = np.r_[0, cuts, 3001].astype(int)
-        outs = [lc.process({k: v[a:b] for k, v in raw.items()})
+        outs = [lc.update({k: v[a:b] for k, v in raw.items()})
                 for a, b in zip(bounds[:-1], bounds[1:])] + [lc.finish()]
         got_index = np.concatenate([o[1] for o in outs])
         assert np.array_equal(got_index, index)
@@ -240,7 +240,7 @@ def test_live_friction_compensation_uses_the_first_second_noise_level():
     parts, a = [], 0
     while a < n:
         b = a + int(rng.integers(1, 80))
-        parts.append(lc.process({"time": t[a:b], "wrench": wrench[a:b],
+        parts.append(lc.update({"time": t[a:b], "wrench": wrench[a:b],
                                  "position": rec.position[a:b]})[0])
         a = b
     parts.append(lc.finish()[0])

@@ -77,8 +77,8 @@ class _Low:
         self.f = None if cutoff is None else LowpassDecimator(
             fs=fs, cutoff_hz=cutoff, factor=factor_for(fs), initial=initial)
 
-    def process(self, x: np.ndarray) -> np.ndarray:
-        return x.copy() if self.f is None else self.f.process(x)
+    def update(self, x: np.ndarray) -> np.ndarray:
+        return x.copy() if self.f is None else self.f.update(x)
 
 
 class _Pending:
@@ -198,7 +198,7 @@ class LiveConditioner:
         return d / self.factor
 
     # -- input --------------------------------------------------------------------------
-    def process(self, chunk: dict) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray,
+    def update(self, chunk: dict) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray,
                                             np.ndarray | None]:
         """Absorb raw rows; return ``(streams, index, times, action)`` of the conditioned
         samples completed (``action``: the raw action channel or, from a ``command``, 1
@@ -277,22 +277,22 @@ class LiveConditioner:
         self._last_time.add(arr["time"])
         for s in self.cond:
             if s in CONTACT_SIGNALS:
-                w = self._filter("wrench", lambda: _Low(self.fs)).process(arr["wrench"])
-                p = self._filter("position", lambda: _Low(self.fs)).process(arr["position"])
+                w = self._filter("wrench", lambda: _Low(self.fs)).update(arr["wrench"])
+                p = self._filter("position", lambda: _Low(self.fs)).update(arr["position"])
                 self._out[s].add(np.concatenate([p[:, :3], w[:, :3]], axis=1))
             elif s == "hf":
-                d = self._filter("diff", Differencer).process(arr["strain"])
+                d = self._filter("diff", Differencer).update(arr["strain"])
                 e = self._filter("hf", lambda: LogEnergy(block=self.block, factor=self.factor,
-                                                         floor=self._floor)).process(d)
+                                                         floor=self._floor)).update(d)
                 self._out[s].add(self._reduced(e))
             else:
-                y = self._filter(s, lambda: _Low(self.fs)).process(arr[source_of(s)])
+                y = self._filter(s, lambda: _Low(self.fs)).update(arr[source_of(s)])
                 self._out[s].add(self._reduced(y))
         for f, pend in self._raw.items():
             pend.add(arr[f])
         if self._vel is not None:
             diff, low = self._vel
-            self._vel_out.add(low.process(diff.process(arr["position"]) * self.fs))
+            self._vel_out.add(low.update(diff.update(arr["position"]) * self.fs))
         if PHASE in self.signals:
             self._phase_out.add(self._phase_rows(arr))
         if "action" in arr:

@@ -199,7 +199,7 @@ def _watch_trial(stream, source, stage, emit, lat, stats, results, writer, probs
                     trial_writer = _open_trial(writer, info)
             if trial_writer is not None:
                 trial_writer.append(**chunk)
-            _step(tw, stage, stream.info, tw.cond.process(chunk), arrival, emit, lat, stats,
+            _step(tw, stage, stream.info, tw.cond.update(chunk), arrival, emit, lat, stats,
                   probs_every)
         if tw is not None:
             _step(tw, stage, stream.info, tw.cond.finish(), _time.monotonic(), emit, lat,
@@ -230,7 +230,7 @@ def _step(tw: TrialWatch, stage, info, out, arrival, emit, lat, stats, probs_eve
     n = len(index)
     if not n:
         return
-    step = tw.obs.process(data, action=_actions(stage, info, act, n))
+    step = tw.obs.update(data, action=_actions(stage, info, act, n))
     decided = _time.monotonic()
     lat.add(decided - arrival)
     names = stage.graph.node_names

@@ -5,14 +5,14 @@ the change-triggered beam Viterbi search of section 6.4.
 - :mod:`.models` -- the feature models (one interface, one module per family).
 - :mod:`.paths` -- path histories, change events, trimmed buffers.
 - :mod:`.events` -- 6.4's decisions at a detected change (alarms, candidates, pruning).
-- :mod:`.observer` -- :class:`Observer` (incremental, ``process(chunk)``) and :func:`observe`.
+- :mod:`.observer` -- :class:`Observer` (incremental, ``update(chunk)``) and :func:`observe`.
 
 Example::
 
     graph = load_graph("datasets_spec/graphs/hf-context-free.toml")
     models = build_models(graph, ModelSet.load("models.h5"))
     obs = Observer(graph, models, threshold=8.0, change_size=2.0)
-    result = observe(obs, conditioned.hf)          # or obs.process(chunk) per chunk
+    result = observe(obs, conditioned.hf)          # or obs.update(chunk) per chunk
     result.node_prob, result.map_path, result.events
 """
 

@@ -22,7 +22,7 @@ dropped at every sample (9.1.1, gap 20).  The measurement and
 log-likelihood buffers are trimmed to the earliest change time any detector
 could still report.  Node probabilities are sums of path probabilities (6.5).
 
-Processing is incremental: :meth:`Observer.process` takes a chunk of any
+Processing is incremental: :meth:`Observer.update` takes a chunk of any
 length (one sample from a live source, or a whole trace), and any split of a
 stream into chunks gives identical results.
 
@@ -259,7 +259,7 @@ class _Path:
 
 @dataclass(frozen=True)
 class ObserverStep:
-    """What :meth:`Observer.process` returns for one chunk.
+    """What :meth:`Observer.update` returns for one chunk.
 
     t0 : global index of the chunk's first sample.
     node_prob : (n, K) node probabilities after each sample (6.5).
@@ -632,7 +632,7 @@ class Observer:
         return a.astype(np.int64)
 
     # -- processing ------------------------------------------------------------------
-    def process(self, chunk, *, action=None) -> ObserverStep:
+    def update(self, chunk, *, action=None) -> ObserverStep:
         """Absorb ``n`` new samples; return the per-sample node probabilities and events.
 
         ``chunk``: ``{signal: (n, C) or (n,)}`` or, when all models read one
@@ -646,7 +646,7 @@ class Observer:
         t0 = self.n_seen_
         end = t0 + n
         if self._core is not None:
-            return self._process_core(data, acts, t0, end, action is not None)
+            return self._update_core(data, acts, t0, end, action is not None)
         for s in self.signals:
             self._buf[s].append(data[s])
         self._act.append(acts[:, None])
@@ -683,8 +683,8 @@ class Observer:
         self._trim()
         return ObserverStep(t0, node_prob, map_node, self.events_[n_events:])
 
-    def _process_core(self, data, acts, t0: int, end: int, given: bool) -> ObserverStep:
-        """:meth:`process` in the compiled core (``given``: an action was passed)."""
+    def _update_core(self, data, acts, t0: int, end: int, given: bool) -> ObserverStep:
+        """:meth:`update` in the compiled core (``given``: an action was passed)."""
         n = end - t0
         n_act = len(self.graph.actions or ())
         if given and not n_act:
@@ -1119,7 +1119,7 @@ def labels_from_path(path: list[tuple[str, int]], n: int, node_names) -> np.ndar
 
 def observe(observer: Observer, data, *, action=None, chunk: int = 4096) -> ObserverResult:
     """Run ``observer`` over a whole trace, ``chunk`` samples at a time (batch = a loop of
-    :meth:`Observer.process`).  ``data``/``action`` as for ``process`` with all samples."""
+    :meth:`Observer.update`).  ``data``/``action`` as for ``update`` with all samples."""
     if isinstance(data, Mapping):
         n = len(next(iter(data.values())))
     else:
@@ -1134,7 +1134,7 @@ def observe(observer: Observer, data, *, action=None, chunk: int = 4096) -> Obse
                 else np.asarray(data)[a:b])
         act = action if (action is None or isinstance(action, str) or np.ndim(action) == 0) \
             else np.asarray(action)[a:b]
-        step = observer.process(part, action=act)
+        step = observer.update(part, action=act)
         probs.append(step.node_prob)
         maps.append(step.map_node)
     # the run's events as a view of the observer's log: records are made when read
