@@ -85,6 +85,7 @@ _EXPORTS = {
     "observe": "contactlab.observer",
     "build_models": "contactlab.observer",
     "train_graph": "contactlab.observer",
+    "fit_graph": "contactlab.observer",
     "GraphModels": "contactlab.observer",
     "recognize_archive": "contactlab.observer",
     "ConstraintFeature": "contactlab.observer.models",

@@ -24,7 +24,7 @@ from contactlab.observer.observer import (Observer, ObserverResult, ObserverStep
                                           observe)
 from contactlab.observer.paths import ChangeEvent, PathInfo
 from contactlab.observer.recognize import recognize_archive, recognize_trial
-from contactlab.observer.training import GraphModels, train_graph
+from contactlab.observer.training import GraphModels, fit_graph, train_graph
 from contactlab.signals import trial_signals
 
 __all__ = [
@@ -33,5 +33,6 @@ __all__ = [
     "MovingVelocity", "CompositeNode", "build_models", "node_models",
     "Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path",
     "ChangeEvent", "PathInfo",
-    "recognize_archive", "recognize_trial", "GraphModels", "train_graph", "trial_signals",
+    "recognize_archive", "recognize_trial", "GraphModels", "train_graph", "fit_graph",
+    "trial_signals",
 ]

@@ -60,7 +60,7 @@ from contactlab.fileio import sha256_file
 from contactlab.signals import REDUCE, relabel, trial_signals, truth_codes, window_of
 from contactlab.temporal.blocks import mask_runs
 
-__all__ = ["GraphModels", "ImpactPrior", "train_graph", "load_graph_models"]
+__all__ = ["GraphModels", "ImpactPrior", "train_graph", "fit_graph", "load_graph_models"]
 
 _TRAINED_SIGNALS = ("hf", "strain", "wrench")
 
@@ -279,7 +279,8 @@ def _no_label(lab, seen, path, label_map, field, unmatched=()) -> DataError:
             "; map the recording's labels onto the graph's with --label-map, e.g. "
             f"--label-map \"{_example_label(seen)}={lab}\"")
     return DataError(f"no label {lab!r} in the ground truth (labels: "
-                     f"{', '.join(sorted(seen))}{hint})", file=str(path), field=field)
+                     f"{', '.join(sorted(seen))}{hint})",
+                     file=None if path is None else str(path), field=field)
 
 
 @dataclass
@@ -299,55 +300,121 @@ class _LabelledData:
     longest: dict
 
 
-def _read_labelled(path, trials, label_map, *, quiet, labels, all_signals, signal,
-                   kin_signals, kin_labels, temporal_specs, impact_specs, transient, order,
-                   mean, block, reduce) -> _LabelledData:
-    """Each labelled trial's signals cut into the runs of each label (:func:`train_graph`)."""
-    from contactlab.archive import open_archive
-    from contactlab.progress import progress
+@dataclass
+class _Plan:
+    """What a graph asks of training: the labels its temporal, impact and kinematic
+    models are trained on, the signals they read, each transient node's labels."""
+
+    temporal_specs: dict
+    impact_specs: dict
+    kin_labels: set
+    kin_signals: set
+    labels: list
+    all_signals: list
+    signal: str
+    transient: dict
+
+
+def _plan(graph: FeatureGraph) -> _Plan:
+    """The training :class:`_Plan` of ``graph``; DataError (file ``graph.source``, field
+    ``models``) when it names nothing to train, temporal models of different signals or
+    a model on a signal that cannot be trained."""
+    gsrc = graph.source or "<graph>"
+    temporal_specs, impact_specs = {}, {}
+    for name, spec in graph.models.items():
+        if spec.kind == "temporal":
+            temporal_specs.setdefault(spec.trained, spec)
+        elif spec.kind == "impact" and "theta_mean" not in spec.params:
+            impact_specs.setdefault(spec.trained, spec)
+    kin_specs = kinematic_specs(graph)
+    kin_labels = {lab for spec in kin_specs.values() for lab in spec.trained_labels}
+    signals = {s.signal for s in temporal_specs.values()}
+    if not temporal_specs and not kin_specs:
+        raise DataError("the graph names no model to train", file=gsrc, field="models")
+    if len(signals) > 1:
+        raise DataError(f"temporal models read different signals {sorted(signals)}; one "
+                        "models file holds one signal", file=gsrc, field="models")
+    signal = signals.pop() if signals else "wrench"
+    bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
+           if s.signal not in _TRAINED_SIGNALS]
+    if bad:
+        raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
+                        f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
+    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
+    kin_signals = {spec.signal for spec in kin_specs.values()}
+    all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
+                         | ({signal} if temporal_specs else set()))
+    # a transient node's labelled runs: its own name's, else those its impact models are
+    # trained on (9.1.1's impact node "1" reads the "impact" labels); not those of its
+    # other models (free-contact's impact reads the contact's frame, trained on contact)
+    transient = {n.name: [n.name] + [lab for m in n.model_names
+                                     if graph.models[m].kind == "impact"
+                                     for lab in graph.models[m].trained_labels]
+                 for n in graph.nodes if n.transient}
+    return _Plan(temporal_specs, impact_specs, kin_labels, kin_signals, labels, all_signals,
+                 signal, transient)
+
+
+def _new_labelled(plan: _Plan) -> _LabelledData:
+    return _LabelledData({lab: [] for lab in plan.temporal_specs},
+                         {lab: [] for lab in plan.impact_specs}, {}, set(), set(), [], None, {})
+
+
+def _cut(acc: _LabelledData, plan: _Plan, data: dict, codes_of, *, order, mean,
+         block) -> None:
+    """One recording's conditioned signals ``data`` cut into the runs of each label (codes
+    into ``plan.labels`` per sample of each signal: ``codes_of(signal)``): the kinematic
+    models' runs, the temporal models' block features, the impact segments, added to
+    ``acc``."""
     from contactlab.temporal.blocks import cut_blocks
     from contactlab.temporal.features import block_features
 
-    kin_runs: dict = {}
-    feats = {lab: [] for lab in temporal_specs}
-    segs: dict[str, list] = {lab: [] for lab in impact_specs}
-    seen_labels: set = set()
-    raw_labels: set = set()
-    ids_used = []
-    fs = None
-    longest: dict[str, float] = {}
+    labels = plan.labels
+    for s in plan.all_signals:
+        codes = codes_of(s)
+        if s in plan.kin_signals:
+            for k, lab in enumerate(labels):
+                if lab in plan.kin_labels:
+                    acc.kin_runs.setdefault((s, lab), []).extend(
+                        data[s][a:b] for a, b in mask_runs(codes == k))
+        y = data[s]
+        for k, lab in enumerate(labels):
+            if lab in plan.temporal_specs and s == plan.signal:
+                runs = np.array([(a, b, k) for a, b in mask_runs(codes == k)],
+                                dtype=np.int64).reshape(-1, 3)
+                starts, _ = cut_blocks(runs, block)
+                if starts.size:
+                    acc.feats[lab].append(block_features(y, order=order, mean=mean,
+                                                         block=block, starts=starts))
+            if lab in plan.impact_specs and plan.impact_specs[lab].signal == s:
+                acc.segs[lab].extend(y[a:b] for a, b in mask_runs(codes == k) if b - a >= 3)
+
+
+def _read_labelled(path, trials, label_map, plan: _Plan, *, quiet, order, mean, block,
+                   reduce) -> _LabelledData:
+    """Each labelled trial's signals cut into the runs of each label (:func:`train_graph`)."""
+    from contactlab.archive import open_archive
+    from contactlab.progress import progress
+
+    acc = _new_labelled(plan)
     with open_archive(path) as arch:
         ids = arch.select(trials)
         for tid in progress(ids, desc="train", quiet=quiet, unit="trial"):
             trial = arch.trial(tid)
             if trial.labels is None:
                 continue
-            raw_labels.update(str(n) for n in (trial.label_names or []))
+            acc.raw_labels.update(str(n) for n in (trial.label_names or []))
             trial = relabel(trial, label_map)
-            seen_labels.update(n for n in (trial.label_names or []) if n is not None)
-            data, index, fs = trial_signals(trial, all_signals, reduce=reduce, path=path)
-            ids_used.append(tid)
-            _longest_runs(trial, transient, longest)
-            for s in all_signals:
-                codes = truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
-                if s in kin_signals:
-                    for k, lab in enumerate(labels):
-                        if lab in kin_labels:
-                            kin_runs.setdefault((s, lab), []).extend(
-                                data[s][a:b] for a, b in mask_runs(codes == k))
-                y = data[s]
-                for k, lab in enumerate(labels):
-                    if lab in temporal_specs and s == signal:
-                        runs = np.array([(a, b, k) for a, b in mask_runs(codes == k)],
-                                        dtype=np.int64).reshape(-1, 3)
-                        starts, _ = cut_blocks(runs, block)
-                        if starts.size:
-                            feats[lab].append(block_features(y, order=order, mean=mean,
-                                                             block=block, starts=starts))
-                    if lab in impact_specs and impact_specs[lab].signal == s:
-                        segs[lab].extend(y[a:b] for a, b in mask_runs(codes == k) if b - a >= 3)
-    return _LabelledData(feats, segs, kin_runs, seen_labels, raw_labels, ids_used, fs,
-                         longest)
+            acc.seen_labels.update(n for n in (trial.label_names or []) if n is not None)
+            data, index, acc.fs = trial_signals(trial, plan.all_signals, reduce=reduce,
+                                                path=path)
+            acc.ids_used.append(tid)
+            _longest_runs(trial, plan.transient, acc.longest)
+            _cut(acc, plan, data,
+                 lambda s: truth_codes(trial, index, plan.labels,
+                                       window=window_of(s, trial.rate_hz)),
+                 order=order, mean=mean, block=block)
+    return acc
 
 
 def _fit_temporal(feats, temporal_specs, seen_labels, path, label_map, *, order, mean,
@@ -368,7 +435,8 @@ def _fit_temporal(feats, temporal_specs, seen_labels, path, label_map, *, order,
         try:
             temporal[lab] = fit_class(lab, f, block=block)
         except ValueError as exc:
-            raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
+            raise DataError(str(exc), file=None if path is None else str(path),
+                            field="ground_truth/labels") from None
     return temporal
 
 
@@ -384,10 +452,99 @@ def _fit_impacts(segs, impact_specs, seen_labels, path, label_map) -> dict:
         try:
             m = ImpactFeature.from_segments(ss, name=lab, signal=spec.signal)
         except ValueError as exc:
-            raise DataError(str(exc), file=str(path), field="ground_truth/labels") from None
+            raise DataError(str(exc), file=None if path is None else str(path),
+                            field="ground_truth/labels") from None
         m.n_segments_ = len(ss)
         impacts[lab] = m
     return impacts
+
+
+def _fit_models(graph, plan: _Plan, data: _LabelledData, path, label_map, *, order, mean,
+                block) -> tuple[dict, dict, dict]:
+    """The temporal, impact and kinematic models from the cut runs."""
+    temporal = _fit_temporal(data.feats, plan.temporal_specs, data.seen_labels, path,
+                             label_map, order=order, mean=mean, block=block)
+    impacts = _fit_impacts(data.segs, plan.impact_specs, data.seen_labels, path, label_map)
+    missing = sorted(lab for lab in plan.kin_labels if lab not in data.seen_labels)
+    if missing:
+        unmatched = [src for src in (label_map or {}) if str(src) not in data.raw_labels]
+        raise _no_label(missing[0], data.seen_labels, path, label_map,
+                        "ground_truth/labels" + (" (after --label-map)" if label_map else ""),
+                        unmatched)
+    kinematic = fit_kinematic_models(graph, data.kin_runs,
+                                     source=None if path is None else str(path))
+    return temporal, impacts, kinematic
+
+
+def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDER,
+              mean: bool = D.GRAPH_MEAN, block: int = D.BLOCK,
+              reduce: str = D.GRAPH_REDUCE) -> GraphModels:
+    """Fit every trained model ``graph`` names from labelled recordings given as arrays
+    (:func:`train_graph` does the same from an archive's trials).
+
+    Parameters
+    ----------
+    graph : a :class:`FeatureGraph` or a graph file path.
+    recordings : a sequence of ``(signals, codes)``: ``signals`` maps each signal the
+        graph's models read to its conditioned samples, ``(n,)`` or ``(n, channels)`` at
+        rate ``fs`` (as :func:`~contactlab.signals.trial_signals` gives them); ``codes``
+        the label of each sample, an ``(n,)`` array of indices into ``labels`` (-1:
+        unlabelled), or a dict of such arrays per signal.
+    fs : the signals' rate, Hz.
+    labels : the label names the codes index; a graph model's ``trained`` label is one
+        of them.
+    order, mean, block, reduce : as for :func:`train_graph` (``reduce`` is recorded: the
+        signals are taken as given).
+
+    Returns the :class:`GraphModels` (``save`` writes the models file ``train`` writes).
+    Raises DataError for a label with no data, too few blocks or impacts, or a frame the
+    data do not determine.
+    """
+    if not isinstance(graph, FeatureGraph):
+        graph = load_graph(graph)
+    plan = _plan(graph)
+    labels = [str(n) for n in labels]
+    acc = _new_labelled(plan)
+    acc.fs = float(fs)
+    for i, (signals, codes) in enumerate(recordings):
+        data = {s: np.asarray(signals[s], float).reshape(len(signals[s]), -1)
+                for s in plan.all_signals}
+        # the codes into the plan's labels
+        table = np.array([plan.labels.index(n) if n in plan.labels else -1 for n in labels]
+                         + [-1], np.int64)
+
+        def codes_of(s, codes=codes):
+            c = np.asarray(codes[s] if isinstance(codes, dict) else codes, np.int64)
+            return table[np.where(c < 0, -1, c)]
+        given = [np.asarray(c, np.int64) for c in
+                 (codes.values() if isinstance(codes, dict) else [codes])]
+        present = {labels[c] for g in given for c in np.unique(g) if c >= 0}
+        acc.seen_labels.update(present)
+        acc.raw_labels.update(present)
+        acc.ids_used.append(str(i))
+        for node, names in plan.transient.items():     # the longest run of each transient
+            lab = next((x for x in names if x in labels), None)
+            runs = mask_runs(given[0] == labels.index(lab)) if lab is not None else []
+            if runs:
+                secs = max(b - a for a, b in runs) / float(fs)
+                acc.longest[node] = max(acc.longest.get(node, 0.0), secs)
+        _cut(acc, plan, data, codes_of, order=order, mean=mean, block=block)
+    temporal, impacts, kinematic = _fit_models(graph, plan, acc, None, None, order=order,
+                                               mean=mean, block=block)
+    provenance = {
+        "label_map": None, "archive": None, "trials": acc.ids_used, "labels": "truth",
+        "classes": list(temporal), "impacts": list(impacts), "skipped": {},
+        "signal": plan.signal, "reduce": reduce, "block": int(block), "order": int(order),
+        "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
+        "impact_segments": {k: len(v) for k, v in acc.segs.items()},
+        "transient_longest_s": acc.longest,
+        "graph": {"name": graph.name, "source": graph.source},
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "contactlab_version": __version__, "command": "fit_graph",
+    }
+    return GraphModels(temporal=temporal, impacts=impacts, signal=plan.signal, fs=float(fs),
+                       reduce=reduce, provenance=provenance,
+                       channels=None if reduce == "none" else [], kinematic=kinematic)
 
 
 def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GRAPH_MEAN,
@@ -415,60 +572,19 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         graph = load_graph(graph)
     if reduce not in REDUCE:
         raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
-    gsrc = graph.source or "<graph>"
-    temporal_specs, impact_specs = {}, {}
-    for name, spec in graph.models.items():
-        if spec.kind == "temporal":
-            temporal_specs.setdefault(spec.trained, spec)
-        elif spec.kind == "impact" and "theta_mean" not in spec.params:
-            impact_specs.setdefault(spec.trained, spec)
-    kin_specs = kinematic_specs(graph)
-    kin_labels = {lab for spec in kin_specs.values() for lab in spec.trained_labels}
-    signals = {s.signal for s in temporal_specs.values()}
-    if not temporal_specs and not kin_specs:
-        raise DataError("the graph names no model to train", file=gsrc, field="models")
-    if len(signals) > 1:
-        raise DataError(f"temporal models read different signals {sorted(signals)}; one "
-                        "models file holds one signal", file=gsrc, field="models")
-    signal = signals.pop() if signals else "wrench"
-    bad = [s.signal for s in list(temporal_specs.values()) + list(impact_specs.values())
-           if s.signal not in _TRAINED_SIGNALS]
-    if bad:
-        raise DataError(f"cannot train a model on signal {bad[0]!r} (trainable: "
-                        f"{', '.join(_TRAINED_SIGNALS)})", file=gsrc, field="models")
-    labels = list(dict.fromkeys(list(temporal_specs) + list(impact_specs) + sorted(kin_labels)))
-    kin_signals = {spec.signal for spec in kin_specs.values()}
-    all_signals = sorted({s.signal for s in impact_specs.values()} | kin_signals
-                         | ({signal} if temporal_specs else set()))
+    plan = _plan(graph)
     path = Path(archive)
-    # a transient node's labelled runs: its own name's, else those its impact models are
-    # trained on (9.1.1's impact node "1" reads the "impact" labels); not those of its
-    # other models (free-contact's impact reads the contact's frame, trained on contact)
-    transient = {n.name: [n.name] + [lab for m in n.model_names
-                                     if graph.models[m].kind == "impact"
-                                     for lab in graph.models[m].trained_labels]
-                 for n in graph.nodes if n.transient}
-    data = _read_labelled(path, trials, label_map, quiet=quiet, labels=labels,
-                          all_signals=all_signals, signal=signal, kin_signals=kin_signals,
-                          kin_labels=kin_labels, temporal_specs=temporal_specs,
-                          impact_specs=impact_specs, transient=transient, order=order,
-                          mean=mean, block=block, reduce=reduce)
-    feats, segs, kin_runs, seen_labels = data.feats, data.segs, data.kin_runs, data.seen_labels
-    raw_labels, ids_used, fs, longest = data.raw_labels, data.ids_used, data.fs, data.longest
-    if not ids_used:
+    data = _read_labelled(path, trials, label_map, plan, quiet=quiet, order=order, mean=mean,
+                          block=block, reduce=reduce)
+    if not data.ids_used:
         raise DataError("no trial has ground-truth labels", file=str(path),
                         field="/trials/*/ground_truth/labels")
-    check_map_sources(label_map, raw_labels, file=str(path), field="/trials/*/ground_truth/labels")
-    temporal = _fit_temporal(feats, temporal_specs, seen_labels, path, label_map,
-                             order=order, mean=mean, block=block)
-    impacts = _fit_impacts(segs, impact_specs, seen_labels, path, label_map)
-    missing = sorted(lab for lab in kin_labels if lab not in seen_labels)
-    if missing:
-        unmatched = [src for src in (label_map or {}) if str(src) not in raw_labels]
-        raise _no_label(missing[0], seen_labels, path, label_map,
-                        "ground_truth/labels" + (" (after --label-map)" if label_map else ""),
-                        unmatched)
-    kinematic = fit_kinematic_models(graph, kin_runs, source=str(path))
+    check_map_sources(label_map, data.raw_labels, file=str(path),
+                      field="/trials/*/ground_truth/labels")
+    temporal, impacts, kinematic = _fit_models(graph, plan, data, path, label_map,
+                                               order=order, mean=mean, block=block)
+    signal, segs, ids_used, longest, fs = (plan.signal, data.segs, data.ids_used,
+                                           data.longest, data.fs)
     provenance = {
         "label_map": label_map,
         "constraints": {k: getattr(m, "n_segments_", 0)

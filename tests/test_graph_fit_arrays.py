@@ -1,0 +1,75 @@
+"""Training a graph from numpy arrays (:func:`contactlab.fit_graph`) gives the models
+training from an archive gives (:func:`contactlab.train_graph`): the archive route is a
+reader in front of the same fit, so the two models files hold the same numbers."""
+
+import h5py
+import numpy as np
+import pytest
+from test_free_contact import _archive
+from test_recognize import recognition_files
+
+from contactlab import fit_graph, load_graph, train_graph
+from contactlab.archive import open_archive
+from contactlab.errors import DataError
+from contactlab.signals import relabel, trial_signals, truth_codes, window_of
+
+
+def _datasets(path):
+    """Every dataset of a models file (provenance attributes aside)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[()])
+                     if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def _from_archive(path, graph, signals, label_map=None, reduce="mean"):
+    """The recordings of ``path`` as arrays: conditioned signals and label codes per
+    signal, as a notebook user would pass them."""
+    recs, labels = [], None
+    with open_archive(path) as arch:
+        for tid in arch.trial_ids:
+            trial = relabel(arch.trial(tid), label_map)
+            labels = [n for n in trial.label_names if n is not None]
+            data, index, fs = trial_signals(trial, signals, reduce=reduce)
+            codes = {s: truth_codes(trial, index, labels, window=window_of(s, trial.rate_hz))
+                     for s in signals}
+            recs.append((data, codes))
+    return recs, labels, fs
+
+
+def _same_files(a, b):
+    da, db = _datasets(a), _datasets(b)
+    assert sorted(da) == sorted(db) and da
+    for k in da:
+        assert np.array_equal(da[k], db[k], equal_nan=True), k
+
+
+def test_temporal_and_impact_models_from_arrays_equal_the_archive_route(tmp_path):
+    files = recognition_files(tmp_path)
+    graph = load_graph(files["graph"])
+    kw = dict(order=1, mean=True, block=100, reduce="mean")
+    recs, labels, fs = _from_archive(files["train"], graph, ["hf"])
+    fit_graph(graph, recs, fs=fs, labels=labels, **kw).save(tmp_path / "arrays.h5")
+    _same_files(files["models"], tmp_path / "arrays.h5")
+
+
+def test_constraint_and_velocity_models_from_arrays_equal_the_archive_route(tmp_path):
+    train = _archive(tmp_path, "rec", 11, 200.0)
+    label_map = {"1": "free", "2": "contact", "3": "free"}
+    graph = load_graph("free-contact")
+    train_graph(train, graph, label_map=label_map).save(tmp_path / "archive.h5")
+    signals = sorted({m.signal for m in graph.models.values()})
+    recs, labels, fs = _from_archive(train, graph, signals, label_map)
+    fit_graph(graph, recs, fs=fs, labels=labels).save(tmp_path / "arrays.h5")
+    _same_files(tmp_path / "archive.h5", tmp_path / "arrays.h5")
+
+
+def test_a_label_the_arrays_lack_is_a_one_line_error():
+    graph = load_graph("free-contact")
+    y = np.zeros((50, 3))
+    with pytest.raises(DataError) as err:
+        fit_graph(graph, [({"contact-compensated": np.zeros((50, 6)), "velocity": y,
+                            "position": y, "wrench": np.zeros((50, 6))},
+                           np.zeros(50, np.int64))], fs=100.0, labels=["free"])
+    assert "no label 'contact'" in str(err.value)
