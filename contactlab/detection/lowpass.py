@@ -45,7 +45,9 @@ class LowpassThreshold:
     absolute : alarm on ``|x| > threshold`` instead of ``x > threshold``.
     x0 : filter state before the first sample and after each alarm.
 
-    Attributes (after the first :meth:`update` or :meth:`run`)
+    The attributes are set by the first :meth:`update` or :meth:`run`.
+
+    Attributes
     ----------
     x_ : (D,) filter state after the last sample (``x0`` after an alarm).
     statistic_ : (D,) filter output at the last sample before any reset.

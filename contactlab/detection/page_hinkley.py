@@ -70,7 +70,9 @@ class PageHinkley:
         over alarms only; identical up to rounding). The numpy engine makes one
         pass over a block per alarm, so it is slow when alarms are frequent.
 
-    Attributes (after the first :meth:`update` or :meth:`run`)
+    The attributes are set by the first :meth:`update` or :meth:`run`.
+
+    Attributes
     ----------
     df_ : (D, K) the decision functions after the last sample (0 after an alarm).
     statistic_ : (D, K) the decision functions at the last sample *before* any

@@ -25,8 +25,11 @@ from contactlab.sim.sensor import Encoders, StrainGaugeSensor
 class SimResult:
     """Measurements and ground truth of one trial, one row per output sample.
 
-    Measurements (what the real apparatus would record)
-    ---------------------------------------------------
+    The attributes from ``time`` to ``command_kind`` are the measurements (what the real
+    apparatus would record); those from ``wrench_true`` on are the ground truth.
+
+    Attributes
+    ----------
     time : (n,) s
     strain : (n, 8) quantised half-bridge outputs, V
     wrench : (n, 6) Fx Fy Fz (N), Mx My Mz (N m) at the sensor origin, computed
@@ -37,9 +40,6 @@ class SimResult:
     command : (n, 3) the commanded action: desired position (m) for position
         controllers, desired force (N) for the integral force controller
     command_kind : "position" or "force"
-
-    Ground truth
-    ------------
     wrench_true : (n, 6) noise-free sensor wrench
     robot_position, robot_velocity, fingertip_position, fingertip_velocity : (n, 3)
     desired_position : (n, 3) the position the servo loop tracked
