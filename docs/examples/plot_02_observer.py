@@ -8,10 +8,9 @@ surface, the impact at touch-down; thesis 9.1.1) is trained on one synthetic
 wrench-and-position recording and run on another, all from numpy arrays.
 
 ``contactlab train REC.h5 --graph free-contact`` does the same from an archive
-(:func:`contactlab.observer.train_graph` reads the labelled runs from it); from
-arrays, the same fit is :func:`contactlab.observer.kinematics.fit_kinematic_models`,
-which takes the labelled runs directly, and each of its models can also be
-built alone with its ``from_segments`` constructor
+(:func:`contactlab.train_graph` reads the labelled runs from it, then fits them as
+:func:`contactlab.fit_graph` fits arrays), and each model can also be built alone
+with its ``from_segments`` constructor
 (:meth:`~contactlab.observer.models.ConstraintFeature.from_segments`,
 :meth:`~contactlab.observer.models.MovingVelocity.from_segments`).
 """
@@ -25,8 +24,7 @@ built alone with its ``from_segments`` constructor
 import matplotlib.pyplot as plt
 import numpy as np
 
-from contactlab import Observer, build_models, load_graph, observe
-from contactlab.observer.kinematics import fit_kinematic_models
+from contactlab import Observer, build_models, fit_graph, load_graph, observe
 from contactlab.signals import compensate_friction, lowpass
 from contactlab.synthetic.free_contact import free_contact_recording
 
@@ -46,29 +44,18 @@ def streams(rec):
 
 
 # %%
-# The labelled runs
-# -----------------
-# The models are fitted on maximal runs of one label, keyed by (signal, node):
-# the recording's labels 1 and 3 are both free space.
+# Fit the models from the arrays
+# ------------------------------
+# :func:`~contactlab.fit_graph` takes each recording's signals and a label code per
+# sample (indices into ``labels``); the recording's labels 1 and 3 are both free
+# space.  It cuts the runs of each label and fits every model the graph names,
+# returning what ``contactlab train`` writes to a models file.
 graph = load_graph("free-contact")
-nodes = {1: "free", 2: "contact", 3: "free"}
-data = streams(train)
-change = np.flatnonzero(np.diff(train.labels)) + 1
-runs = {}
-for a, b in zip([0, *change], [*change, len(train.labels)]):
-    node = nodes[int(train.labels[a])]
-    for signal, y in data.items():
-        runs.setdefault((signal, node), []).append(y[a:b])
-print({k: len(v) for k, v in runs.items()})
-
-# %%
-# Fit the models, build the graph's model objects
-# -----------------------------------------------
-fitted = fit_kinematic_models(graph, runs)
-trained = {f"{kind}:{label}": model for kind, by_label in fitted.items()
-           for label, model in by_label.items()}
-models = build_models(graph, trained)
-contact = fitted["constraint"]["contact"]
+labels = ["free", "contact"]
+codes = np.where(train.labels == 2, 1, 0)
+fitted = fit_graph(graph, [(streams(train), codes)], fs=FS, labels=labels)
+models = build_models(graph, fitted.trained)
+contact = fitted.kinematic["constraint"]["contact"]
 print("contact: degree", contact.degree, "normal", np.round(contact.normals.ravel(), 3))
 print("true surface normal", np.round(test.normal, 3))
 
@@ -77,7 +64,7 @@ print("true surface normal", np.round(test.normal, 3))
 # --------------------------------------
 obs = Observer(graph, models, sides=graph.sides or "increase")
 result = observe(obs, streams(test))
-truth = np.array([graph.index(nodes[int(c)]) for c in test.labels])
+truth = np.array([graph.index(labels[c]) for c in np.where(test.labels == 2, 1, 0)])
 recognised = result.labels                  # node index per sample along the MAP path
 print("MAP path:", [(node, round(start / FS, 2)) for node, start in result.map_path][:8], "...")
 print(f"share of samples marked correctly: {np.mean(recognised == truth):.3f}")
@@ -85,11 +72,14 @@ print(f"share of samples marked correctly: {np.mean(recognised == truth):.3f}")
 # %%
 fig, (ax0, ax1) = plt.subplots(2, 1, sharex=True, figsize=(8, 5))
 t = np.arange(len(test.force)) / FS
-ax0.plot(t, test.force @ test.normal, lw=0.7)
+ax0.plot(t, test.force @ test.normal, lw=0.7, label="force along the surface normal")
 ax0.set_ylabel("normal force (N)")
+ax0.legend(loc="upper right")
 ax1.step(t, truth, where="post", label="truth")
 ax1.step(t, recognised + 0.05, where="post", label="observer (MAP path)")
 ax1.set_yticks(range(graph.n_nodes), graph.node_names)
 ax1.set_xlabel("time (s)")
+ax1.set_ylabel("node")
 ax1.legend(loc="upper right")
+fig.suptitle("free-contact graph trained from arrays, run on another recording")
 fig.tight_layout()
