@@ -77,6 +77,7 @@ _EXPORTS = {
     "TemporalModel": "contactlab.temporal",
     "ModelSet": "contactlab.temporal",
     "train_temporal": "contactlab.temporal",
+    "fit_temporal": "contactlab.temporal",
     # the observer
     "FeatureGraph": "contactlab.observer",
     "load_graph": "contactlab.observer",

@@ -29,7 +29,8 @@ from contactlab.temporal.features import BlockFeatures, block_features, min_bloc
 from contactlab.temporal.model import ModelSet, TemporalModel, fit_class
 from contactlab.fileio import sha256_file
 
-__all__ = ["LabelledBlocks", "collect_blocks", "fit_models", "train_temporal", "check_settings"]
+__all__ = ["LabelledBlocks", "collect_blocks", "fit_models", "train_temporal", "fit_temporal",
+           "check_settings"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,10 +127,20 @@ def collect_blocks(archive, *, labels: str = "truth", signal: str | None = None,
             sig = load_signal(trial, signal, path=path)
             sigs[tid] = sig
             runs[tid] = label_runs(trial, sig, labels, path=path)
+    return _blocks(sigs, runs, signal=signal, labels=labels, order=order, mean=mean,
+                   block=block, channels=channels, keep_unlabelled=keep_unlabelled,
+                   path=str(path))
+
+
+def _blocks(sigs: dict, runs: dict, *, signal, labels, order, mean, block, channels,
+            keep_unlabelled, path) -> LabelledBlocks:
+    """The blocks of every recording's conditioned signal ``sigs[id]`` inside its label
+    runs ``runs[id] = (rows [start, end, code], names or None)``, and their features
+    (``channels`` None: the columns that vary in every recording)."""
     widths = {s.y.shape[1] for s in sigs.values()}
     if len(widths) != 1:
         raise DataError(f"trials have different numbers of {signal} channels {sorted(widths)}",
-                        file=str(path), field=f"measurements/{signal}")
+                        file=path, field=f"measurements/{signal}")
     width = widths.pop()
     if channels is None:
         varies = np.ones(width, dtype=bool)
@@ -137,13 +148,13 @@ def collect_blocks(archive, *, labels: str = "truth", signal: str | None = None,
             varies &= np.ptp(s.y, axis=0) > 0
         channels = [int(c) for c in np.flatnonzero(varies)]
         if not channels:
-            raise DataError(f"every {signal} channel is constant", file=str(path),
+            raise DataError(f"every {signal} channel is constant", file=path,
                             field=f"measurements/{signal}")
     else:
         channels = [int(c) for c in channels]
         if any(not 0 <= c < width for c in channels):
             raise DataError(f"channels {channels} outside the signal's {width}",
-                            file=str(path), field=f"measurements/{signal}")
+                            file=path, field=f"measurements/{signal}")
     parts, lab, tri, st, s0, s1 = [], [], [], [], [], []
     labelled, all_names = [], []
     for tid, sig in sigs.items():
@@ -286,4 +297,50 @@ def train_temporal(archive, *, labels: str = "truth", signal: str | None = None,
             [os.path.basename(sys.argv[0])] + sys.argv[1:]),
     }
     return ModelSet(models=models, signal=blocks.signal, fs=blocks.fs, provenance=provenance,
+                    channels=blocks.channels)
+
+
+def fit_temporal(recordings, *, labels, fs: float, signal: str = "strain",
+                 order: int = D.TRAIN_ORDER, mean: bool = False, block: int = D.BLOCK,
+                 classes=None, channels=None) -> ModelSet:
+    """Train one :class:`TemporalModel` per class from arrays (:func:`train_temporal`
+    does the same from an archive's trials, through the same blocks and fit).
+
+    Parameters
+    ----------
+    recordings : a sequence of ``(y, codes)``: a conditioned signal ``y``, ``(n,)`` or
+        ``(n, channels)`` at rate ``fs``, and the label of each sample, ``(n,)``
+        indices into ``labels`` (-1: unlabelled).
+    labels : the class names the codes index.
+    fs : the signal's rate, Hz; ``signal``: its name, recorded in the models.
+    order, mean, block, classes, channels : as for :func:`train_temporal` and
+        :func:`collect_blocks` (``channels`` None: the columns that vary in every
+        recording).
+
+    Returns the :class:`ModelSet` (``save`` writes the models file ``train`` writes).
+    """
+    from contactlab.signals import Signal
+    from contactlab.temporal.blocks import runs_from_codes
+
+    check_settings(signal=signal, order=order, mean=mean, block=block)
+    names = [str(n) for n in labels]
+    sigs, runs = {}, {}
+    for i, (y, codes) in enumerate(recordings):
+        y = np.asarray(y, np.float64)
+        y = y.reshape(len(y), -1)
+        n = len(y)
+        sigs[str(i)] = Signal(signal, y, np.arange(n), np.arange(n) / float(fs), float(fs),
+                              str(i))
+        runs[str(i)] = (runs_from_codes(np.asarray(codes, np.int64)), names)
+    blocks = _blocks(sigs, runs, signal=signal, labels="truth", order=order, mean=mean,
+                     block=block, channels=channels, keep_unlabelled=False, path=None)
+    models, skipped = fit_models(blocks, classes=classes)
+    provenance = {
+        "archive": None, "trials": list(sigs), "labels": "truth", "classes": list(models),
+        "skipped": skipped, "signal": signal, "block": int(block), "order": int(order),
+        "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in models.items()},
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "contactlab_version": __version__, "command": "fit_temporal",
+    }
+    return ModelSet(models=models, signal=signal, fs=float(fs), provenance=provenance,
                     channels=blocks.channels)

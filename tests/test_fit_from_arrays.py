@@ -1,6 +1,7 @@
-"""Training a graph from numpy arrays (:func:`contactlab.fit_graph`) gives the models
-training from an archive gives (:func:`contactlab.train_graph`): the archive route is a
-reader in front of the same fit, so the two models files hold the same numbers."""
+"""Training from numpy arrays gives the models training from an archive gives: a graph
+(:func:`contactlab.fit_graph` beside :func:`contactlab.train_graph`) and temporal models
+(:func:`contactlab.fit_temporal` beside :func:`contactlab.train_temporal`).  The archive
+routes are readers in front of the same fits, so the models files hold the same numbers."""
 
 import h5py
 import numpy as np
@@ -73,3 +74,24 @@ def test_a_label_the_arrays_lack_is_a_one_line_error():
                             "position": y, "wrench": np.zeros((50, 6))},
                            np.zeros(50, np.int64))], fs=100.0, labels=["free"])
     assert "no label 'contact'" in str(err.value)
+
+
+def test_temporal_models_from_arrays_equal_the_archive_route(tmp_path):
+    from conftest import write_archive
+
+    from contactlab import fit_temporal, train_temporal
+    from contactlab.temporal.blocks import load_signal
+
+    path = tmp_path / "a.h5"
+    write_archive(path, trials=[f"t{i}" for i in range(3)], n=6000)
+    kw = dict(order=2, mean=True, block=100)
+    train_temporal(path, **kw).save(tmp_path / "archive.h5")
+    recs = []
+    with open_archive(path) as arch:
+        for tid in arch.trial_ids:
+            trial = arch.trial(tid)
+            sig = load_signal(trial, "strain")
+            recs.append((sig.y, truth_codes(trial, sig.index)))
+            labels, fs = list(trial.label_names), sig.fs
+    fit_temporal(recs, labels=labels, fs=fs, signal="strain", **kw).save(tmp_path / "arrays.h5")
+    _same_files(tmp_path / "archive.h5", tmp_path / "arrays.h5")
