@@ -20,7 +20,6 @@ block, ...`` (the remainder is dropped), so no block spans a label change.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 import numpy as np
 
