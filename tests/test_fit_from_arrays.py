@@ -95,3 +95,21 @@ def test_temporal_models_from_arrays_equal_the_archive_route(tmp_path):
             labels, fs = list(trial.label_names), sig.fs
     fit_temporal(recs, labels=labels, fs=fs, signal="strain", **kw).save(tmp_path / "arrays.h5")
     _same_files(tmp_path / "archive.h5", tmp_path / "arrays.h5")
+
+
+def test_arrays_missing_a_signal_or_with_wrong_codes_are_one_line_errors():
+    graph = load_graph("free-contact")
+    y = {"contact-compensated": np.zeros((50, 6)), "velocity": np.zeros((50, 3))}
+    with pytest.raises(ValueError, match="recording 0 lacks signal 'velocity'"):
+        fit_graph(graph, [({"contact-compensated": y["contact-compensated"]},
+                           np.zeros(50, np.int64))], fs=100.0, labels=["free", "contact"])
+    with pytest.raises(ValueError, match="one index into labels"):
+        fit_graph(graph, [(y, np.full(50, 2))], fs=100.0, labels=["free", "contact"])
+
+
+def test_temporal_codes_outside_the_labels_are_a_one_line_error():
+    from contactlab import fit_temporal
+
+    y = np.random.default_rng(0).normal(size=1000)
+    with pytest.raises(ValueError, match="one index into labels"):
+        fit_temporal([(y, np.full(1000, 3))], labels=["a", "b"], fs=1000.0)

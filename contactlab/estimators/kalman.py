@@ -53,7 +53,7 @@ from contactlab.estimators._arrays import (as_f64, batch_vector, sqrt_matrix,
                                            vector_regression)
 from contactlab.estimators.householder import forward_subst, tri_append_n
 
-__all__ = ["SquareRootKalman", "KalmanResult", "kalman_step", "STRUCTURES"]
+__all__ = ["SquareRootKalman", "KalmanResult", "kalman_step", "sqrt_step", "step_scratch", "STRUCTURES"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 

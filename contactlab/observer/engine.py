@@ -526,7 +526,8 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending):  # pragma:
     One loop advances either every instance by the current sample or, after an event,
     the instances of the new paths begun by the catch-up sample (their detectors run, no
     thresholding).  Per sample: every instance by :func:`_filter_step` or
-    :func:`_direct_score` and its detector row (:func:`_detectors`); then the catch-up's sums or the paths' (6.10) and at an event
+    :func:`_direct_score` and its detector row (:func:`_detectors`); then the catch-up's
+    sums or the paths' (6.10) and at an event
     :func:`_spawn`, the catch-up and :func:`_prune`; then the node probabilities.
     """
     mi, mf, mp, sa, sb, ssrc = (cfg.model_info, cfg.noise_prior_count, cfg.model_params,

@@ -825,9 +825,10 @@ class Observer:
         own), then the merges, the new paths and the pruning on the banks."""
         nodes, slots, _ = self._path_arrays()
         starts = np.array([p.start for p in self._paths], dtype=np.int64)
+        succ, n_succ, log_t = self._tables()
         U, S = self._df.shape
         n_al = U * (S + 1)                      # each test's time, and transients' ends
-        n_c = n_al * max(1, int(self._tables()[1].max()))   # an alarm's successors
+        n_c = n_al * max(1, int(n_succ.max()))  # an alarm's successors
         al_p, al_k, al_r = (np.empty(n_al, np.int64) for _ in range(3))
         n_alarms, n_det = collect_alarms(ta, self.threshold, self._tmax, self._df, self._lz,
                                          self._u_path, self._u_model, U, nodes, starts,
@@ -835,7 +836,6 @@ class Observer:
                                          np.empty(S, np.int64))
         c_j, c_r, c_from, c_found = (np.empty(n_c, np.int64) for _ in range(4))
         c_init = np.empty(n_c)
-        succ, n_succ, log_t = self._tables()
         act = self._act
         n_c = best_candidates(n_alarms, n_det, al_p, al_r, nodes, starts, slots, len(self._paths),
                               self._hist.a, self._hist.t0 - self._hist.off, act.a[:, 0],

@@ -254,14 +254,18 @@ def _longest_runs(trial, transient: dict, longest: dict) -> None:
     names = list(getattr(trial, "label_names", None) or [])
     if not transient or trial.labels is None or not names:
         return
-    codes = np.asarray(trial.labels)
+    _longest_in(np.asarray(trial.labels), names, float(trial.rate_hz), transient, longest)
+
+
+def _longest_in(codes, names, rate_hz: float, transient: dict, longest: dict) -> None:
+    """:func:`_longest_runs` on label ``codes`` (indices into ``names``) at ``rate_hz``."""
     for node, labels in transient.items():
         lab = next((x for x in labels if x in names), None)
         if lab is None:
             continue
         runs = mask_runs(codes == names.index(lab))
         if runs:
-            secs = max(b - a for a, b in runs) / float(trial.rate_hz)
+            secs = max(b - a for a, b in runs) / rate_hz
             longest[node] = max(longest.get(node, 0.0), secs)
 
 
@@ -506,28 +510,30 @@ def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDE
     labels = [str(n) for n in labels]
     acc = _new_labelled(plan)
     acc.fs = float(fs)
+    # the codes into the plan's labels (-1: unlabelled, or a label no model is trained on)
+    table = np.array([plan.labels.index(n) if n in plan.labels else -1 for n in labels]
+                     + [-1], np.int64)
     for i, (signals, codes) in enumerate(recordings):
+        missing = [s for s in plan.all_signals if s not in signals]
+        if missing:
+            raise ValueError(f"recording {i} lacks signal {missing[0]!r} (the graph's models "
+                             f"read {', '.join(plan.all_signals)})")
         data = {s: np.asarray(signals[s], float).reshape(len(signals[s]), -1)
                 for s in plan.all_signals}
-        # the codes into the plan's labels
-        table = np.array([plan.labels.index(n) if n in plan.labels else -1 for n in labels]
-                         + [-1], np.int64)
+        given = {s: np.asarray(codes[s] if isinstance(codes, dict) else codes, np.int64)
+                 for s in plan.all_signals}
+        for s, c in given.items():
+            if c.shape != (len(data[s]),) or c.max(initial=-1) >= len(labels):
+                raise ValueError(f"recording {i}: the codes of {s!r} must be one index into "
+                                 f"labels (or -1) per sample ({len(data[s])})")
 
-        def codes_of(s, codes=codes):
-            c = np.asarray(codes[s] if isinstance(codes, dict) else codes, np.int64)
-            return table[np.where(c < 0, -1, c)]
-        given = [np.asarray(c, np.int64) for c in
-                 (codes.values() if isinstance(codes, dict) else [codes])]
-        present = {labels[c] for g in given for c in np.unique(g) if c >= 0}
+        def codes_of(s, given=given):
+            return table[np.maximum(given[s], -1)]
+        present = {labels[c] for g in given.values() for c in np.unique(g) if c >= 0}
         acc.seen_labels.update(present)
         acc.raw_labels.update(present)
         acc.ids_used.append(str(i))
-        for node, names in plan.transient.items():     # the longest run of each transient
-            lab = next((x for x in names if x in labels), None)
-            runs = mask_runs(given[0] == labels.index(lab)) if lab is not None else []
-            if runs:
-                secs = max(b - a for a, b in runs) / float(fs)
-                acc.longest[node] = max(acc.longest.get(node, 0.0), secs)
+        _longest_in(given[plan.all_signals[0]], labels, float(fs), plan.transient, acc.longest)
         _cut(acc, plan, data, codes_of, order=order, mean=mean, block=block)
     temporal, impacts, kinematic = _fit_models(graph, plan, acc, None, None, order=order,
                                                mean=mean, block=block)

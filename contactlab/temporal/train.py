@@ -329,9 +329,13 @@ def fit_temporal(recordings, *, labels, fs: float, signal: str = "strain",
         y = np.asarray(y, np.float64)
         y = y.reshape(len(y), -1)
         n = len(y)
+        codes = np.asarray(codes, np.int64)
+        if codes.shape != (n,) or codes.max(initial=-1) >= len(names):
+            raise ValueError(f"recording {i}: the codes must be one index into labels (or -1) "
+                             f"per sample ({n})")
         sigs[str(i)] = Signal(signal, y, np.arange(n), np.arange(n) / float(fs), float(fs),
                               str(i))
-        runs[str(i)] = (runs_from_codes(np.asarray(codes, np.int64)), names)
+        runs[str(i)] = (runs_from_codes(codes), names)
     blocks = _blocks(sigs, runs, signal=signal, labels="truth", order=order, mean=mean,
                      block=block, channels=channels, keep_unlabelled=False, path=None)
     models, skipped = fit_models(blocks, classes=classes)
