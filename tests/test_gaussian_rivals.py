@@ -137,8 +137,8 @@ def _broad_then_narrow(seed, n0=400, n1=400):
 @pytest.mark.parametrize("weight", [1.0, 0.2])
 def test_a_change_into_a_phase_inside_the_current_ones_spread_is_found(weight):
     y, n0 = _broad_then_narrow(1)
-    A = GaussianFeature.from_segments([y[:n0]], name="A", signal="x")
-    B = GaussianFeature.from_segments([y[n0:]], name="B", signal="x")
+    A = GaussianFeature(name="A", signal="x").fit([y[:n0]])
+    B = GaussianFeature(name="B", signal="x").fit([y[n0:]])
     ms = {"A": A.with_weight(weight), "B": B.with_weight(weight)}
     assert np.mean(A.score(y[n0:])[1]) < 1.0           # B lies inside A's spread
     res = observe(Observer(_chain(["A", "B"], ["A -> B"]), ms), y)
@@ -153,7 +153,7 @@ def test_the_compiled_core_gives_the_general_forms_results_with_rivals():
     segs = {"A": [y[:n0]], "B": [y[n0:n0 + 300]]}
 
     def models(cls):
-        return {k: cls.from_segments(v, name=k, signal="x").with_weight(0.5)
+        return {k: cls(name=k, signal="x").fit(v).with_weight(0.5)
                 for k, v in segs.items()}
 
     g = _chain(["A", "B"], ["A -> B", "B -> A"])
@@ -172,7 +172,7 @@ def test_the_test_against_r_rivals_alarms_at_t_plus_log_r():
     from scipy.stats import norm
 
     y, n0 = _broad_then_narrow(4)
-    A = GaussianFeature.from_segments([y[:n0]], name="A", signal="x")
+    A = GaussianFeature(name="A", signal="x").fit([y[:n0]])
     rivals = {"B": (1.0, 0.3), "C": (1.2, 0.3), "D": (0.8, 0.3)}
     ms = {"A": A, **{k: _gauss(k, [m], [[s * s]], signal="x") for k, (m, s) in rivals.items()}}
     g = _chain(["A", "B", "C", "D"], ["A -> B", "A -> C", "A -> D"])

@@ -50,7 +50,7 @@ def test_edges_probabilities_and_initial_from_sequences():
 def test_gaussian_model_scores_like_its_compiled_step():
     rng = np.random.default_rng(0)
     x = rng.normal(size=(200, 4)) @ rng.normal(size=(4, 4))
-    m = GaussianFeature.from_segments([x[:120], x[120:]], name="g")
+    m = GaussianFeature(name="g").fit([x[:120], x[120:]])
     ll, chi = m.run({}, x[:5], t0=0, starts=np.zeros(3, np.int64))
     assert ll.shape == (5, 3) and np.all(ll[:, 0] == ll[:, 2])
     for k in range(5):

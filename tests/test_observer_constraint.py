@@ -82,13 +82,14 @@ def test_model_of_the_true_frame_wins_and_estimation_finds_a_rotated_frame():
 def test_fit_recovers_the_frame_and_noise_of_labelled_segments():
     rng = np.random.default_rng(6)
     segs = [_plane(rng, 300, 12.0) for _ in range(3)]
-    m = ConstraintFeature.from_segments(segs, name="contact", degree=1, position_sd=1e-5, force_sd=0.01)
+    m = ConstraintFeature(name="contact", degree=1, position_sd=1e-5,
+                          force_sd=0.01).fit(segs)
     true = Rotation.from_euler("x", 12.0, degrees=True).as_matrix()[:, 2]
     assert abs(abs(m.normals[:, 0] @ true) - 1) < 1e-3
     # the normal-motion variance in normalised units is the position noise (+ the floor)
     assert 1.5 < m.V[0, 0] < 2.5
-    fixed = ConstraintFeature.from_segments(segs, name="c", normals=constraint_normals("Z"),
-                                  position_sd=1e-5, force_sd=0.01)
+    fixed = ConstraintFeature(name="c", normals=constraint_normals("Z"), position_sd=1e-5,
+                              force_sd=0.01).fit(segs)
     assert np.diag(fixed.V)[1:].max() > 10 * np.diag(m.V)[1:].max()   # wrong frame: force leaks
 
 
@@ -103,8 +104,8 @@ def test_trained_covariance_is_the_residuals_in_the_frame_the_model_scores():
         tangent = Rotation.from_euler("x", 12.0, degrees=True).as_matrix()[:, 0]
         s[:, 3:] += np.outer(rng.normal(0, 0.3, len(s)), tangent)    # friction along x'
         segs.append(s)
-    m = ConstraintFeature.from_segments(segs, name="contact", degree=1, position_sd=1e-5,
-                                        force_sd=0.01)
+    m = ConstraintFeature(name="contact", degree=1, position_sd=1e-5,
+                          force_sd=0.01).fit(segs)
     T = m.frame[:, 1:]
     f = np.concatenate([s[:, 3:] for s in segs]) * m._alpha
     want = (f @ T).T @ (f @ T) / len(f) + np.eye(2)
@@ -114,7 +115,7 @@ def test_trained_covariance_is_the_residuals_in_the_frame_the_model_scores():
 def test_velocity_models_fit_their_oracles():
     rng = np.random.default_rng(7)
     still = rng.normal(0, 0.003, size=(5000, 3))
-    F = FixedVelocity.from_segments([still])
+    F = FixedVelocity().fit([still])
     assert F.sigma == pytest.approx(0.003, rel=0.03)
     x = rng.normal(size=(20, 3)) * 0.01
     ll = F.run({}, x, t0=0, starts=np.zeros(1))[0][:, 0]
@@ -122,7 +123,7 @@ def test_velocity_models_fit_their_oracles():
     t = np.arange(2000)[:, None] / 250.0
     smooth = 0.05 * np.sin(2 * np.pi * np.array([0.3, 0.5, 0.7]) * t + np.array([0, 1, 2]))
     moving = [smooth + rng.normal(0, 0.001, (2000, 3))]
-    M = MovingVelocity.from_segments(moving)
+    M = MovingVelocity().fit(moving)
     assert M.high == pytest.approx(0.05, rel=0.05) and M.low == -M.high
     assert 0.0005 < M.sigma < 0.002
     # density: uniform convolved with the noise normal, integrated numerically

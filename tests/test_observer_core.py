@@ -146,7 +146,7 @@ def test_mean_step_with_impact_node():
     y = np.concatenate([rest, impact, contact])
     segs = [a - 0.05 * np.arange(80) + rng.normal(0, 0.3, 80)
             for a in rng.normal(4.0, 0.3, 8)]
-    imp = ImpactFeature.from_segments(segs, name="I")
+    imp = ImpactFeature(name="I").fit(segs)
     models = {
         "R": TemporalFeature(name="R", order=1, mean=True, theta_mean=[-2.0, 0.0],
                              theta_sqrt=[0.1, 0.05], noise_var=0.09, structure="plain"),
@@ -166,11 +166,11 @@ def test_mean_step_with_impact_node():
     assert abs(path[2][1] - (n0 + n1)) <= 25
 
 
-def test_impact_prior_from_segments():
+def test_impact_prior_fitted_from_segments():
     rng = np.random.default_rng(8)
     mus, slopes = rng.normal(4.0, 0.2, 40), rng.normal(-0.05, 0.005, 40)
     segs = [m + s * np.arange(200) + rng.normal(0, 0.1, 200) for m, s in zip(mus, slopes)]
-    imp = ImpactFeature.from_segments(segs)
+    imp = ImpactFeature(name="impact").fit(segs)
     assert imp.theta_mean[0, 0] == pytest.approx(4.0, abs=0.1)
     assert imp.theta_mean[0, 1] == pytest.approx(-0.05, abs=0.003)
     cov = imp.theta_sqrt[0] @ imp.theta_sqrt[0].T

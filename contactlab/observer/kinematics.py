@@ -169,16 +169,14 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
 
                     N = Rotation.from_euler("xyz", spec.params["rotate_deg"],
                                             degrees=True).as_matrix() @ N
-                model = ConstraintFeature.from_segments(segs, name=label, degree=m, normals=N,
-                                              mode=spec.params.get("mode", "fixed"),
-                                              position_sd=pos_sd, force_sd=frc_sd,
-                                              signal=signal)
-                out["constraint"][label] = model
+                model = ConstraintFeature(name=label, degree=m, normals=N,
+                                          mode=spec.params.get("mode", "fixed"),
+                                          position_sd=pos_sd, force_sd=frc_sd, signal=signal)
+                out["constraint"][label] = model.fit(segs)
             elif kind == "gaussian":
-                out["gaussian"][label] = GaussianFeature.from_segments(segs, name=label,
-                                                                       signal=signal)
+                out["gaussian"][label] = GaussianFeature(name=label, signal=signal).fit(segs)
             else:
-                out["velocity"][label] = _VELOCITY[kind].from_segments(segs, name=label)
+                out["velocity"][label] = _VELOCITY[kind](name=label).fit(segs)
         except ValueError as exc:
             raise DataError(str(exc), file=source, field=f"ground_truth/labels "
                             f"(graph {where})") from None

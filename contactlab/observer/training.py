@@ -11,7 +11,7 @@ For each ``[models.NAME]`` of a graph:
 * ``impact`` without inline parameters -- an
   :class:`~contactlab.observer.models.ImpactFeature` prior on the linear decay
   ``(mu, a)`` of the log energy fitted to every labelled run of ``trained``
-  (7.1, :meth:`ImpactFeature.from_segments`), each run starting at its first sample;
+  (7.1, :meth:`ImpactFeature.fit`), each run starting at its first sample;
 * ``constraint`` and ``velocity-*`` without inline parameters -- fitted from
   the labelled runs of the ``contact`` / ``velocity`` signal
   (:mod:`contactlab.observer.kinematics`); inline velocity models and inline
@@ -445,7 +445,7 @@ def _fit_temporal(feats, temporal_specs, seen_labels, path, label_map, *, order,
 
 
 def _fit_impacts(segs, impact_specs, seen_labels, path, label_map) -> dict:
-    """The impact models (:meth:`ImpactFeature.from_segments`) from each label's
+    """The impact models (:meth:`ImpactFeature.fit`) from each label's
     segments."""
     impacts = {}
     for lab, ss in segs.items():
@@ -454,11 +454,10 @@ def _fit_impacts(segs, impact_specs, seen_labels, path, label_map) -> dict:
             raise _no_label(lab, seen_labels, path, label_map,
                             f"ground_truth/labels (graph models.{spec.name}.trained)")
         try:
-            m = ImpactFeature.from_segments(ss, name=lab, signal=spec.signal)
+            m = ImpactFeature(name=lab, signal=spec.signal).fit(ss)
         except ValueError as exc:
             raise DataError(str(exc), file=None if path is None else str(path),
                             field="ground_truth/labels") from None
-        m.n_segments_ = len(ss)
         impacts[lab] = m
     return impacts
 

@@ -10,9 +10,9 @@ wrench-and-position recording and run on another, all from numpy arrays.
 ``contactlab train REC.h5 --graph free-contact`` does the same from an archive
 (:func:`contactlab.train_graph` reads the labelled runs from it, then fits them as
 :func:`contactlab.fit_graph` fits arrays), and each model can also be built alone
-with its ``from_segments`` constructor
-(:meth:`~contactlab.observer.models.ConstraintFeature.from_segments`,
-:meth:`~contactlab.observer.models.MovingVelocity.from_segments`).
+and fitted to labelled segments in scikit-learn's way, ``Model(...).fit(segments)``
+(:meth:`~contactlab.observer.models.ConstraintFeature.fit`,
+:meth:`~contactlab.observer.models.MovingVelocity.fit`).
 """
 
 # %%

@@ -9,6 +9,13 @@ innovation (6.11) that the Page-Hinkley detector tests (6.14).
 
 A model is a small object (parameters in ``__init__``) with
 
+* ``fit(X, y=None) -> self`` (scikit-learn's convention) -- the model's parameters
+  estimated from ``X``, a list of labelled segments ((n_i, C) arrays, every one a run
+  of the situation the model describes; ``y`` is not used), in place; the counts
+  ``n_samples_`` and ``n_segments_`` record what it learned from.  A model built
+  without its parameters (``FixedVelocity(name="F")``) must be fitted before it
+  scores; one built with them (a graph file's values, a models file's) need not be;
+
 * ``name``, ``signal`` (which measurement stream it reads), ``lag`` (past
   samples its first prediction needs), ``change_size`` (None: the observer's q);
 * ``dim(channels) -> m`` -- the size of the innovation vector for (6.14);
@@ -64,6 +71,32 @@ class FeatureModel:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, signal={self.signal!r})"
+
+    def fit(self, X, y=None) -> "FeatureModel":
+        """Estimate the model's parameters from the labelled segments ``X`` (module notes)."""
+        raise NotImplementedError(f"{type(self).__name__} has no training from segments")
+
+    def _fitted(self, *params) -> None:
+        """Raise ValueError unless every parameter named is set (given or fitted)."""
+        missing = [p for p in params if getattr(self, p, None) is None]
+        if missing:
+            raise ValueError(f"model {self.name!r} has no {', '.join(missing)}: give "
+                             f"{'it' if len(missing) == 1 else 'them'} or call fit(segments)")
+
+    @staticmethod
+    def _segments(X, name: str) -> list[np.ndarray]:
+        """``X`` as a list of float (n_i, C) arrays (a single 2-d array is one segment)."""
+        if isinstance(X, np.ndarray) and X.ndim == 2:
+            X = [X]
+        segs = [np.asarray(s, dtype=np.float64) for s in X]
+        segs = [s.reshape(len(s), -1) for s in segs]
+        if not segs or sum(len(s) for s in segs) == 0:
+            raise ValueError(f"{name}: no labelled samples")
+        return segs
+
+    def _record(self, segs) -> None:
+        self.n_samples_ = int(sum(len(s) for s in segs))
+        self.n_segments_ = len(segs)
 
     def check_channels(self, channels: int) -> None:
         """Raise ValueError if the signal's channel count does not fit the model."""

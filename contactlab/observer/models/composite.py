@@ -129,7 +129,7 @@ def _build(spec: ModelSpec, trained: Mapping, graph: FeatureGraph, source) -> Fe
         return _renamed(obj, spec)
     if hasattr(obj, "order"):
         raise DataError(f"trained model {label!r} is an AR model; the impact model needs an "
-                        "impact-decay prior (ImpactFeature.from_segments)", file=source or graph.source,
+                        "impact-decay prior (ImpactFeature.fit)", file=source or graph.source,
                         field=f"{where}.trained")
     return ImpactFeature(name=spec.name, theta_mean=obj.theta_mean,
                          theta_sqrt=np.linalg.cholesky(np.asarray(obj.theta_cov)),

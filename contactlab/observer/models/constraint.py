@@ -31,7 +31,7 @@ log-likelihood of each sample given the instance's earlier samples (6.10):
   likelihood of a whole block, which favours every extra parameter on short
   segments; the predictive form compares paths of any length fairly.)
 * ``mode="fixed"``: the frame is given (a nominal frame, or one estimated by
-  the chapter-8 estimator from labelled segments, :meth:`ConstraintFeature.from_segments`).
+  the chapter-8 estimator from labelled segments, :meth:`ConstraintFeature.fit`).
 * ``mode="estimated"``: the frame is re-estimated after every sample from the
   instance's joint information (8.19, the running sums of
   :mod:`contactlab.constraints.recursive`) by the trace criterion's closed
@@ -160,16 +160,12 @@ class ConstraintFeature(FeatureModel):
     kind = "constraint"
     tests = ("increase",)
 
-    def __init__(self, *, name: str, normals, V=None, mode: str = "fixed",
-                 position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,
-                 offset_sd: float = 0.05, prior_samples: float = 25.0,
-                 frame_penalty: bool = True,
+    def __init__(self, *, name: str, normals=None, degree: int | None = None, V=None,
+                 mode: str = "fixed", position_sd: float = POSITION_SD,
+                 force_sd: float = FORCE_SD, offset_sd: float = 0.05,
+                 prior_samples: float = 25.0, frame_penalty: bool = True,
                  signal: str = "contact", change_size: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
-        N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
-        m = N.shape[1]
-        if m and not np.allclose(N.T @ N, np.eye(m), atol=1e-6):
-            raise ValueError(f"{name}: normals must be orthonormal columns (3, m)")
         if mode not in CONSTRAINT_MODES:
             raise ValueError(f"{name}: mode must be one of {list(CONSTRAINT_MODES)}; got {mode!r}")
         for key, v in (("position_sd", position_sd), ("force_sd", force_sd),
@@ -178,13 +174,6 @@ class ConstraintFeature(FeatureModel):
                 raise ValueError(f"{name}: {key} must be a number > 0; got {v!r}")
         if not (math.isfinite(prior_samples) and prior_samples > 0):
             raise ValueError(f"{name}: prior_samples must be > 0; got {prior_samples!r}")
-        V = np.eye(K) if V is None else np.asarray(V, dtype=np.float64)
-        if V.shape != (K, K) or not np.all(np.isfinite(V)):
-            raise ValueError(f"{name}: V must be a finite (3, 3) matrix")
-        self.degree = m
-        self.normals = N
-        self.frame = _complement(N)
-        self.V = 0.5 * (V + V.T)
         self.mode = mode
         self.position_sd, self.force_sd = float(position_sd), float(force_sd)
         self.offset_sd = float(offset_sd)
@@ -193,10 +182,38 @@ class ConstraintFeature(FeatureModel):
         self.scaling = reciprocal_scaling(self.position_sd, self.force_sd, K)
         self._beta = float(self.scaling.beta[0])
         self._alpha = float(self.scaling.alpha[0])
-        Vn, Vf = self.V[:m, :m], self.V[m:, m:]
+        #: the frame is a given of the model (fit estimates only V), not learned
+        self.frame_given = normals is not None
+        self.normals = self.frame = self.V = None
+        if normals is None:
+            if degree is None or int(degree) not in range(K + 1):
+                raise ValueError(f"{name}: give the normals, or the degree (0-{K}) for fit "
+                                 f"to estimate the frame; got degree {degree!r}")
+            self.degree = int(degree)
+        else:
+            self._set(normals, V)
+            if degree is not None and int(degree) != self.degree:
+                raise ValueError(f"{name}: degree {degree} but {self.degree} normals")
+
+    def _set(self, normals, V) -> None:
+        """The frame and the innovation covariance, and what scoring derives from them."""
+        name = self.name
+        N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
+        m = N.shape[1]
+        if m and not np.allclose(N.T @ N, np.eye(m), atol=1e-6):
+            raise ValueError(f"{name}: normals must be orthonormal columns (3, m)")
+        V = np.eye(K) if V is None else np.asarray(V, dtype=np.float64)
+        if V.shape != (K, K) or not np.all(np.isfinite(V)):
+            raise ValueError(f"{name}: V must be a finite (3, 3) matrix")
+        Vs = 0.5 * (V + V.T)
+        Vn, Vf = Vs[:m, :m], Vs[m:, m:]
         for part, blk in (("normal", Vn), ("free", Vf)):
             if blk.size and np.linalg.eigvalsh(blk).min() <= 0:
                 raise ValueError(f"{name}: the {part} block of V must be positive definite")
+        self.degree = m
+        self.normals = N
+        self.frame = _complement(N)
+        self.V = Vs
         self._Vn_inv = np.linalg.inv(Vn) if m else np.zeros((0, 0))
         self._Vf_inv = np.linalg.inv(Vf) if m < K else np.zeros((0, 0))
         self._logdet_n = float(np.linalg.slogdet(Vn)[1]) if m else 0.0
@@ -216,23 +233,23 @@ class ConstraintFeature(FeatureModel):
             N = _rotation_deg(rotate_deg) @ N
         return cls(name=name, normals=N, **kw)
 
-    @classmethod
-    def from_segments(cls, segments, *, name: str, degree: int | None = None, normals=None,
-            mode: str = "fixed", position_sd: float = POSITION_SD, force_sd: float = FORCE_SD,
-            **kw) -> "ConstraintFeature":
-        """Train from labelled segments, each (n_i, 6): position then force.
+    def fit(self, X, y=None) -> "ConstraintFeature":
+        """Train from labelled segments ``X``, each (n_i, 6): position then force.
 
         The joint information (8.19) is pooled over segments, each centred on
         its own mean motion (a segment's surface point is its own); the frame is
-        the chapter-8 constraint-form estimate of ``degree`` (log-det criterion,
-        :meth:`CartesianConstraint.estimate_information`) unless ``normals`` fix it;
-        ``V`` is ``P^T I P`` plus the estimator's noise floor (8.20).
+        the chapter-8 constraint-form estimate of the model's degree (log-det
+        criterion, :meth:`CartesianConstraint.estimate_information`) unless the
+        model was built with its normals (:attr:`frame_given`); ``V`` is ``P^T I P``
+        plus the estimator's noise floor (8.20).  Segments shorter than 2 samples
+        are left out.
         """
-        segs = [np.asarray(s, dtype=np.float64).reshape(len(s), 2 * K) for s in segments]
+        name = self.name
+        segs = [s.reshape(len(s), 2 * K) for s in self._segments(X, name)]
         segs = [s for s in segs if len(s) >= 2]
         if not segs:
             raise ValueError(f"{name}: no labelled segment of at least 2 samples")
-        scaling = reciprocal_scaling(position_sd, force_sd, K)
+        scaling = self.scaling
         n = sum(len(s) for s in segs)
         info = np.zeros((2 * K, 2 * K))
         for s in segs:
@@ -240,33 +257,29 @@ class ConstraintFeature(FeatureModel):
                                 s[:, K:] * scaling.alpha], axis=1)
             info += y.T @ y
         info /= n
-        if normals is None:
-            if degree is None:
-                raise ValueError(f"{name}: give the degree or the normals")
-            est = CartesianConstraint(degree=int(degree), position_sd=position_sd,
-                                      force_sd=force_sd)
+        if self.frame_given:
+            N = self.normals
+        else:
+            est = CartesianConstraint(degree=self.degree, position_sd=self.position_sd,
+                                      force_sd=self.force_sd)
             f = est.estimate_information(info, max(n, 2 * K + 1), scaling=scaling)
             N = f.normals_
             if not f.determined_ or np.isnan(N).any():
                 raise ValueError(f"{name}: the labelled data do not determine a degree-"
-                                 f"{degree} frame ({f.reason_})")
-        else:
-            N = np.asarray(normals, dtype=np.float64).reshape(K, -1)
+                                 f"{self.degree} frame ({f.reason_})")
         # V in the model's own frame [N, T]: the estimator's V_ is in its own free basis,
         # another rotation of the free span than the complement the model scores in
         R = _complement(N)
         m = N.shape[1]
         P = np.zeros((2 * K, K))
         P[:K, :m], P[K:, m:] = R[:, :m], R[:, m:]
-        V = P.T @ info @ P + np.eye(K)      # the estimator's noise floor (8.20)
-        model = cls(name=name, normals=R[:, :N.shape[1]], V=V, mode=mode,
-                    position_sd=position_sd, force_sd=force_sd, **kw)
-        model.n_samples_ = n
-        model.n_segments_ = len(segs)
-        return model
+        self._set(R[:, :m], P.T @ info @ P + np.eye(K))      # the estimator's noise floor (8.20)
+        self._record(segs)
+        return self
 
     def params(self) -> dict:
         """The parameters that define the model (what the models file stores)."""
+        self._fitted("normals")
         return {"normals": self.normals, "V": self.V, "mode": self.mode,
                 "position_sd": self.position_sd, "force_sd": self.force_sd,
                 "offset_sd": self.offset_sd, "prior_samples": self.prior_samples}
@@ -281,12 +294,14 @@ class ConstraintFeature(FeatureModel):
         return K
 
     def init_state(self, starts, channels):
+        self._fitted("normals")
         return {"s": np.zeros((len(starts), _state_width(self.degree, self.mode)))}
 
     def run(self, state, x, *, t0, starts):
         return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), state["s"], self._p)
 
     def core_spec(self, channels):
+        self._fitted("normals")
         if type(self).run is not ConstraintFeature.run:
             return None
         from contactlab.observer.engine import REG_CONSTRAINT

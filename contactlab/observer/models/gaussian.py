@@ -42,7 +42,7 @@ every instance scores a sample alike: :meth:`GaussianFeature.run` scores the blo
 observer's compiled core runs it as a directly scored model
 (:func:`gaussian_step`, :data:`contactlab.observer.engine.REG_GAUSSIAN`).
 
-:meth:`GaussianFeature.from_segments` fits it; the covariance gets a ridge of
+:meth:`GaussianFeature.fit` fits it; the covariance gets a ridge of
 :data:`RIDGE` times each channel's variance (plus a floor) so that a channel constant
 within a phase (a still axis) does not make the phase infinitely sure of itself.
 """
@@ -69,9 +69,25 @@ class GaussianFeature(FeatureModel):
     kind = "gaussian"
     tests = ("increase",)
 
-    def __init__(self, *, name: str, mean, cov, signal: str = "phase",
-                 change_size: float | None = None, weight: float = 1.0, rivals=()):
+    def __init__(self, *, name: str, mean=None, cov=None, signal: str = "phase",
+                 change_size: float | None = None, weight: float = 1.0, rivals=(),
+                 ridge: float = RIDGE):
         super().__init__(name=name, signal=signal, change_size=change_size)
+        weight = float(weight)
+        if not 0.0 < weight <= 1.0:
+            raise ValueError(f"{name}: a sample's weight must be in (0, 1]; got {weight!r}")
+        if not (np.ndim(ridge) == 0 and ridge >= 0):
+            raise ValueError(f"{name}: ridge must be a number >= 0; got {ridge!r}")
+        self.weight, self.ridge = weight, float(ridge)
+        self.mean = self.cov = None
+        self.rivals = tuple(rivals)
+        if mean is not None or cov is not None:
+            self._set(mean, cov)
+
+    def _set(self, mean, cov) -> None:
+        name = self.name
+        if mean is None or cov is None:
+            raise ValueError(f"{name}: give the mean and the covariance together (or call fit)")
         mean = np.asarray(mean, dtype=np.float64).reshape(-1)
         cov = np.asarray(cov, dtype=np.float64)
         C = len(mean)
@@ -79,10 +95,7 @@ class GaussianFeature(FeatureModel):
                 or not np.all(np.isfinite(mean)):
             raise ValueError(f"{name}: need a finite mean (C,) and covariance (C, C); got "
                              f"{mean.shape} and {cov.shape}")
-        weight = float(weight)
-        if not 0.0 < weight <= 1.0:
-            raise ValueError(f"{name}: a sample's weight must be in (0, 1]; got {weight!r}")
-        rivals = tuple(rivals)
+        rivals = self.rivals
         for r in rivals:
             if not isinstance(r, GaussianFeature) or r.channels != C or r.rivals:
                 raise ValueError(f"{name}: a rival must be a Gaussian model of {C} channels "
@@ -91,7 +104,7 @@ class GaussianFeature(FeatureModel):
             L = np.linalg.cholesky(0.5 * (cov + cov.T))
         except np.linalg.LinAlgError:
             raise ValueError(f"{name}: covariance is not positive definite") from None
-        self.mean, self.cov, self.weight, self.rivals = mean, cov, weight, rivals
+        self.mean, self.cov = mean, cov
         W = np.linalg.inv(L)
         const = -float(np.sum(np.log(np.diag(L)))) - 0.5 * C * LOG_2PI
         self._W = np.tril(W)
@@ -104,8 +117,23 @@ class GaussianFeature(FeatureModel):
             np.concatenate([[m.weight, m._const], m.mean, m._W.reshape(-1)])
             for m in (self,) + rivals])
 
+    def fit(self, X, y=None) -> "GaussianFeature":
+        """The mean and covariance of every sample of the segments ``X`` (a list of
+        (n_i, C)), the covariance's diagonal raised by ``ridge`` times each channel's
+        variance plus a floor (module notes)."""
+        segs = [s for s in self._segments(X, self.name) if len(s)]
+        x = np.concatenate(segs)
+        if len(x) < 2:
+            raise ValueError(f"Gaussian model {self.name!r} needs at least 2 labelled "
+                             f"samples; got {len(x)}")
+        cov = np.atleast_2d(np.cov(x, rowvar=False))
+        self._set(x.mean(axis=0), cov + np.diag(self.ridge * np.diag(cov) + FLOOR))
+        self._record(segs)
+        return self
+
     @property
     def channels(self) -> int:
+        self._fitted("mean", "cov")
         return len(self.mean)
 
     def check_channels(self, channels: int) -> None:
@@ -125,6 +153,7 @@ class GaussianFeature(FeatureModel):
     def score(self, x) -> tuple[np.ndarray, np.ndarray]:
         """``(loglik (N,), chi-square (N,))`` of samples ``x`` (N, C); the log-likelihood
         weighted by :attr:`weight`."""
+        self._fitted("mean", "cov")
         d = (np.asarray(x, dtype=np.float64) - self.mean) @ self._W.T
         chi = np.einsum("nc,nc->n", d, d)
         return self.weight * (self._const - 0.5 * chi), chi
@@ -160,8 +189,10 @@ class GaussianFeature(FeatureModel):
         return self._copy(weight=self.weight, rivals=rivals)
 
     def _copy(self, *, weight, rivals) -> "GaussianFeature":
+        self._fitted("mean", "cov")
         m = type(self)(name=self.name, mean=self.mean, cov=self.cov, signal=self.signal,
-                       change_size=self.change_size, weight=weight, rivals=rivals)
+                       change_size=self.change_size, weight=weight, rivals=rivals,
+                       ridge=self.ridge)
         m.__dict__.update({k: v for k, v in self.__dict__.items()
                            if k.endswith("_") and not k.startswith("_")})
         return m
@@ -173,25 +204,6 @@ class GaussianFeature(FeatureModel):
 
         return {"reg": REG_GAUSSIAN, "channels": channels, "prior": np.zeros(1),
                 "params": self._p}
-
-    @classmethod
-    def from_segments(cls, segments, *, name: str, signal: str = "phase",
-                      ridge: float = RIDGE) -> "GaussianFeature":
-        """The mean and covariance of every sample of ``segments`` (a list of (n_i, C))."""
-        segs = [np.asarray(s, dtype=np.float64) for s in segments if len(s)]
-        if not segs:
-            raise ValueError(f"no samples to train Gaussian model {name!r}")
-        x = np.concatenate(segs)
-        if len(x) < 2:
-            raise ValueError(f"Gaussian model {name!r} needs at least 2 labelled samples; "
-                             f"got {len(x)}")
-        mean = x.mean(axis=0)
-        cov = np.atleast_2d(np.cov(x, rowvar=False))
-        cov = cov + np.diag(ridge * np.diag(cov) + FLOOR)
-        m = cls(name=name, mean=mean, cov=cov, signal=signal)
-        m.n_samples_ = len(x)
-        m.n_segments_ = len(segs)
-        return m
 
 
 @numba.njit(cache=True, inline="always")

@@ -30,38 +30,48 @@ class ImpactFeature(FeatureModel):
 
     kind = "impact"
 
-    def __init__(self, *, name: str, theta_mean, theta_sqrt, noise_var, signal: str = "hf",
-                 change_size: float | None = None):
+    def __init__(self, *, name: str, theta_mean=None, theta_sqrt=None, noise_var=None,
+                 signal: str = "hf", change_size: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
-        self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
-            theta_mean, theta_sqrt, noise_var, 2, name)
+        self.theta_mean = self.theta_sqrt = self.noise_var = None
+        if any(v is not None for v in (theta_mean, theta_sqrt, noise_var)):
+            if theta_mean is None or theta_sqrt is None or noise_var is None:
+                raise ValueError(f"{name}: give theta_mean, theta_sqrt and noise_var "
+                                 f"together (or call fit)")
+            self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
+                theta_mean, theta_sqrt, noise_var, 2, name)
 
-    @classmethod
-    def from_segments(cls, segments, *, name: str = "impact", signal: str = "hf",
-            change_size: float | None = None) -> "ImpactFeature":
+    def fit(self, X, y=None) -> "ImpactFeature":
         """Prior from labelled impact segments (each (N_i, C) or (N_i,), starting at the impact).
 
         Least squares per segment (``LinearDecayModel``), then the sample mean
         and covariance of ``(mu, a)`` over segments and the mean residual
         variance, per channel.  Needs at least 3 segments.
         """
+        X = [np.asarray(seg, dtype=np.float64) for seg in X]
         coefs, var = [], []
-        for seg in segments:
-            f = estimate(LinearDecayModel(), np.asarray(seg, dtype=np.float64))
+        for seg in X:
+            f = estimate(LinearDecayModel(), seg)
             coefs.append(f.coef)
             var.append(f.variance)
         if len(coefs) < 3:
-            raise ValueError(f"{name}: an impact prior needs at least 3 segments; got {len(coefs)}")
+            raise ValueError(f"{self.name}: an impact prior needs at least 3 segments; "
+                             f"got {len(coefs)}")
         c = np.stack(coefs)                                  # (K, C, 2)
         mean = c.mean(axis=0)
         d = c - mean
         cov = np.einsum("kci,kcj->cij", d, d) / (len(c) - 1)
         cov += np.eye(2) * 1e-12 * np.trace(cov, axis1=1, axis2=2)[:, None, None]
-        return cls(name=name, theta_mean=mean, theta_sqrt=np.linalg.cholesky(cov),
-                   noise_var=np.mean(var, axis=0), signal=signal, change_size=change_size)
+        self.theta_mean, self.theta_sqrt, self.noise_var = as_channel_prior(
+            mean, np.linalg.cholesky(cov), np.mean(var, axis=0), 2, self.name)
+        self.__dict__.pop("_templates", None)
+        self.n_samples_ = int(sum(len(s) for s in X))
+        self.n_segments_ = len(coefs)
+        return self
 
     @property
     def channels(self) -> int:
+        self._fitted("theta_mean", "theta_sqrt", "noise_var")
         return self.theta_mean.shape[0]
 
     def check_channels(self, channels: int) -> None:

@@ -13,7 +13,7 @@
 
 Both are stateless (no parameters are estimated per instance).  Their
 parameters are given in the graph file or trained from labelled samples
-(:meth:`FixedVelocity.from_segments`, :meth:`MovingVelocity.from_segments`): F's ``sigma`` is the
+(:meth:`FixedVelocity.fit`, :meth:`MovingVelocity.fit`): F's ``sigma`` is the
 root mean square of the velocity over the samples labelled still (the
 zero-mean normal's maximum-likelihood variance); M's range is symmetric,
 ``+-`` the 99th percentile of ``|v|`` over the samples labelled moving (our
@@ -55,26 +55,27 @@ class FixedVelocity(FeatureModel):
     kind = "velocity-fixed"
     tests = ("increase",)
 
-    def __init__(self, *, name: str = "F", sigma: float, signal: str = "velocity",
-                 change_size: float | None = None):
+    def __init__(self, *, name: str = "F", sigma: float | None = None,
+                 signal: str = "velocity", change_size: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
-        if not sigma > 0:
+        if sigma is not None and not sigma > 0:
             raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
-        self.sigma = float(sigma)
+        self.sigma = None if sigma is None else float(sigma)
 
-    @classmethod
-    def from_segments(cls, segments, *, name: str = "F", signal: str = "velocity") -> "FixedVelocity":
+    def fit(self, X, y=None) -> "FixedVelocity":
         """``sigma`` from labelled still samples (segments (n_i, C)): the pooled RMS."""
-        v = np.concatenate([np.asarray(s, np.float64).reshape(len(s), -1) for s in segments])
-        if v.size == 0:
-            raise ValueError(f"{name}: no labelled samples")
-        return cls(name=name, sigma=max(float(np.sqrt(np.mean(v * v))), 1e-12), signal=signal)
+        segs = self._segments(X, self.name)
+        v = np.concatenate(segs)
+        self.sigma = max(float(np.sqrt(np.mean(v * v))), 1e-12)
+        self._record(segs)
+        return self
 
     def params(self) -> dict:
         return {"sigma": self.sigma}
 
     @property
     def _p(self) -> np.ndarray:
+        self._fitted("sigma")
         return np.array([0.0, self.sigma, 0.0, 0.0, self.sigma ** 2, 0.0])
 
     def run(self, state, x, *, t0, starts):
@@ -89,23 +90,46 @@ class MovingVelocity(FeatureModel):
 
     kind = "velocity-moving"
 
-    def __init__(self, *, name: str = "M", low: float, high: float, sigma: float,
+    def __init__(self, *, name: str = "M", low: float | None = None,
+                 high: float | None = None, sigma: float | None = None,
                  signal: str = "velocity", change_size: float | None = None,
                  rest_sigma: float | None = None):
         super().__init__(name=name, signal=signal, change_size=change_size)
+        if rest_sigma is not None and not rest_sigma > 0:
+            raise ValueError(f"{name}: rest_sigma must be > 0; got {rest_sigma!r}")
+        self.rest_sigma = None if rest_sigma is None else float(rest_sigma)
+        self._given_change_size = change_size
+        self.low = self.high = self.sigma = None
+        if any(v is not None for v in (low, high, sigma)):
+            self._set(low, high, sigma)
+
+    def _set(self, low, high, sigma) -> None:
+        name = self.name
+        if low is None or high is None or sigma is None:
+            raise ValueError(f"{name}: give low, high and sigma together (or call fit)")
         if not low < high:
             raise ValueError(f"{name}: need low < high; got [{low}, {high}]")
         if not sigma > 0:
             raise ValueError(f"{name}: sigma must be > 0; got {sigma!r}")
-        if rest_sigma is not None and not rest_sigma > 0:
-            raise ValueError(f"{name}: rest_sigma must be > 0; got {rest_sigma!r}")
         self.low, self.high, self.sigma = float(low), float(high), float(sigma)
-        self.rest_sigma = None if rest_sigma is None else float(rest_sigma)
-        if change_size is None and self.rest_sigma is not None:
+        if self._given_change_size is None and self.rest_sigma is not None:
             # the covariance-decrease test's alternative (6.14 with V / q) is the robot at
             # rest, v ~ N(0, rest_sigma^2): F's variance (9.1.1's pair F/M is "a test for
             # deciding if the robot was moving or not")
             self.change_size = max(self.variance / self.rest_sigma ** 2, 1.0 + 1e-9)
+
+    def fit(self, X, y=None) -> "MovingVelocity":
+        """Range and noise from labelled moving runs (segments (n_i, C), module notes)."""
+        from contactlab.constraints.noise import raw_noise_sd
+
+        segs = self._segments(X, self.name)
+        high = float(np.quantile(np.abs(np.concatenate(segs)), 0.99))
+        noise = [raw_noise_sd(s) for s in segs if len(s) >= 5]
+        sigma = float(np.median(np.concatenate(noise))) if noise else 0.1 * high
+        sigma = max(sigma, 1e-3 * high, 1e-12)
+        self._set(-max(high, 1e-9), max(high, 1e-9), sigma)
+        self._record(segs)
+        return self
 
     @property
     def variance(self) -> float:
@@ -118,32 +142,18 @@ class MovingVelocity(FeatureModel):
         return MovingVelocity(name=self.name, low=self.low, high=self.high, sigma=self.sigma,
                               signal=self.signal, rest_sigma=rest_sigma)
 
-    @classmethod
-    def from_segments(cls, segments, *, name: str = "M", signal: str = "velocity") -> "MovingVelocity":
-        """Range and noise from labelled moving runs (segments (n_i, C), module notes)."""
-        from contactlab.constraints.noise import raw_noise_sd
-
-        segs = [np.asarray(s, np.float64).reshape(len(s), -1) for s in segments]
-        v = np.concatenate(segs) if segs else np.zeros((0, 1))
-        if v.size == 0:
-            raise ValueError(f"{name}: no labelled samples")
-        high = float(np.quantile(np.abs(v), 0.99))
-        noise = [raw_noise_sd(s) for s in segs if len(s) >= 5]
-        sigma = float(np.median(np.concatenate(noise))) if noise else 0.1 * high
-        sigma = max(sigma, 1e-3 * high, 1e-12)
-        return cls(name=name, low=-max(high, 1e-9), high=max(high, 1e-9), sigma=sigma,
-                   signal=signal)
-
     def params(self) -> dict:
         return {"low": self.low, "high": self.high, "sigma": self.sigma}
 
     @property
     def _p(self) -> np.ndarray:
+        self._fitted("low", "high", "sigma")
         return np.array([1.0, self.sigma, self.low, self.high, self.variance,
                          0.5 * (self.low + self.high)])
 
     def logpdf(self, x) -> np.ndarray:
         """Per-component log density of the measured velocity."""
+        self._fitted("low", "high", "sigma")
         x = np.asarray(x, dtype=np.float64)
         return _logpdf_array(np.ascontiguousarray(x.reshape(-1)), self.low, self.high,
                              self.sigma).reshape(x.shape)
