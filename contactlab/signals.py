@@ -476,6 +476,16 @@ def loudest_channel(strain, rows=slice(None)) -> int:
     return int(np.argmax((d * d).sum(axis=0)))
 
 
+def first_impact(result) -> tuple[int, int, int]:
+    """The first impact of a simulated trial (a :class:`~contactlab.sim.SimResult`): its
+    first and end samples and the strain channel that sees it best
+    (:func:`loudest_channel`); ValueError when the trial has no impact."""
+    if len(result.impact_intervals) == 0:
+        raise ValueError("the simulated trial has no impact")
+    i0, i1 = (int(v) for v in result.impact_intervals[0])
+    return i0, i1, loudest_channel(result.strain, slice(i0, i1))
+
+
 # -- ground truth at the conditioned rate -------------------------------------------------
 
 def codes_at(codes, index, *, window: int = 1) -> np.ndarray:

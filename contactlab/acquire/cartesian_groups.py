@@ -20,7 +20,8 @@ import numpy as np
 from contactlab.progress import progress
 from contactlab.signals import factor_for
 
-__all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups", "consecutive_blocks",
+__all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups",
+           "load_group_pair", "consecutive_blocks",
            "random_blocks", "reported_normals"]
 
 SPEC = "cartesian"
@@ -122,6 +123,18 @@ def load_groups(*, seed: int, tare: bool = True, quiet: bool = True,
         for gd in groups.values():
             gd.force = gd.force - zero
     return groups
+
+
+def load_group_pair(*, seed: int, quiet: bool = True,
+                             duration_s: float | None = None) -> tuple[dict, dict, float]:
+    """The groups to test on (``seed``), the independent groups to train on (``seed + 1``)
+    and the seconds both took to simulate (:func:`load_groups`)."""
+    import time
+
+    t0 = time.perf_counter()
+    test = load_groups(seed=seed, quiet=quiet, duration_s=duration_s)
+    train = load_groups(seed=seed + 1, quiet=quiet, duration_s=duration_s)
+    return test, train, time.perf_counter() - t0
 
 
 def consecutive_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:

@@ -226,38 +226,40 @@ class MCResult:
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 
 
+#: the detectors the Monte Carlo kernels step: Page-Hinkley on the increments
+#: (``p1`` the gain, ``p2`` the half-shift) and the lowpass (``p1`` the pole ``a``)
+_PH, _LP = 0, 1
+
+
+@njit(cache=True, inline="always")
+def _detector_step(kind, p1, p2, v, y):  # pragma: no cover - numba
+    """One sample ``y`` into a detector whose statistic is ``v``: the new statistic."""
+    if kind == _PH:
+        return cusum_step(v, p1 * (y - p2))
+    return p1 * v + (1.0 - p1) * y
+
+
 @njit(cache=True)
-def _ph_renewal(z, gain, half, thr, active, df, count):  # pragma: no cover - numba
+def _renewal(z, kind, p1, p2, thr, active, state, count):  # pragma: no cover - numba
+    """The active settings over ``z`` (n, runs); an alarm counts and restarts from 0."""
     n, n_runs = z.shape
     for i in range(n):
         for r in range(n_runs):
             y = np.float64(z[i, r])
             for jj in range(active.size):
                 j = active[jj]
-                v = cusum_step(df[r, j], gain[j] * (y - half[j]))
+                v = _detector_step(kind, p1[j], p2[j], state[r, j], y)
                 if v > thr[j]:
                     count[j] += 1
                     v = 0.0
-                df[r, j] = v
+                state[r, j] = v
 
 
 @njit(cache=True)
-def _lp_renewal(z, a, thr, active, x, count):  # pragma: no cover - numba
-    n, n_runs = z.shape
-    for i in range(n):
-        for r in range(n_runs):
-            y = np.float64(z[i, r])
-            for jj in range(active.size):
-                j = active[jj]
-                v = a[j] * x[r, j] + (1.0 - a[j]) * y
-                if v > thr[j]:
-                    count[j] += 1
-                    v = 0.0
-                x[r, j] = v
-
-
-@njit(cache=True)
-def _ph_first_passage(z, t0, change_at, shift, gain, half, thr, df, result):  # pragma: no cover
+def _first_passage(z, t0, change_at, shift, kind, p1, p2, thr, state, result):  # pragma: no cover
+    """Every setting over ``z`` (n, runs) from sample ``t0``, the mean stepping by ``shift``
+    at ``change_at``: ``result`` gets the delay of a run's first alarm (-2 before the
+    change; -1 while none)."""
     n, n_runs = z.shape
     n_cfg = thr.size
     for i in range(n):
@@ -270,28 +272,8 @@ def _ph_first_passage(z, t0, change_at, shift, gain, half, thr, df, result):  # 
                 y = np.float64(z[i, r])
                 if after:
                     y = y + shift[j]
-                v = cusum_step(df[r, j], gain[j] * (y - half[j]))
-                df[r, j] = v
-                if v > thr[j]:
-                    result[r, j] = t - change_at[j] + 1 if after else -2
-
-
-@njit(cache=True)
-def _lp_first_passage(z, t0, change_at, shift, a, thr, x, result):  # pragma: no cover
-    n, n_runs = z.shape
-    n_cfg = thr.size
-    for i in range(n):
-        t = t0 + i
-        for r in range(n_runs):
-            for j in range(n_cfg):
-                if result[r, j] != -1:
-                    continue
-                after = t >= change_at[j]
-                y = np.float64(z[i, r])
-                if after:
-                    y = y + shift[j]
-                v = a[j] * x[r, j] + (1.0 - a[j]) * y
-                x[r, j] = v
+                v = _detector_step(kind, p1[j], p2[j], state[r, j], y)
+                state[r, j] = v
                 if v > thr[j]:
                     result[r, j] = t - change_at[j] + 1 if after else -2
 
@@ -341,7 +323,7 @@ def ph_false_alarm_mc(*, s, threshold, rng: np.random.Generator, n_runs: int = 2
     df = np.zeros((n_runs, thr.size))
 
     def step(z, active, count):
-        _ph_renewal(z, gain, half, thr, active, df, count)
+        _renewal(z, _PH, gain, half, thr, active, df, count)
 
     return _renewal_mc(step, thr.size, n_runs=n_runs, max_samples=max_samples,
                        target_alarms=target_alarms, chunk=chunk, rng=rng, quiet=quiet,
@@ -361,7 +343,7 @@ def lowpass_false_alarm_mc(*, a, threshold, rng: np.random.Generator, n_runs: in
     x = np.zeros((n_runs, c["a"].size))
 
     def step(z, active, count):
-        _lp_renewal(z, c["a"], c["threshold"], active, x, count)
+        _renewal(z, _LP, c["a"], c["a"], c["threshold"], active, x, count)
 
     return _renewal_mc(step, c["a"].size, n_runs=n_runs, max_samples=max_samples,
                        target_alarms=target_alarms, chunk=chunk, rng=rng, quiet=quiet,
@@ -408,7 +390,7 @@ def ph_delay_mc(*, s, threshold, rng: np.random.Generator, n_runs: int = 4000,
     df = np.zeros((n_runs, thr.size))
 
     def step(z, t0, result):
-        _ph_first_passage(z, t0, change_at, shift, gain, half, thr, df, result)
+        _first_passage(z, t0, change_at, shift, _PH, gain, half, thr, df, result)
 
     return _first_passage_mc(step, thr.size, n_runs=n_runs, burn_in=change_at,
                              max_delay=max_delay, chunk=chunk, rng=rng)
@@ -430,7 +412,8 @@ def lowpass_delay_mc(*, a, s, rng: np.random.Generator, threshold=None, n_runs: 
     x = np.zeros((n_runs, c["a"].size))
 
     def step(z, t0, result):
-        _lp_first_passage(z, t0, change_at, c["s"], c["a"], c["threshold"], x, result)
+        _first_passage(z, t0, change_at, c["s"], _LP, c["a"], c["a"], c["threshold"], x,
+                       result)
 
     return _first_passage_mc(step, c["a"].size, n_runs=n_runs, burn_in=change_at,
                              max_delay=max_delay, chunk=chunk, rng=rng)

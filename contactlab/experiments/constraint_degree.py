@@ -44,7 +44,7 @@ from contactlab.constraints import (FORCE_SD, POSITION_SD, VELOCITY_SD,  # noqa:
                                     CartesianStiffness, RecursiveConstraint,
                                     alignment_statistic, decide_degree)
 from contactlab.acquire.cartesian_groups import (  # noqa: E402
-    GROUPS, GroupData, consecutive_blocks, load_groups, random_blocks)
+    GROUPS, GroupData, consecutive_blocks, random_blocks, load_group_pair)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -135,10 +135,8 @@ def posterior_top(loglik: np.ndarray) -> np.ndarray:
 def run_tests(*, seed: int, n_blocks: int = N_BLOCKS, block: int = BLOCK, quiet: bool = True,
               duration_s: float | None = None) -> dict:
     """Everything of 8.2: confusion matrices of both tests on both block kinds, and noise."""
-    t0 = time.perf_counter()
-    test = load_groups(seed=seed, quiet=quiet, duration_s=duration_s)
-    train = load_groups(seed=seed + 1, quiet=quiet, duration_s=duration_s)
-    t_sim = time.perf_counter() - t0
+    test, train, t_sim = load_group_pair(seed=seed, quiet=quiet,
+                                         duration_s=duration_s)
     rng = np.random.default_rng(seed)
     out = {"kinds": {}, "seconds": {"simulation": t_sim}}
     noise = noise_blocks(n_blocks=n_blocks, block=block, rng=rng)

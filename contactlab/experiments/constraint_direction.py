@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 
 from contactlab.constraints import CartesianConstraint, decide_direction, prior_rate  # noqa: E402
 from contactlab.acquire.cartesian_groups import (  # noqa: E402
-    GroupData, consecutive_blocks, load_groups, random_blocks)
+    GroupData, consecutive_blocks, random_blocks, load_group_pair)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -109,10 +109,8 @@ def correct_fraction(margin: np.ndarray) -> float:
 def run_curves(*, seed: int, angles=ANGLES_DEG, n_nominal: int = N_NOMINAL,
                blocks: int = BLOCKS_PER_NOMINAL, quiet: bool = True,
                duration_s: float | None = None) -> dict:
-    t0 = time.perf_counter()
-    test = load_groups(seed=seed, quiet=quiet, duration_s=duration_s)
-    train = load_groups(seed=seed + 1, quiet=quiet, duration_s=duration_s)
-    t_sim = time.perf_counter() - t0
+    test, train, t_sim = load_group_pair(seed=seed, quiet=quiet,
+                                         duration_s=duration_s)
     rng = np.random.default_rng(seed)
     curves = {}
     t1 = time.perf_counter()

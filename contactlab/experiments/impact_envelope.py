@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 
 from contactlab.conditioning import difference, log_energy  # noqa: E402
 from contactlab.estimators import LinearDecayModel, estimate  # noqa: E402
-from contactlab.signals import loudest_channel  # noqa: E402
+from contactlab.signals import first_impact  # noqa: E402
 from contactlab.sim.sensor_modes import mode_prediction  # noqa: E402
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
@@ -142,10 +142,7 @@ def analyse(r) -> dict:
     from contactlab.sim import StrainGaugeSensor
 
     fs = float(r.rate_hz)
-    if len(r.impact_intervals) == 0:
-        raise ValueError("the simulated trial has no impact")
-    i0, i1 = (int(v) for v in r.impact_intervals[0])
-    ch = loudest_channel(r.strain, slice(i0, i1))
+    i0, i1, ch = first_impact(r)
     floor = StrainGaugeSensor().lsb_v / 2.0
     yd, logd, yh = high_energy(r.strain[:, ch], floor=floor)
     # y_h[k] averages log|y_d| over input samples FACTOR*k + 1 .. FACTOR*k + BLOCK

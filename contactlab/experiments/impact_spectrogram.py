@@ -33,7 +33,7 @@ from scipy import optimize, signal  # noqa: E402
 
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
-from contactlab.signals import loudest_channel  # noqa: E402
+from contactlab.signals import first_impact  # noqa: E402
 from contactlab.sim import constants as C  # noqa: E402
 from contactlab.sim.sensor_modes import mode_prediction  # noqa: E402
 from contactlab.temporal.blocks import mask_runs as runs  # noqa: E402
@@ -155,10 +155,7 @@ def simulate_impact(*, seed: int):
 def analyse(r) -> dict:
     """Spectrogram and ringing measurements of one simulated impact ``r`` (a SimResult)."""
     fs = float(r.rate_hz)
-    if len(r.impact_intervals) == 0:
-        raise ValueError("the simulated trial has no impact")
-    i0, i1 = (int(v) for v in r.impact_intervals[0])
-    ch = loudest_channel(r.strain, slice(i0, i1))
+    i0, i1, ch = first_impact(r)
     x = r.strain[:, ch]
     f, t, P = spectrogram(x, fs=fs)
     flights = free_flights(r.contact, i0, i1)
