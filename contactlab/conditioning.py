@@ -201,7 +201,7 @@ class LowpassDecimator:
         return _out(out, squeeze)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _sosfilt_every(sos, x, zi, first, factor, out):  # pragma: no cover - compiled
     """``scipy.signal.sosfilt(sos, x, axis=0, zi=zi)[first::factor]`` into ``out``, with
     ``zi`` (sections, 2, C) advanced in place: the transposed direct form II of scipy's

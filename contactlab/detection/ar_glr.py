@@ -234,7 +234,7 @@ def _add_row(a, p, r, sums, src, dst, z):  # pragma: no cover - compiled
                 sums[dst, ch, i, j] = sums[src, ch, i, j] + z[i] * z[j]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _checkpoint_kernel(a, p, step):
     """Every ``step``-th prefix sum over rows of ``z z^T``, ``z = [a(n-1) .. a(n-p), 1,
     a(n)]`` per channel: ``prefix[r + 1] = prefix[r] + z(r) z(r)^T`` in row order (every
@@ -254,7 +254,7 @@ def _checkpoint_kernel(a, p, step):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _prefix_span_kernel(a, p, acc0, r0, r1, kept, step, fill):
     """The prefix sums at rows ``r0 .. r1`` from ``acc0``, the one at ``r0``, by the
     additions of :func:`_checkpoint_kernel`; with ``fill`` every ``step``-th goes to ``kept``."""
@@ -272,7 +272,7 @@ def _prefix_span_kernel(a, p, acc0, r0, r1, kept, step, fill):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _prefix_rows_kernel(a, p, kept, step, rows):
     """The prefix sums at the sorted rows ``rows``, each from the nearest kept one
     (or the previous row asked for) by the additions of :func:`_checkpoint_kernel`."""
@@ -295,7 +295,7 @@ def _prefix_rows_kernel(a, p, kept, step, rows):
     return out
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=True, nogil=True)
 def _rss_kernel(prefix, starts, ends, out):
     """RSS of every (segment, channel): the Schur complement of the regressors' Gram
     block in ``M = prefix[end] - prefix[start]`` by Gaussian elimination (the last
@@ -327,7 +327,7 @@ def _rss_kernel(prefix, starts, ends, out):
             out[i, c] = max(m[k1 - 1, k1 - 1], 1e-12 * max(yy, 1e-300))
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=True, nogil=True)
 def _rss_kernel_ar2(prefix, starts, ends, out):  # pragma: no cover - compiled
     """:func:`_rss_kernel` for 4 x 4 moments (AR(2) with an intercept), the elimination
     written out on scalars in the same order, so the moments stay in registers."""

@@ -108,7 +108,7 @@ def window_difference(x: np.ndarray, w: int) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def ramp_fit(y, a, b, minlen):  # pragma: no cover - compiled; tests check it against numpy
     """Breakpoints ``(k1, k2)`` of the least-squares constant - linear - constant fit of
     ``y[a:b]`` (N, C; every channel the same breakpoints): constant on ``[a, k1)``,

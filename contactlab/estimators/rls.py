@@ -64,7 +64,7 @@ __all__ = ["SquareRootRLS", "RLSResult", "exact_sequence_loglik"]
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rls_kernel(psi, y, L_all, var, var_n, count, start, use_prior, regularized,
                 prior_err, post_err, refl, variance, loglik, stat):
     """Batch square-root RLS (A.10-A.17) over N samples for B models.
