@@ -94,6 +94,7 @@ _EXPORTS = {
     "FixedVelocity": "contactlab.observer.models",
     "ImpactFeature": "contactlab.observer.models",
     "TemporalFeature": "contactlab.observer.models",
+    "GaussianFeature": "contactlab.observer.models",
     # constraints
     "CartesianConstraint": "contactlab.constraints",
     "RecursiveConstraint": "contactlab.constraints",
