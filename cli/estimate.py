@@ -27,7 +27,10 @@ from contactlab.constraints.archive import MODELS
               help="With --block: decide each block with every sample of its segment up "
                    "to the block's end (the running estimate; the default, the more "
                    "accurate on the synthetic contact suite), or from the block alone "
-                   "(the degree test of 8.2 as the thesis ran it).")
+                   "(the degree test of 8.2 as the thesis ran it).  The running estimate's "
+                   "angle sd adds the spread between the segment's blocks beyond their "
+                   "noise (a compliant surface, a creeping frame; "
+                   "contactlab.constraints.dispersion).")
 @click.option("--motion", type=click.Choice(["position", "velocity"]), default="position",
               show_default=True, help="Use positions (preferred, 8.1.1) or velocities.")
 @click.option("--position-noise", type=click.FloatRange(min=0, min_open=True), default=None,

@@ -12,6 +12,7 @@ diagnostic and the recursive form.
 - :mod:`.direction`    direction of constraint (8.69-8.70)
 - :mod:`.exploration`  is there information in every direction? (9.1.2)
 - :mod:`.recursive`    information matrices updated sample by sample
+- :mod:`.dispersion`   the spread of frames between blocks beyond their noise
 - :mod:`.archive`      per-segment estimation of archive trials (``contactlab estimate``)
 
 Example::
