@@ -312,6 +312,8 @@ def _with_block_spread(est, pieces, rows, deg, normals, sd, position, force, vel
             continue
         angles = [float(angular_error_deg(a[1], N)) for a in prior]
         tau2 = between_block_variance(angles, [a[2] for a in prior])
+        if alone[i] is not None and alone[i][0] == m:
+            tau2 = max(tau2, 0.5 * (angles[-1] ** 2 - 2.0 * alone[i][2] ** 2))
         out[i] = float(np.hypot(sd[i], np.sqrt(tau2)))
         rows[i].update(angle_sd_noise_deg=float(sd[i]), angle_sd_between_deg=float(np.sqrt(tau2)),
                        angle_sd_deg=out[i])

@@ -24,6 +24,10 @@ its noise).  The frame at a block then differs from the pooled estimate by the p
 estimate's own error and that block's departure, so the standard error of the pooled
 frame *as an estimate of the block's* is ``sqrt(s^2 + tau^2)`` (the prediction
 interval of a random-effects model): what ``contactlab estimate --block`` reports.
+A frame that creeps makes the newest block depart from the pooled frame by more than
+the spread about their mean says (the pooled frame lags); the newest block's own
+departure beyond its noise, ``(a^2 - 2 s^2) / 2`` per component, is then the larger
+and is taken instead.
 """
 
 from __future__ import annotations
