@@ -47,7 +47,23 @@ def _increments(model, C, q, chi2, z):
 def reference_observe(graph, models, y, *, threshold=D.OBSERVER_THRESHOLD,
                       q=D.OBSERVER_CHANGE_SIZE, p_prune=D.OBSERVER_PRUNE, gap=D.OBSERVER_GAP):
     """Per-sample node probabilities, the events ``(time, path id, model, change time,
-    spawned, merged, candidate log-likelihoods, kept)`` and the final paths."""
+    spawned, merged, candidate log-likelihoods, kept)`` and the final paths.  A graph
+    asking for survivors whose edges carry probabilities keeps each node's best path
+    through the pruning."""
+    survivors = bool(graph.survivors and graph.edge_probabilities)
+    # the graph's one action's transition probabilities (6.1: a change costs log p)
+    edge_p = next(iter(graph.edge_probabilities.values())) if survivors else {}
+    act = 0 if graph.action_dependent else None      # a one-action graph's action
+
+    def log_p(i, j):
+        return math.log(edge_p[(i, j)]) if i != j and edge_p.get((i, j)) else 0.0
+
+    def node_best(p, paths):
+        """Whether no other path in p's node leads it (the first of equals)."""
+        i = paths.index(p)
+        return all(o.node != p.node or o.ll < p.ll or (o.ll == p.ll and j > i)
+                   for j, o in enumerate(paths) if o is not p)
+
     y = np.asarray(y, dtype=np.float64)
     n, C = y.shape
     nodes = node_models(graph, models)
@@ -104,7 +120,8 @@ def reference_observe(graph, models, y, *, threshold=D.OBSERVER_THRESHOLD,
                 crossed |= max(u[2]) > threshold
             p.lls[t] = p.ll
         best = max(p.ll for p in paths)
-        if crossed or any(p.ll < best - gap for p in paths):
+        if crossed or any(p.ll < best - gap and not (survivors and node_best(p, paths))
+                          for p in paths):
             alarms = []
             for p in paths:
                 for u in p.units:
@@ -116,13 +133,14 @@ def reference_observe(graph, models, y, *, threshold=D.OBSERVER_THRESHOLD,
                         u[3] = [t] * len(TESTS)
             spawned, merged, cands = [], [], []
             for p, _, r in alarms:
-                for j in graph.successors(p.node):
+                for j in graph.successors(p.node, act):
                     if (j, r) in [c[:2] for c in cands]:
                         continue
                     init, prev = -math.inf, None
                     for o in paths:     # the best tracked path into (j, r), started before r
-                        if o.start < r and j in graph.successors(o.node) and o.lls[r - 1] > init:
-                            init, prev = o.lls[r - 1], o
+                        if o.start < r and j in graph.successors(o.node, act) \
+                                and o.lls[r - 1] + log_p(o.node, j) > init:
+                            init, prev = o.lls[r - 1] + log_p(o.node, j), o
                     if prev is not None:
                         cands.append((j, r, init, prev.history))
             for j, r, init, history in cands:
@@ -149,6 +167,9 @@ def reference_observe(graph, models, y, *, threshold=D.OBSERVER_THRESHOLD,
             w /= w.sum()
             n_keep = int(np.searchsorted(np.cumsum(w[order]), p_prune * (1 - 1e-12)) + 1)
             keep = [int(i) for i in order[:n_keep] if ll[i] >= ll[order[0]] - gap]
+            if survivors:       # the best path of every node the kept ones leave out
+                for node in {paths[i].node for i in order} - {paths[i].node for i in keep}:
+                    keep.append(int(next(i for i in order if paths[i].node == node)))
             keep.sort()
             for k, (p, model, r) in enumerate(alarms or [(None, None, None)]):
                 events.append((t, p.id if p else None, model, r, spawned if k == 0 else [],
@@ -222,3 +243,32 @@ def test_observer_matches_the_reference_with_composite_nodes_and_few_edges():
     ref = reference_observe(graph, models, y)
     assert sum(e[2] is not None for e in ref[1]) >= 3
     _compare(res, ref)
+
+
+def test_observer_matches_the_reference_keeping_each_nodes_best_path():
+    """A graph asking for survivors, whose edges carry probabilities, keeps the best path
+    of every node through the pruning (Viterbi's survivors): the core and the reference
+    agree, and some event keeps a path more than the gap below the best."""
+    rng = np.random.default_rng(5)
+    seg = [(0.0, 1.0, 300), (3.0, 1.0, 200), (1.5, 1.0, 250), (3.0, 1.0, 300)]
+    y = np.concatenate([mu + rng.normal(0, sd, (k, 1)) for mu, sd, k in seg])
+    spec = {"lo": 0.0, "hi": 3.0, "mid": 1.5}
+    models = {k: TemporalFeature(name=k, order=1, mean=True, theta_mean=[mu, 0.0],
+                                 theta_sqrt=[0.2, 0.05], noise_var=1.0, structure="plain")
+              for k, mu in spec.items()}
+    from contactlab.observer import parse_graph
+    doc = {"name": "chain", "models": {k: {"kind": "temporal"} for k in spec},
+           "actions": ["task"], "survivors": True,
+           "nodes": [{"name": "A", "models": "lo", "initial": 1.0},
+                     {"name": "B", "models": "hi"}, {"name": "C", "models": "mid"}],
+           "edge_sets": [{"actions": ["task"], "edges": ["A -> B", "B -> C", "C -> B"],
+                          "probabilities": [0.004, 0.004, 0.004]}]}
+    graph = parse_graph(doc)
+    obs = Observer(graph, models)
+    assert obs.survivors
+    res = observe(obs, y, chunk=128, action="task")
+    ref = reference_observe(graph, models, y)
+    _compare(res, ref)
+    gap = obs.gap
+    assert any(np.min(np.asarray(ll)[list(keep)]) < np.max(ll) - gap
+               for *_, ll, keep in ref[1] if len(ll))

@@ -54,7 +54,7 @@ import numpy as np
 
 from contactlab.detection.cusum import cusum_step
 from contactlab.estimators.kalman import sqrt_step, step_scratch
-from contactlab.observer.events import best_candidates, collect_alarms, keep_set
+from contactlab.observer.events import best_candidates, collect_alarms, gap_drops, keep_set
 from contactlab.observer.models.constraint import SCRATCH as CONSTRAINT_SCRATCH
 from contactlab.observer.models.constraint import constraint_step
 from contactlab.observer.models.gaussian import gaussian_step
@@ -96,11 +96,12 @@ MI_REG, MI_ORDER, MI_MEAN, MI_Q, MI_COL, MI_CHANNELS, MI_MODE, MI_EST = range(8)
 #: margin), each model's prior state row per channel, the threshold, the path gap, the
 #: mass kept and the beam width (-1: none), the successors and log transition
 #: probabilities, each node's models (``kind_ptr``, ``kind_list``), the largest parameter
-#: count, the directly scored models' parameter rows, each node's longest duration
+#: count, the directly scored models' parameter rows, each node's longest duration, whether
+#: the pruning keeps each node's best path
 CoreConfig = namedtuple("CoreConfig", [
     "model_info", "noise_prior_count", "side_a", "side_b", "side_src", "prior_state",
     "threshold", "gap", "p_keep", "max_paths", "succ", "n_succ", "log_t", "kind_ptr",
-    "kind_list", "q_max", "model_params", "max_duration"])
+    "kind_list", "q_max", "model_params", "max_duration", "survivors"])
 #: the core's state: instances (path, model, start, detector statistics, last zeros, state
 #: rows), the measurement buffer and the global row of its first row, the paths'
 #: log-likelihood history and its first row, the counters (``C_*``), paths (id, node,
@@ -255,7 +256,7 @@ def _prune(ta, cfg, st, ev, scr):  # pragma: no cover - compiled
     evt, candt, keept = ev.events, ev.cand_ll, ev.kept
     nP = cnt[C_P]
     order, w, keep, remap = scr[9:]
-    nk = keep_set(pll, nP, p_keep, gap, max_paths, order, w, keep)
+    nk = keep_set(pll, pnode, nP, p_keep, gap, max_paths, cfg.survivors, order, w, keep)
     # the event record
     e = cnt[C_EV]
     evt[e, E_CAND0] = cnt[C_CAND]
@@ -493,7 +494,7 @@ def _catch_up_sums(newp, n_new, ccll, inc, ua, ct, pstart, pslot, ha, hr):  # pr
 
 @numba.njit(cache=True, inline="always")
 def _path_sums(pll, upath, inc, nP, nU, ha, hr, pslot, gap, tmax, pnode, pstart,
-               t):  # pragma: no cover - compiled
+               t, survivors):  # pragma: no cover - compiled
     """After sample ``t``: each path's log-likelihood (6.10) and its history row ``hr``;
     whether a path fell ``gap`` below the best or a transient node reached its longest
     duration (an event besides a crossed test)."""
@@ -506,7 +507,7 @@ def _path_sums(pll, upath, inc, nP, nU, ha, hr, pslot, gap, tmax, pnode, pstart,
             best = pll[p]
     for p in range(nP):
         ha[hr, pslot[p]] = pll[p]
-        if pll[p] < best - gap:
+        if gap_drops(pll, pnode, nP, p, best, gap, survivors):
             event = True
         tm = tmax[pnode[p]]
         if tm > 0 and t - pstart[p] >= tm:
@@ -598,7 +599,7 @@ def run_core(t_from, t_to, t_out, cfg, st, ev, nprob, mapn, pending):  # pragma:
                 pending = False
             else:
                 event = _path_sums(pll, upath, inc, nP, nU, ha, t + 1 - hbase, pslot, gap, tmax,
-                                   pnode, pstart, t) or top > thr
+                                   pnode, pstart, t, cfg.survivors) or top > thr
             if event:
                 if not _event_fits(cfg, st, ev, t, deg, maxk):
                     return FULL, t
@@ -652,7 +653,7 @@ class Core:
 
     def __init__(self, *, specs: list[dict], node_kinds: list[list[int]], side_a, side_b,
                  side_src, threshold: float, gap: float, p_keep: float, max_paths: int | None,
-                 succ, n_succ, log_t, tmax=None):
+                 succ, n_succ, log_t, tmax=None, survivors: bool = False):
         M = len(specs)
         kal = [s for s in specs if s["reg"] < REG_VELOCITY]
         direct = [s for s in specs if s["reg"] >= REG_VELOCITY]
@@ -701,7 +702,7 @@ class Core:
                     -1 if max_paths is None else int(max_paths),
                     np.ascontiguousarray(succ, np.int64), np.ascontiguousarray(n_succ, np.int64),
                     np.ascontiguousarray(log_t, np.float64), nk_ptr, nk_list, qmax, mp,
-                    np.ascontiguousarray(tmax, np.int64))
+                    np.ascontiguousarray(tmax, np.int64), bool(survivors))
         self.S = len(side_src)
         self._t_event = 0
         self.cnt = np.zeros(N_COUNTERS, np.int64)

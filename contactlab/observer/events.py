@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["collect_alarms", "best_candidates", "keep_set"]
+__all__ = ["collect_alarms", "best_candidates", "keep_set", "gap_drops"]
 
 
 @numba.njit(cache=True)
@@ -136,13 +136,31 @@ def best_candidates(n_alarms, n_detected, al_p, al_r, pnode, pstart, pslot, n_pa
     return nC
 
 
+@numba.njit(cache=True, inline="always")
+def gap_drops(pll, pnode, n_paths, p, best, gap, survivors):  # pragma: no cover - compiled
+    """Whether the pruning would drop path ``p`` for its gap below the ``best``
+    log-likelihood (an event at this sample): it is more than ``gap`` below, and, with
+    ``survivors``, another path in its node leads it (the first of equals survives)."""
+    if pll[p] >= best - gap:
+        return False
+    if not survivors:
+        return True
+    for q in range(n_paths):
+        if q != p and pnode[q] == pnode[p] and (pll[q] > pll[p] or (pll[q] == pll[p] and q < p)):
+            return True
+    return False
+
+
 @numba.njit(cache=True)
-def keep_set(pll, n_paths, p_keep, gap, max_paths, order, w, keep):  # pragma: no cover
+def keep_set(pll, pnode, n_paths, p_keep, gap, max_paths, survivors, order, w,
+             keep):  # pragma: no cover - compiled
     """The pruning (6.4, 9.1.1): rank the ``n_paths`` paths by log-likelihood ``pll``
     (stable, largest first), keep the most probable until their share of the mass
     reaches ``p_keep``, then only those within ``gap`` of the best and at most
-    ``max_paths`` (negative: no limit).  Writes the kept paths, in increasing order, to
-    ``keep`` and returns their count (``order``, ``w``: scratch of ``n_paths``)."""
+    ``max_paths`` (negative: no limit); with ``survivors``, also the best path ending in
+    each node (``pnode``) the kept ones leave out.  Writes the kept paths, in increasing
+    order, to ``keep`` and returns their count (``order``, ``w``: scratch of
+    ``n_paths``)."""
     for i in range(n_paths):
         x = pll[i]
         j = i
@@ -167,5 +185,18 @@ def keep_set(pll, n_paths, p_keep, gap, max_paths, order, w, keep):  # pragma: n
         if pll[order[i]] >= top - gap and (max_paths < 0 or nk < max_paths):
             keep[nk] = order[i]
             nk += 1
+    if survivors:
+        n_nodes = 0
+        for i in range(n_paths):
+            n_nodes = max(n_nodes, pnode[i] + 1)
+        seen = np.zeros(n_nodes, np.bool_)
+        for i in range(nk):
+            seen[pnode[keep[i]]] = True
+        for i in range(n_paths):
+            p = order[i]
+            if not seen[pnode[p]]:
+                seen[pnode[p]] = True
+                keep[nk] = p
+                nk += 1
     keep[:nk].sort()
     return nk

@@ -53,7 +53,7 @@ KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "phase") + CO
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "contact", "gaussian": "phase"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
-             "edges", "edge_sets", "sides", "p_prune"}
+             "edges", "edge_sets", "sides", "p_prune", "survivors"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}
 _PROB_TOL = 1e-6
 
@@ -123,6 +123,9 @@ class FeatureGraph:
     #: the probability mass the observer keeps when pruning for this graph (None: default;
     #: 1.0: paths are rejected by the log-likelihood gap alone, as in 9.1.1)
     p_prune: float | None = None
+    #: the pruning also keeps the best path ending in each node (Viterbi's survivors; for
+    #: graphs whose changes carry probabilities, as the graphs learned from labels)
+    survivors: bool = False
     #: successor table per action code (filled on first use; not part of the graph)
     _succ: dict = field(default_factory=dict, compare=False, repr=False)
     #: the observer's compiled-core transition tables per transitions setting (filled on
@@ -209,7 +212,7 @@ class FeatureGraph:
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
                             self.sides, self.edge_probabilities, self.p_prune,
-                            _succ=self._succ, _tables=self._tables)
+                            self.survivors, _succ=self._succ, _tables=self._tables)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -221,6 +224,7 @@ class FeatureGraph:
         return {
             "name": self.name, "title": self.title, "thesis": self.thesis, "source": self.source,
             "actions": list(self.actions), "sides": self.sides, "p_prune": self.p_prune,
+            "survivors": self.survivors,
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
@@ -373,9 +377,12 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     if p_prune is not None and not (isinstance(p_prune, (int, float)) and not isinstance(p_prune, bool)
                                     and 0 < p_prune <= 1):
         raise err("p_prune", f"must be a number in (0, 1]; got {p_prune!r}")
+    survivors = doc.get("survivors", False)
+    if not isinstance(survivors, bool):
+        raise err("survivors", f"must be true or false; got {survivors!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
                          thesis, source, sides, edge_probs,
-                         None if p_prune is None else float(p_prune))
+                         None if p_prune is None else float(p_prune), survivors)
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph

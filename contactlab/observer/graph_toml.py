@@ -18,7 +18,8 @@ from contactlab.observer.graph import FeatureGraph, parse_graph
 
 __all__ = ["dumps_graph", "write_graph", "graph_document"]
 
-_TOP = ("name", "title", "thesis", "description", "actions", "initial", "sides", "p_prune", "edges")
+_TOP = ("name", "title", "thesis", "description", "actions", "initial", "sides", "p_prune",
+        "survivors", "edges")
 
 
 def _value(v) -> str:
@@ -85,6 +86,8 @@ def graph_document(graph: FeatureGraph) -> dict:
         doc["sides"] = d["sides"]
     if d.get("p_prune") is not None:
         doc["p_prune"] = d["p_prune"]
+    if d.get("survivors"):
+        doc["survivors"] = True
     doc["edges"] = [f"{a} -> {b}" for a, b in d["edges"]]
     doc["models"] = d["models"]
     nodes = []

@@ -97,7 +97,7 @@ import numpy as np
 from contactlab import defaults as D
 from contactlab.detection.cusum import all_finite, cusum_step
 from contactlab.observer.engine import Core
-from contactlab.observer.events import best_candidates, collect_alarms, keep_set
+from contactlab.observer.events import best_candidates, collect_alarms, gap_drops, keep_set
 from contactlab.observer.graph import FeatureGraph
 from contactlab.observer.models.base import FeatureModel, ModelBank
 from contactlab.observer.models.composite import node_models
@@ -139,11 +139,13 @@ def _detector_row(df, last_zero, x, t):  # pragma: no cover
 
 @numba.njit(cache=True)
 def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap, p_start,
-             p_tmax):  # pragma: no cover
+             p_tmax, p_node, survivors):  # pragma: no cover
     """Advance detectors (6.18) and path sums from row 0; stop at the first event.
 
     Returns the row of the first event (a crossing, a path ``gap`` below the
-    best, or a transient path held ``p_tmax`` samples since ``p_start``) after
+    best that the pruning would drop, :func:`~contactlab.observer.events.gap_drops` with
+    the paths' nodes ``p_node``, or a transient path held ``p_tmax`` samples since
+    ``p_start``) after
     completing it, or ``n`` if none.  ``trace[i, p]`` receives the path
     log-likelihoods after row i.
     """
@@ -159,7 +161,7 @@ def _advance(inc, xi, unit_path, df, last_zero, thr, path_ll, trace, t0, gap, p_
                 best = path_ll[p]
         for p in range(P):
             trace[i, p] = path_ll[p]
-            if path_ll[p] < best - gap:
+            if gap_drops(path_ll, p_node, P, p, best, gap, survivors):
                 event = True
             if p_tmax[p] > 0 and t0 + i - p_start[p] >= p_tmax[p]:
                 event = True
@@ -397,6 +399,15 @@ class Observer:
         self.change_size = float(change_size)
         self.p_prune = float(p_prune)
         self.gap = float(gap)
+        #: keep, beside the pruning's set, the best path ending in each node (a Viterbi
+        #: survivor per node) where the graph asks for it (``survivors``, as graphs learned
+        #: from labels do) and its changes carry probabilities: a change then costs its
+        #: prior, and a node whose path fell behind while its model fitted poorly (a
+        #: phase's first samples through the lowpass) takes the lead back when its
+        #: evidence comes (our choice; without costs, survivors of overlapping models
+        #: trade the lead sample by sample, and on a graph of hundreds of nodes each keeps
+        #: alarming)
+        self.survivors = bool(self.graph.survivors and self.graph.edge_probabilities)
         self.sides = sides
         #: the detector tests run: those of ``sides``, and Page's test against the known
         #: successors (``rival``) where a model has rivals
@@ -547,7 +558,8 @@ class Observer:
                           side_b=self._side_b, side_src=self._side_src,
                           threshold=self.threshold, gap=self.gap,
                           p_keep=self.p_prune * (1 - 1e-12), max_paths=self.max_paths,
-                          succ=succ, n_succ=n_succ, log_t=log_t, tmax=self._tmax)
+                          succ=succ, n_succ=n_succ, log_t=log_t, tmax=self._tmax,
+                          survivors=self.survivors)
         self._buf = {"*": RowBuffer(col, t0=0)}
         self._act = RowBuffer(1, t0=0, dtype=np.int64)
         self._started = True
@@ -664,7 +676,7 @@ class Observer:
                 trace = np.empty((we - cur, len(self._paths)))
                 stop = _advance(self._inc[r0:], self._xi[r0:], self._u_path, self._df, self._lz,
                                 self.threshold, self._ll, trace, cur, self.gap,
-                                *self._path_limits())
+                                *self._path_limits(), self._path_arrays()[0], self.survivors)
                 last = cur + min(stop + 1, we - cur)
                 self._write_hist(cur, trace[:last - cur])
                 upto = last if stop >= we - cur else last - 1
@@ -1003,8 +1015,9 @@ class Observer:
         ll = self._ll
         n = len(ll)
         keep = np.empty(n, np.int64)
-        nk = keep_set(ll, n, self.p_prune * (1 - 1e-12), self.gap,
-                      -1 if self.max_paths is None else self.max_paths,
+        nk = keep_set(ll, np.array([p.node for p in self._paths], dtype=np.int64), n,
+                      self.p_prune * (1 - 1e-12), self.gap,
+                      -1 if self.max_paths is None else self.max_paths, self.survivors,
                       np.empty(n, np.int64), np.empty(n), keep)
         keep = keep[:nk]
         cand_ll = ll.copy()
