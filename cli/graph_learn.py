@@ -45,7 +45,10 @@ def learn(archives, label_map, out, extra, base, name, trials, em, force, as_jso
     (mean and covariance trained from its labels) on the phase stream: the
     wrench and the velocity through a 5 Hz lowpass.  Edges are the label
     changes the trials show, with their probabilities counted from the label
-    sequences (the observer adds log p when a path changes node); the initial
+    sequences (the observer adds log p when a path changes node), and the
+    graph asks the observer to keep each node's best path through the pruning
+    (survivors = true: a phase whose first samples fit the next one better
+    takes the lead back); the initial
     probabilities are the share of trials starting in each node.  'train
     --graph GRAPH' fits the models and 'recognize --graph GRAPH' runs it like
     any bundled graph; 'graph show' lists and draws it.  Labelled samples the
