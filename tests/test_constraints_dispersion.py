@@ -64,3 +64,6 @@ def test_estimate_blocks_widen_their_sd_on_a_compliant_contact(tmp_path):
     noise = np.array([r["angle_sd_noise_deg"] for r in rows])
     assert np.all(wide >= noise)
     assert np.mean(err <= 2 * wide) > np.mean(err <= 2 * noise) + 0.2
+    for e in out["summary"]["per_true_degree"].values():     # the summary reports both
+        if "angle_within_2sd_noise_only" in e:
+            assert e["angle_within_2sd"] >= e["angle_within_2sd_noise_only"]

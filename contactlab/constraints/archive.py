@@ -405,6 +405,10 @@ def _summary(out: dict) -> dict:
             sd = np.array([r.get("angle_sd_deg", np.nan) for r in errs])
             entry.update(median_angle_error_deg=float(np.median(e)),
                          angle_within_2sd=float(np.mean(e <= 2 * sd)))
+            if any("angle_sd_noise_deg" in r for r in errs):    # the sd widened by the spread
+                own = np.array([r.get("angle_sd_noise_deg", r.get("angle_sd_deg", np.nan))
+                                for r in errs])
+                entry["angle_within_2sd_noise_only"] = float(np.mean(e <= 2 * own))
         per_degree[str(m)] = entry
     errs = [r["angle_error_deg"] for r in decided if r.get("angle_error_deg") is not None
             and 0 < r.get("true_degree", 0) < 3]

@@ -1015,7 +1015,7 @@ class Observer:
         ll = self._ll
         n = len(ll)
         keep = np.empty(n, np.int64)
-        nk = keep_set(ll, np.array([p.node for p in self._paths], dtype=np.int64), n,
+        nk = keep_set(ll, self._path_arrays()[0], n,
                       self.p_prune * (1 - 1e-12), self.gap,
                       -1 if self.max_paths is None else self.max_paths, self.survivors,
                       np.empty(n, np.int64), np.empty(n), keep)
