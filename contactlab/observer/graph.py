@@ -53,9 +53,11 @@ KNOWN_SIGNALS = ("hf", "strain", "wrench", "velocity", "position", "phase") + CO
 _DEFAULT_SIGNAL = {"temporal": "hf", "impact": "hf", "velocity-fixed": "velocity",
                    "velocity-moving": "velocity", "constraint": "contact", "gaussian": "phase"}
 _TOP_KEYS = {"name", "title", "thesis", "description", "actions", "initial", "models", "nodes",
-             "edges", "edge_sets", "sides", "p_prune", "survivors"}
+             "edges", "edge_sets", "sides", "p_prune", "survivors", "change_prior"}
 _NODE_KEYS = {"name", "label", "models", "initial", "transient", "self_transition"}
 _PROB_TOL = 1e-6
+#: a graph's ``change_prior`` (:attr:`FeatureGraph.change_prior`)
+CHANGE_PRIORS = ("trained", "none")
 
 
 @dataclass(frozen=True)
@@ -126,6 +128,12 @@ class FeatureGraph:
     #: the pruning also keeps the best path ending in each node (Viterbi's survivors; for
     #: graphs whose changes carry probabilities, as the graphs learned from labels)
     survivors: bool = False
+    #: where the edges carry no probabilities: ``"trained"``, a change out of node i costs
+    #: ``log(h_i / R_i)``, h_i the node's rate of labelled changes per sample in the
+    #: models' training and R_i its other successors (the supervised HMM's transition matrix
+    #: with the graph's edges split evenly); ``"none"``: every change is free, as 6.1
+    #: wrote it (the thesis had no transition probabilities)
+    change_prior: str = "trained"
     #: successor table per action code (filled on first use; not part of the graph)
     _succ: dict = field(default_factory=dict, compare=False, repr=False)
     #: the observer's compiled-core transition tables per transitions setting (filled on
@@ -212,7 +220,8 @@ class FeatureGraph:
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
                             self.sides, self.edge_probabilities, self.p_prune,
-                            self.survivors, _succ=self._succ, _tables=self._tables)
+                            self.survivors, self.change_prior, _succ=self._succ,
+                            _tables=self._tables)
 
     def to_dict(self) -> dict:
         """A JSON-able description (what ``contactlab graph show --json`` prints)."""
@@ -224,7 +233,7 @@ class FeatureGraph:
         return {
             "name": self.name, "title": self.title, "thesis": self.thesis, "source": self.source,
             "actions": list(self.actions), "sides": self.sides, "p_prune": self.p_prune,
-            "survivors": self.survivors,
+            "survivors": self.survivors, "change_prior": self.change_prior,
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
@@ -380,9 +389,13 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     survivors = doc.get("survivors", False)
     if not isinstance(survivors, bool):
         raise err("survivors", f"must be true or false; got {survivors!r}")
+    change_prior = doc.get("change_prior", "trained")
+    if change_prior not in CHANGE_PRIORS:
+        raise err("change_prior", f"must be one of {', '.join(CHANGE_PRIORS)}; "
+                  f"got {change_prior!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
                          thesis, source, sides, edge_probs,
-                         None if p_prune is None else float(p_prune), survivors)
+                         None if p_prune is None else float(p_prune), survivors, change_prior)
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph

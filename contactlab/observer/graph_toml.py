@@ -19,7 +19,7 @@ from contactlab.observer.graph import FeatureGraph, parse_graph
 __all__ = ["dumps_graph", "write_graph", "graph_document"]
 
 _TOP = ("name", "title", "thesis", "description", "actions", "initial", "sides", "p_prune",
-        "survivors", "edges")
+        "survivors", "change_prior", "edges")
 
 
 def _value(v) -> str:
@@ -88,6 +88,8 @@ def graph_document(graph: FeatureGraph) -> dict:
         doc["p_prune"] = d["p_prune"]
     if d.get("survivors"):
         doc["survivors"] = True
+    if d.get("change_prior", "trained") != "trained":
+        doc["change_prior"] = d["change_prior"]
     doc["edges"] = [f"{a} -> {b}" for a, b in d["edges"]]
     doc["models"] = d["models"]
     nodes = []

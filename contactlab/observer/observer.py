@@ -339,6 +339,17 @@ class Observer:
         ``log p(i -> j | a)``; ``"none"``: every allowed transition is free, as in 6.4
         (the thesis had no probabilities, 6.2).  Graphs without probabilities are the same
         either way.
+    change_prior : per node name, the probability per sample of a change out of it (the
+        rate of its labelled changes in training, :func:`~contactlab.observer.recognize.change_priors`),
+        or None.  Where the graph's edge set carries no probabilities and its
+        ``change_prior`` is ``"trained"``, a change out of node i to any of its R_i
+        other successors costs ``log(h_i / R_i)``: the supervised HMM's transition
+        matrix with the graph's edges split evenly (a restart is free, as with edge
+        probabilities).  Without it a change of
+        models with fixed trained parameters is free, so two that overlap trade the lead
+        at every alarm (the thesis's models re-estimate their parameters at each start,
+        whose prior predictive already pays for a change; its graphs say ``"none"``).
+        Nodes missing from the mapping change freely.
     rate_hz : the rate the data were recorded at (Hz), or None.  Given, each Gaussian
         model weighs a sample by the share of an independent one it carries at that rate
         (:func:`~contactlab.observer.models.gaussian.rate_weighted`); None: every sample
@@ -357,6 +368,7 @@ class Observer:
                  max_paths: int | None = D.OBSERVER_MAX_PATHS,
                  initial=None, transitions: str = D.OBSERVER_TRANSITIONS,
                  transient_max: "int | Mapping[str, int] | None" = None,
+                 change_prior: "Mapping[str, float] | None" = None,
                  rate_hz: float | None = None):
         if not (threshold > 0 and math.isfinite(threshold)):
             raise ValueError(f"threshold (T^2) must be a finite number > 0; got {threshold!r}")
@@ -379,6 +391,17 @@ class Observer:
                 raise ValueError(f"transient_max must be >= 1 sample; got {transient_max!r}")
         self.transitions = transitions
         self.graph = graph if initial is None else graph.with_initial(initial)
+        prior = dict(change_prior or {})
+        for k, v in prior.items():
+            if k not in self.graph.node_names:
+                raise ValueError(f"change_prior names {k!r}, not a node of the graph")
+            if not 0 < v < 1:
+                raise ValueError(f"change_prior[{k!r}] must be a probability in (0, 1); got {v!r}")
+        #: per node, the probability per sample of a change out of it (used where the
+        #: graph's edges carry no probabilities and its ``change_prior`` is "trained")
+        self.change_prior = (prior if prior and self.graph.change_prior == "trained"
+                             and transitions == "graph" and not self.graph.edge_probabilities
+                             else {})
         unknown = [k for k in (limits or {}) if k is not None and k not in self.graph.node_names]
         if unknown:
             raise ValueError(f"transient_max names {unknown[0]!r}, not a node of the graph")
@@ -885,9 +908,10 @@ class Observer:
     def _tables(self) -> tuple:
         """The graph's successor and ``log p(i -> j)`` tables (:meth:`_core_tables`), one
         build per graph and transitions setting."""
-        tables = self.graph._tables.get(self.transitions)
+        key = (self.transitions, tuple(sorted(self.change_prior.items())))
+        tables = self.graph._tables.get(key)
         if tables is None:
-            tables = self.graph._tables[self.transitions] = self._core_tables()
+            tables = self.graph._tables[key] = self._core_tables()
         return tables
 
     def _successors(self, node: int, action) -> tuple[int, ...]:
@@ -898,13 +922,22 @@ class Observer:
 
     def _log_transition(self, i: int, j: int, action) -> float:
         """``log p(i -> j | action)`` from the graph's edge probabilities (0 where the graph
-        gives none, for self-transitions, or with ``transitions="none"``)."""
+        gives none, for self-transitions, or with ``transitions="none"``); where the
+        action's edges carry none, the trained change prior's ``log(h_i / R_i)`` (see
+        ``change_prior``)."""
         key = (i, j, action)
         if key not in self._log_edge:
             probs = (self.graph.edge_probabilities.get(action)
-                     if self.transitions == "graph" and action is not None and i != j else None)
-            p = probs.get((i, j)) if probs else None
-            self._log_edge[key] = math.log(p) if p else 0.0
+                     if self.transitions == "graph" and action is not None else None)
+            h = self.change_prior.get(self.graph.node_names[i])
+            if probs:
+                p = probs.get((i, j)) if i != j else None
+                self._log_edge[key] = math.log(p) if p else 0.0
+            elif h is not None and i != j:
+                others = sum(1 for k in self._successors(i, action) if k != i)
+                self._log_edge[key] = math.log(h / others)
+            else:
+                self._log_edge[key] = 0.0
         return self._log_edge[key]
 
     def _spawn(self, new: list, ta: int) -> None:

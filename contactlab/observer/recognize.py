@@ -208,11 +208,33 @@ def transient_limits(graph, models) -> dict | None:
     return out or None
 
 
+def change_dwell(graph, models) -> dict | None:
+    """Per node, ``[labelled seconds, labelled changes out of it]`` in the trials the
+    models were trained on (``node_dwell`` of their provenance), for a graph whose edges
+    carry no probabilities and whose ``change_prior`` is ``"trained"``; else None (the
+    observer then prices no change, as 6.4)."""
+    if graph.change_prior != "trained" or graph.edge_probabilities:
+        return None
+    seen = (getattr(models, "provenance", None) or {}).get("node_dwell") or {}
+    out = {n: [float(v[0]), int(v[1])] for n, v in seen.items() if n in graph.node_names}
+    return out or None
+
+
+def change_priors(dwell: dict | None, fs: float) -> dict | None:
+    """Per node, the probability per sample at ``fs`` of a change out of it: the rule of
+    succession over its labelled samples, ``(changes + 1) / (samples + 2)`` (a node seen
+    briefly and never left is not made permanent)."""
+    if not dwell:
+        return None
+    return {n: (c + 1.0) / (s * fs + 2.0) for n, (s, c) in dwell.items()}
+
+
 def observer_keywords(observer_kw: dict | None, fs: float) -> dict:
     """:class:`Observer`'s keywords from a stage's ``observer_kw`` at the conditioned rate
     ``fs``: ``transient_max_s`` (seconds; 0 or None: no limit) becomes ``transient_max``
-    in samples."""
+    in samples, ``change_dwell`` (:func:`change_dwell`) the ``change_prior`` per sample."""
     kw = dict(observer_kw or {})
+    kw["change_prior"] = change_priors(kw.pop("change_dwell", None), fs)
     secs = kw.pop("transient_max_s", None)
     if isinstance(secs, dict):          # per transient node
         kw["transient_max"] = {n: max(1, int(round(v * fs))) for n, v in secs.items() if v}
@@ -296,6 +318,7 @@ class RecognizeStage(Stage):
         self.observer_kw["transient_max_s"] = (transient_limits(self.graph, self.models)
                                                if transient_max_s is None
                                                else transient_max_s or None)
+        self.observer_kw["change_dwell"] = change_dwell(self.graph, self.models)
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,

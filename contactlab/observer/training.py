@@ -269,6 +269,25 @@ def _longest_in(codes, names, rate_hz: float, transient: dict, longest: dict) ->
             longest[node] = max(longest.get(node, 0.0), secs)
 
 
+def _dwell_in(codes, names, rate_hz: float, nodes, dwell: dict) -> None:
+    """Add to ``dwell`` (node -> [labelled seconds, labelled changes out of it]) a
+    recording's label ``codes`` (indices into ``names``, -1 unlabelled) at ``rate_hz``:
+    a node's labels are those named like it; samples of other labels are skipped, so a
+    change is between consecutive samples of two nodes (a node's restart is not seen)."""
+    lookup = np.array([nodes.index(n) if n in nodes else -1 for n in names] + [-1], np.int64)
+    node = lookup[np.asarray(codes, np.int64)]
+    node = node[node >= 0]
+    if not node.size:
+        return
+    secs = np.bincount(node, minlength=len(nodes)) / float(rate_hz)
+    out = np.bincount(node[:-1][node[1:] != node[:-1]], minlength=len(nodes))
+    for k, name in enumerate(nodes):
+        if secs[k] > 0 or out[k]:
+            d = dwell.setdefault(name, [0.0, 0])
+            d[0] += float(secs[k])
+            d[1] += int(out[k])
+
+
 def _example_label(seen) -> str:
     """A label of the recording to show in a --label-map example: never ``0``, which
     integer-coded recordings use for unlabelled or before-and-after samples."""
@@ -302,6 +321,7 @@ class _LabelledData:
     ids_used: list
     fs: float | None
     longest: dict
+    dwell: dict
 
 
 @dataclass
@@ -317,6 +337,7 @@ class _Plan:
     all_signals: list
     signal: str
     transient: dict
+    nodes: list
 
 
 def _plan(graph: FeatureGraph) -> _Plan:
@@ -356,12 +377,13 @@ def _plan(graph: FeatureGraph) -> _Plan:
                                      for lab in graph.models[m].trained_labels]
                  for n in graph.nodes if n.transient}
     return _Plan(temporal_specs, impact_specs, kin_labels, kin_signals, labels, all_signals,
-                 signal, transient)
+                 signal, transient, list(graph.node_names))
 
 
 def _new_labelled(plan: _Plan) -> _LabelledData:
     return _LabelledData({lab: [] for lab in plan.temporal_specs},
-                         {lab: [] for lab in plan.impact_specs}, {}, set(), set(), [], None, {})
+                         {lab: [] for lab in plan.impact_specs}, {}, set(), set(), [], None, {},
+                         {})
 
 
 def _cut(acc: _LabelledData, plan: _Plan, data: dict, codes_of, *, order, mean,
@@ -414,6 +436,9 @@ def _read_labelled(path, trials, label_map, plan: _Plan, *, quiet, order, mean, 
                                                 path=path)
             acc.ids_used.append(tid)
             _longest_runs(trial, plan.transient, acc.longest)
+            if trial.labels is not None and trial.label_names:
+                _dwell_in(trial.labels, list(trial.label_names), float(trial.rate_hz),
+                          plan.nodes, acc.dwell)
             _cut(acc, plan, data,
                  lambda s: truth_codes(trial, index, plan.labels,
                                        window=window_of(s, trial.rate_hz)),
@@ -533,6 +558,7 @@ def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDE
         acc.raw_labels.update(present)
         acc.ids_used.append(str(i))
         _longest_in(given[plan.all_signals[0]], labels, float(fs), plan.transient, acc.longest)
+        _dwell_in(given[plan.all_signals[0]], labels, float(fs), plan.nodes, acc.dwell)
         _cut(acc, plan, data, codes_of, order=order, mean=mean, block=block)
     temporal, impacts, kinematic = _fit_models(graph, plan, acc, None, None, order=order,
                                                mean=mean, block=block)
@@ -543,6 +569,7 @@ def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDE
         "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
         "impact_segments": {k: len(v) for k, v in acc.segs.items()},
         "transient_longest_s": acc.longest,
+        "node_dwell": acc.dwell,
         "graph": {"name": graph.name, "source": graph.source},
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "contactlab_version": __version__, "command": "fit_graph",
@@ -600,6 +627,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         "mean": bool(mean), "blocks": {k: m.n_blocks for k, m in temporal.items()},
         "impact_segments": {k: len(v) for k, v in segs.items()},
         "transient_longest_s": longest,
+        "node_dwell": data.dwell,
         "graph": {"name": graph.name, "source": graph.source,
                   "sha256": sha256_file(Path(graph.source)) if graph.source
                   and Path(graph.source).is_file() else None},
