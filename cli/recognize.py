@@ -43,8 +43,11 @@ from contactlab.cli.inputs import checks_archive
               default=D.OBSERVER_TRANSITIONS, show_default=True,
               help="'graph': a successor starts from its predecessor's log-likelihood plus "
                    "log p of the edge, where the graph's edge sets give probabilities (a "
-                   "forward projection's or EM's); 'none': every allowed transition alike, as "
-                   "in 6.4.  Graphs without probabilities are the same either way.")
+                   "forward projection's or EM's), else, where the graph's change_prior is "
+                   "'trained' (the default; the thesis's graphs say 'none'), log(h / R): h "
+                   "the node's rate of labelled changes in the models' training, R its other "
+                   "successors, as a supervised HMM counts them; 'none': every allowed "
+                   "transition alike, as in 6.4.")
 @click.option("--transient-max", "transient_max", type=float, default=None,
               metavar="SECONDS",
               help="The longest a path stays in a transient (impact) node; then the samples "
