@@ -187,7 +187,10 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                "gaussian": {k: {"channels": m.channels, "samples": getattr(m, "n_samples_", None)}
                             for k, m in gm.kinematic.get("gaussian", {}).items()},
                "label_map": lmap,
-               "order": order, "mean": mean, "block": block}
+               "order": order, "mean": mean, "block": block,
+               "node_dwell": {k: {"seconds": s, "changes": c} for k, (s, c)
+                              in (gm.provenance.get("node_dwell") or {}).items()},
+               "change_prior": graph.change_prior}
     if graph_out is not None:
         summary["em"] = _learn(archive, graph, gm, graph_out, trials=trials, quiet=quiet)
     if as_json:
@@ -205,6 +208,10 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     for k, g in summary["gaussian"].items():
         click.echo(f"{k}: phase Gaussian, {g['channels']} channels, {g['samples']} samples")
+    if summary["node_dwell"] and graph.change_prior == "trained" and not graph.edge_probabilities:
+        click.echo("changes priced from the labels: " + ", ".join(
+            f"{k} {count(d['changes'], 'change')} in {d['seconds']:.3g} s"
+            for k, d in summary["node_dwell"].items()))
     click.echo(f"models written to {out}")
     if graph_out is not None:
         em = summary["em"]

@@ -98,6 +98,15 @@ def test_train_records_each_nodes_labelled_time_and_changes(tmp_path):
     for n, (s, c) in dwell.items():
         assert s == pytest.approx(secs[n]) and c == outs[n]
     assert sum(c for _, c in dwell.values()) >= 10
+    # the CLI says so for a graph that prices changes, and not for the thesis's
+    from click.testing import CliRunner
+
+    from contactlab.cli import main
+    for graph, shown in (("hf-gaussian", True), ("hf-context-free", False)):
+        r = CliRunner().invoke(main, ["train", str(tmp_path / "train.h5"), "--graph", graph,
+                                      "--out", str(tmp_path / f"{graph}.h5"), "-q"])
+        assert r.exit_code == 0, r.output
+        assert ("changes priced from the labels" in r.output) == shown
 
 
 @pytest.mark.parametrize("name", ["hf-context-free", "hf-context", "guarded-move", "maze"])
