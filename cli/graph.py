@@ -62,7 +62,8 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
         flags = [f for f, on in (("transient", n.transient), ("self", n.self_transition)) if on]
         succ = [g.nodes[j].name for j in g.successors(g.index(n.name)) if j != g.index(n.name)]
         always = ", ".join(succ) or ("- (edges by action below)" if g.action_edges else "-")
-        click.echo(f"  {n.name:>6}  p0={n.initial:.3g}  [{models}]  {n.label}"
+        p0 = "trained" if g.initial_trained else format(n.initial, ".3g")
+        click.echo(f"  {n.name:>6}  p0={p0}  [{models}]  {n.label}"
                    f"  -> {always}" + (f"  ({', '.join(flags)})" if flags else ""))
     for name, spec in g.models.items():
         click.echo(f"  model {name}: {spec.kind} on {spec.signal}{_trained(spec)}")

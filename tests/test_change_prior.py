@@ -24,11 +24,34 @@ def test_dwell_counts_labelled_time_and_changes_between_nodes():
     # a a a b b | unlabelled | b other a a : the gap and "other" are skipped, so the
     # changes seen are a->b and b->a
     codes = np.array([0, 0, 0, 1, 1, -1, 1, 2, 0, 0])
-    dwell = {}
-    _dwell_in(codes, names, 10.0, ["a", "b", "c"], dwell)
+    dwell, first = {}, {}
+    _dwell_in(codes, names, 10.0, ["a", "b", "c"], dwell, first)
     assert dwell == {"a": [0.5, 1], "b": [0.3, 1]}
-    _dwell_in(np.array([1, 1, 1, 1]), names, 10.0, ["a", "b", "c"], dwell)
+    _dwell_in(np.array([-1, 2, 1, 1, 1, 1]), names, 10.0, ["a", "b", "c"], dwell, first)
     assert dwell == {"a": [0.5, 1], "b": [0.7, 1]}
+    assert first == {"a": 1, "b": 1}
+
+
+def test_trained_initial_probabilities_count_the_first_labelled_node():
+    from types import SimpleNamespace
+
+    from contactlab.observer.recognize import trained_initial
+
+    doc = {"name": "g", "models": {"m": {"kind": "temporal"}}, "initial": "trained",
+           "nodes": [{"name": n, "models": "m"} for n in "ABC"], "edges": ["* -> *"]}
+    graph = parse_graph(doc)
+    assert graph.initial_trained and np.allclose(graph.initial, 1 / 3)
+    models = SimpleNamespace(provenance={"node_first": {"A": 6, "C": 1}})
+    assert trained_initial(graph, models) == pytest.approx({"A": 0.7, "B": 0.1, "C": 0.2})
+    assert trained_initial(graph, SimpleNamespace(provenance={})) is None
+    doc["initial"] = "uniform"
+    assert trained_initial(parse_graph(doc), models) is None
+    # written back out, the graph still asks for it
+    import tomllib
+
+    from contactlab.observer.graph_toml import dumps_graph, graph_document
+    again = parse_graph(tomllib.loads(dumps_graph(graph_document(graph))))
+    assert again.initial_trained and np.allclose(again.initial, 1 / 3)
 
 
 def test_change_priors_are_the_rule_of_succession_at_the_observers_rate():

@@ -114,7 +114,8 @@ def plot_graph(graph: FeatureGraph, ax, *, probabilities=None) -> None:
         loop = "\u21bb " if n.self_transition else ""
         loops |= bool(loop)
         models = "/".join(n.model_names)
-        ax.annotate(f"{loop}{n.label}\n[{models}] p0={n.initial:.2g}", xy=xy[k],
+        p0 = "trained" if graph.initial_trained else format(n.initial, ".2g")
+        ax.annotate(f"{loop}{n.label}\n[{models}] p0={p0}", xy=xy[k],
                     xytext=tuple((diam / 2 + 5) * u), textcoords="offset points", ha=ha, va=va,
                     fontsize=7, zorder=5,
                     bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))

@@ -134,6 +134,10 @@ class FeatureGraph:
     #: with the graph's edges split evenly); ``"none"``: every change is free, as 6.1
     #: wrote it (the thesis had no transition probabilities)
     change_prior: str = "trained"
+    #: ``initial = "trained"``: the initial probabilities come from the models' training,
+    #: the share of labelled trials whose first labelled node is each (add-one smoothed,
+    #: as the supervised HMM counts its start probabilities); uniform until then
+    initial_trained: bool = False
     #: successor table per action code (filled on first use; not part of the graph)
     _succ: dict = field(default_factory=dict, compare=False, repr=False)
     #: the observer's compiled-core transition tables per transitions setting (filled on
@@ -220,7 +224,7 @@ class FeatureGraph:
         return FeatureGraph(self.name, self.title, nodes, self.models, self.edges,
                             self.action_edges, self.actions, self.thesis, self.source,
                             self.sides, self.edge_probabilities, self.p_prune,
-                            self.survivors, self.change_prior, _succ=self._succ,
+                            self.survivors, self.change_prior, False, _succ=self._succ,
                             _tables=self._tables)
 
     def to_dict(self) -> dict:
@@ -234,6 +238,7 @@ class FeatureGraph:
             "name": self.name, "title": self.title, "thesis": self.thesis, "source": self.source,
             "actions": list(self.actions), "sides": self.sides, "p_prune": self.p_prune,
             "survivors": self.survivors, "change_prior": self.change_prior,
+            "initial_trained": self.initial_trained,
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
@@ -329,10 +334,11 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     init_mode = doc.get("initial")
     given = [n["initial"] is not None for n in nodes]
     if init_mode is not None:
-        if init_mode != "uniform":
-            raise err("initial", f"must be \"uniform\" (or give each node an initial); got {init_mode!r}")
+        if init_mode not in ("uniform", "trained"):
+            raise err("initial", "must be \"uniform\" or \"trained\" (or give each node an "
+                      f"initial); got {init_mode!r}")
         if any(given):
-            raise err("initial", "\"uniform\" and per-node initial values are exclusive")
+            raise err("initial", f"\"{init_mode}\" and per-node initial values are exclusive")
         init = [1.0 / len(nodes)] * len(nodes)
     else:
         if not any(given):
@@ -395,7 +401,8 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
                   f"got {change_prior!r}")
     graph = FeatureGraph(name, title, node_objs, models, edges, action_edges, tuple(actions),
                          thesis, source, sides, edge_probs,
-                         None if p_prune is None else float(p_prune), survivors, change_prior)
+                         None if p_prune is None else float(p_prune), survivors, change_prior,
+                         init_mode == "trained")
     _check_reachable(graph, err)
     _check_transients(graph, err)
     return graph

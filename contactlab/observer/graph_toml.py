@@ -90,12 +90,14 @@ def graph_document(graph: FeatureGraph) -> dict:
         doc["survivors"] = True
     if d.get("change_prior", "trained") != "trained":
         doc["change_prior"] = d["change_prior"]
+    if d.get("initial_trained"):
+        doc["initial"] = "trained"
     doc["edges"] = [f"{a} -> {b}" for a, b in d["edges"]]
     doc["models"] = d["models"]
     nodes = []
     for n in d["nodes"]:
         node = {"name": n["name"], "label": n["label"], "models": n["models"]}
-        if n["initial"]:
+        if n["initial"] and not d.get("initial_trained"):
             node["initial"] = n["initial"]
         if n["transient"]:
             node["transient"] = True

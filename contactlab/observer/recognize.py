@@ -220,6 +220,21 @@ def change_dwell(graph, models) -> dict | None:
     return out or None
 
 
+def trained_initial(graph, models) -> dict | None:
+    """For a graph whose ``initial`` is ``"trained"``: per node, ``(n_k + 1) / (N + K)``,
+    n_k the training recordings whose first labelled node is k (``node_first`` of the
+    models' provenance), N their number, K the nodes (the supervised HMM's start
+    probabilities, add-one smoothed); else None (the graph's own initial probabilities)."""
+    if not graph.initial_trained:
+        return None
+    first = (getattr(models, "provenance", None) or {}).get("node_first") or {}
+    n = sum(int(v) for k, v in first.items() if k in graph.node_names)
+    if not n:
+        return None
+    K = graph.n_nodes
+    return {name: (int(first.get(name, 0)) + 1.0) / (n + K) for name in graph.node_names}
+
+
 def change_priors(dwell: dict | None, fs: float) -> dict | None:
     """Per node, the probability per sample at ``fs`` of a change out of it: the rule of
     succession over its labelled samples, ``(changes + 1) / (samples + 2)`` (a node seen
@@ -319,6 +334,7 @@ class RecognizeStage(Stage):
                                                if transient_max_s is None
                                                else transient_max_s or None)
         self.observer_kw["change_dwell"] = change_dwell(self.graph, self.models)
+        self.observer_kw["initial"] = trained_initial(self.graph, self.models)
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,

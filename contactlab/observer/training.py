@@ -269,9 +269,10 @@ def _longest_in(codes, names, rate_hz: float, transient: dict, longest: dict) ->
             longest[node] = max(longest.get(node, 0.0), secs)
 
 
-def _dwell_in(codes, names, rate_hz: float, nodes, dwell: dict) -> None:
-    """Add to ``dwell`` (node -> [labelled seconds, labelled changes out of it]) a
-    recording's label ``codes`` (indices into ``names``, -1 unlabelled) at ``rate_hz``:
+def _dwell_in(codes, names, rate_hz: float, nodes, dwell: dict, first: dict) -> None:
+    """Add to ``dwell`` (node -> [labelled seconds, labelled changes out of it]) and to
+    ``first`` (node -> recordings whose first labelled node it is) a recording's label
+    ``codes`` (indices into ``names``, -1 unlabelled) at ``rate_hz``:
     a node's labels are those named like it; samples of other labels are skipped, so a
     change is between consecutive samples of two nodes (a node's restart is not seen)."""
     lookup = np.array([nodes.index(n) if n in nodes else -1 for n in names] + [-1], np.int64)
@@ -279,6 +280,7 @@ def _dwell_in(codes, names, rate_hz: float, nodes, dwell: dict) -> None:
     node = node[node >= 0]
     if not node.size:
         return
+    first[nodes[node[0]]] = first.get(nodes[node[0]], 0) + 1
     secs = np.bincount(node, minlength=len(nodes)) / float(rate_hz)
     out = np.bincount(node[:-1][node[1:] != node[:-1]], minlength=len(nodes))
     for k, name in enumerate(nodes):
@@ -322,6 +324,7 @@ class _LabelledData:
     fs: float | None
     longest: dict
     dwell: dict
+    first: dict
 
 
 @dataclass
@@ -383,7 +386,7 @@ def _plan(graph: FeatureGraph) -> _Plan:
 def _new_labelled(plan: _Plan) -> _LabelledData:
     return _LabelledData({lab: [] for lab in plan.temporal_specs},
                          {lab: [] for lab in plan.impact_specs}, {}, set(), set(), [], None, {},
-                         {})
+                         {}, {})
 
 
 def _cut(acc: _LabelledData, plan: _Plan, data: dict, codes_of, *, order, mean,
@@ -438,7 +441,7 @@ def _read_labelled(path, trials, label_map, plan: _Plan, *, quiet, order, mean, 
             _longest_runs(trial, plan.transient, acc.longest)
             if trial.labels is not None and trial.label_names:
                 _dwell_in(trial.labels, list(trial.label_names), float(trial.rate_hz),
-                          plan.nodes, acc.dwell)
+                          plan.nodes, acc.dwell, acc.first)
             _cut(acc, plan, data,
                  lambda s: truth_codes(trial, index, plan.labels,
                                        window=window_of(s, trial.rate_hz)),
@@ -558,7 +561,8 @@ def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDE
         acc.raw_labels.update(present)
         acc.ids_used.append(str(i))
         _longest_in(given[plan.all_signals[0]], labels, float(fs), plan.transient, acc.longest)
-        _dwell_in(given[plan.all_signals[0]], labels, float(fs), plan.nodes, acc.dwell)
+        _dwell_in(given[plan.all_signals[0]], labels, float(fs), plan.nodes, acc.dwell,
+                  acc.first)
         _cut(acc, plan, data, codes_of, order=order, mean=mean, block=block)
     temporal, impacts, kinematic = _fit_models(graph, plan, acc, None, None, order=order,
                                                mean=mean, block=block)
@@ -570,6 +574,7 @@ def fit_graph(graph, recordings, *, fs: float, labels, order: int = D.GRAPH_ORDE
         "impact_segments": {k: len(v) for k, v in acc.segs.items()},
         "transient_longest_s": acc.longest,
         "node_dwell": acc.dwell,
+        "node_first": acc.first,
         "graph": {"name": graph.name, "source": graph.source},
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "contactlab_version": __version__, "command": "fit_graph",
@@ -628,6 +633,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         "impact_segments": {k: len(v) for k, v in segs.items()},
         "transient_longest_s": longest,
         "node_dwell": data.dwell,
+        "node_first": data.first,
         "graph": {"name": graph.name, "source": graph.source,
                   "sha256": sha256_file(Path(graph.source)) if graph.source
                   and Path(graph.source).is_file() else None},
