@@ -411,11 +411,12 @@ def _differences(res, hmm_res, gm, check) -> list[str]:
                if "test_learned_gauss" in check else "")
             + ". Context free, hf-gaussian prices each change by the rate of changes its "
             "node showed in training (the graph's change_prior, the supervised HMM's "
-            "transition matrix with the edges split evenly): "
+            "transition matrix with the edges split evenly) and starts from the training "
+            "runs' first nodes (initial = \"trained\", the HMM's start probabilities): "
             f"{100 * check['test_cf_gauss']['accuracy']:.1f} % against the HMM's "
             f"{100 * _acc(hmm_res['test'][0]):.1f} %; without that price two overlapping "
             "Gaussians trade the lead at every alarm (seeds 3-6 of the demo's pipeline: "
-            "69-75 % without it, 83-89 % with it). The thesis's graphs leave changes free, "
+            "69-75 % without either, 83-89 % with the price, 85-89 % with both). The thesis's graphs leave changes free, "
             "as 6.1 wrote them (it had no transition probabilities): their AR hypotheses "
             "re-estimate a level at each start, whose prior predictive already pays for a "
             "change, and priced they lost about 4 points.")
