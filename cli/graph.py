@@ -57,6 +57,10 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
         return
     named = g.thesis and f"({g.thesis})" not in g.title
     click.echo(f"{g.name}: {g.title}" + (f" (thesis {g.thesis})" if named else ""))
+    if not g.edge_probabilities:
+        click.echo("  changes: " + ("priced from the training labels (change_prior = trained)"
+                                    if g.change_prior == "trained" else
+                                    "free (change_prior = none)"))
     for n in g.nodes:
         models = ", ".join(f"{r}={m}" if r != m else m for r, m in n.models)
         flags = [f for f, on in (("transient", n.transient), ("self", n.self_transition)) if on]

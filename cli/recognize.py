@@ -47,7 +47,8 @@ from contactlab.cli.inputs import checks_archive
                    "'trained' (the default; the thesis's graphs say 'none'), log(h / R): h "
                    "the node's rate of labelled changes in the models' training, R its other "
                    "successors, as a supervised HMM counts them; 'none': every allowed "
-                   "transition alike, as in 6.4.")
+                   "transition alike, as in 6.4.  A graph's trained start (initial = "
+                   "'trained') applies either way.")
 @click.option("--transient-max", "transient_max", type=float, default=None,
               metavar="SECONDS",
               help="The longest a path stays in a transient (impact) node; then the samples "

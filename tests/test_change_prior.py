@@ -25,11 +25,26 @@ def test_dwell_counts_labelled_time_and_changes_between_nodes():
     # changes seen are a->b and b->a
     codes = np.array([0, 0, 0, 1, 1, -1, 1, 2, 0, 0])
     dwell, first = {}, {}
-    _dwell_in(codes, names, 10.0, ["a", "b", "c"], dwell, first)
+    nodes = {"a": ["a"], "b": ["b"], "c": ["c"]}
+    _dwell_in(codes, names, 10.0, nodes, dwell, first)
     assert dwell == {"a": [0.5, 1], "b": [0.3, 1]}
-    _dwell_in(np.array([-1, 2, 1, 1, 1, 1]), names, 10.0, ["a", "b", "c"], dwell, first)
+    _dwell_in(np.array([-1, 2, 1, 1, 1, 1]), names, 10.0, nodes, dwell, first)
     assert dwell == {"a": [0.5, 1], "b": [0.7, 1]}
     assert first == {"a": 1, "b": 1}
+    # a node renamed from its models' label is counted under that label; a node's own
+    # name wins over another node's models' label
+    dwell, first = {}, {}
+    _dwell_in(codes, names, 10.0, {"rest": ["rest", "a"], "b": ["b"], "x": ["x", "b"]},
+              dwell, first)
+    assert dwell == {"rest": [0.5, 1], "b": [0.3, 1]}
+
+
+def test_node_labels_follow_the_names_then_the_models():
+    from contactlab.observer.training import node_labels
+
+    assert node_labels(load_graph("free-contact")) == {
+        "free": ["free"], "contact": ["contact"], "impact": ["impact"]}
+    assert node_labels(load_graph("hf-gaussian"))["H3"] == ["H3"]
 
 
 def test_trained_initial_probabilities_count_the_first_labelled_node():
@@ -58,7 +73,7 @@ def test_change_priors_are_the_rule_of_succession_at_the_observers_rate():
     p = change_priors({"a": [2.0, 3], "b": [0.5, 0]}, fs=100.0)
     assert p == pytest.approx({"a": 4 / 202, "b": 1 / 52})
     assert change_priors(None, 100.0) is None
-    kw = observer_keywords({"change_dwell": {"a": [2.0, 3]}, "transient_max_s": 0.1}, 50.0)
+    kw = observer_keywords({"node_dwell": {"a": [2.0, 3]}, "transient_max_s": 0.1}, 50.0)
     assert kw["change_prior"] == pytest.approx({"a": 4 / 102})
     assert kw["transient_max"] == 5
 
@@ -165,3 +180,19 @@ def test_a_graph_saying_none_ignores_the_prior():
     obs = Observer(graph, _models({"m": 0.0}), change_prior={"A": 0.1})
     assert obs.change_prior == {}
     assert obs._log_transition(0, 1, None) == 0.0
+
+
+def test_recognizing_with_models_that_counted_nothing_says_so():
+    from types import SimpleNamespace
+
+    from contactlab.observer.recognize import untrained_priors_note
+
+    graph = load_graph("hf-gaussian")
+    old = SimpleNamespace(provenance={"trials": ["a"]}, source="old.h5")
+    (note,) = untrained_priors_note(graph, old)
+    assert note.startswith("old.h5: graph 'hf-gaussian'") and "trained before" in note
+    assert "changes are free" in note and "start is uniform" in note
+    counted = SimpleNamespace(provenance={"node_dwell": {"H0": [1.0, 2]},
+                                          "node_first": {"H0": 3}}, source="new.h5")
+    assert untrained_priors_note(graph, counted) == []
+    assert untrained_priors_note(load_graph("hf-context-free"), old) == []

@@ -242,7 +242,8 @@ class FeatureGraph:
             "models": {k: {"kind": m.kind, "signal": m.signal, **m.params}
                        for k, m in self.models.items()},
             "nodes": [{"name": n.name, "label": n.label, "models": dict(n.models),
-                       "initial": n.initial, "transient": n.transient,
+                       "initial": None if self.initial_trained else n.initial,
+                       "transient": n.transient,
                        "self_transition": n.self_transition} for n in self.nodes],
             "edges": pairs(self.edges),
             "edge_sets": [{"actions": [self.actions[a] if a < len(self.actions) else a],
@@ -343,6 +344,7 @@ def parse_graph(doc: Mapping, *, source: str | None = None) -> FeatureGraph:
     else:
         if not any(given):
             raise err("initial", "no initial probabilities: set initial = \"uniform\" or "
+                      "\"trained\", or "
                       "give nodes an initial value")
         init = [n["initial"] if n["initial"] is not None else 0.0 for n in nodes]
         total = math.fsum(init)

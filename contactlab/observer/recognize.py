@@ -235,6 +235,41 @@ def trained_initial(graph, models) -> dict | None:
     return {name: (int(first.get(name, 0)) + 1.0) / (n + K) for name in graph.node_names}
 
 
+def _grouped_notes(path, outcomes) -> list[str]:
+    """One note per distinct reason a trial has no accuracy, naming its trials."""
+    by_text: dict[str, list[str]] = {}
+    for tid, o in outcomes.items():
+        if o.entry.get("no_accuracy"):
+            by_text.setdefault(o.entry["no_accuracy"], []).append(str(tid))
+    out = []
+    for text, ids in by_text.items():
+        who = (f"trial {ids[0]}" if len(ids) == 1 else
+               f"{len(ids)} trials ({', '.join(ids[:3])}{', ...' if len(ids) > 3 else ''})")
+        out.append(f"{path}: {who}: {text}")
+    return out
+
+
+def untrained_priors_note(graph, models) -> list[str]:
+    """A note (in a list, empty when none) for a graph that asks for priors learned in
+    training (``change_prior = "trained"`` without edge probabilities, or ``initial =
+    "trained"``) recognised with models whose training counted none: changes are then
+    free and the start uniform."""
+    prov = getattr(models, "provenance", None) or {}
+    missing = []
+    if change_dwell(graph, models) is None and graph.change_prior == "trained" \
+            and not graph.edge_probabilities:
+        missing.append("changes are free (no node's labelled changes)")
+    if graph.initial_trained and trained_initial(graph, models) is None:
+        missing.append("the start is uniform (no run's first labelled node)")
+    if not missing:
+        return []
+    why = ("they were trained before training counted them" if "node_dwell" not in prov
+           else "no training label names a node")
+    return [f"{getattr(models, 'source', None) or 'the models'}: graph {graph.name!r} prices "
+            f"changes and its start from the training labels, but {why}: "
+            f"{' and '.join(missing)}; retrain with labels named like the nodes"]
+
+
 def change_priors(dwell: dict | None, fs: float) -> dict | None:
     """Per node, the probability per sample at ``fs`` of a change out of it: the rule of
     succession over its labelled samples, ``(changes + 1) / (samples + 2)`` (a node seen
@@ -247,9 +282,9 @@ def change_priors(dwell: dict | None, fs: float) -> dict | None:
 def observer_keywords(observer_kw: dict | None, fs: float) -> dict:
     """:class:`Observer`'s keywords from a stage's ``observer_kw`` at the conditioned rate
     ``fs``: ``transient_max_s`` (seconds; 0 or None: no limit) becomes ``transient_max``
-    in samples, ``change_dwell`` (:func:`change_dwell`) the ``change_prior`` per sample."""
+    in samples, ``node_dwell`` (:func:`change_dwell`) the ``change_prior`` per sample."""
     kw = dict(observer_kw or {})
-    kw["change_prior"] = change_priors(kw.pop("change_dwell", None), fs)
+    kw["change_prior"] = change_priors(kw.pop("node_dwell", None), fs)
     secs = kw.pop("transient_max_s", None)
     if isinstance(secs, dict):          # per transient node
         kw["transient_max"] = {n: max(1, int(round(v * fs))) for n, v in secs.items() if v}
@@ -333,7 +368,7 @@ class RecognizeStage(Stage):
         self.observer_kw["transient_max_s"] = (transient_limits(self.graph, self.models)
                                                if transient_max_s is None
                                                else transient_max_s or None)
-        self.observer_kw["change_dwell"] = change_dwell(self.graph, self.models)
+        self.observer_kw["node_dwell"] = change_dwell(self.graph, self.models)
         self.observer_kw["initial"] = trained_initial(self.graph, self.models)
         self.action, self.delay_window, self.write, self.keep = action, delay_window, write, keep
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
@@ -432,8 +467,8 @@ class RecognizeStage(Stage):
             "parameters": self.parameters, "written": bool(self.write),
             "warnings": [misfit_warning(path, tid, o.entry["fit"])
                          for tid, o in outcomes.items() if o.entry["fit"]["misfit"]],
-            "notes": [f"{path}: trial {tid}: {o.entry['no_accuracy']}"
-                      for tid, o in outcomes.items() if o.entry.get("no_accuracy")],
+            "notes": _grouped_notes(path, outcomes)
+            + untrained_priors_note(self.graph, self.models),
         }
         if self.keep:
             summary["_runs"] = [o.extra["rec"] for o in outcomes.values()]

@@ -269,13 +269,36 @@ def _longest_in(codes, names, rate_hz: float, transient: dict, longest: dict) ->
             longest[node] = max(longest.get(node, 0.0), secs)
 
 
-def _dwell_in(codes, names, rate_hz: float, nodes, dwell: dict, first: dict) -> None:
+def node_labels(graph) -> dict:
+    """Per node of ``graph``, the (mapped) label that names it in training data: its own
+    name, else the one label every trained model of the node is trained on (a node
+    renamed from its models' label); nodes whose models disagree (free-contact's impact,
+    read by a contact and a free-space model) have none."""
+    out = {}
+    for n in graph.nodes:
+        trained = {lab for m in n.model_names for lab in graph.models[m].trained_labels}
+        out[n.name] = [n.name] + (sorted(trained - {n.name}) if len(trained) == 1 else [])
+    return out
+
+
+def _dwell_in(codes, names, rate_hz: float, nodes: dict, dwell: dict, first: dict) -> None:
     """Add to ``dwell`` (node -> [labelled seconds, labelled changes out of it]) and to
     ``first`` (node -> recordings whose first labelled node it is) a recording's label
-    ``codes`` (indices into ``names``, -1 unlabelled) at ``rate_hz``:
-    a node's labels are those named like it; samples of other labels are skipped, so a
-    change is between consecutive samples of two nodes (a node's restart is not seen)."""
-    lookup = np.array([nodes.index(n) if n in nodes else -1 for n in names] + [-1], np.int64)
+    ``codes`` (indices into ``names``, -1 unlabelled) at ``rate_hz``.  ``nodes``: node ->
+    the labels that may name it, in order (:func:`node_labels`; a node's own name first,
+    a label naming one node only); samples of other labels are skipped, so a change is
+    between consecutive samples of two nodes (a node's restart is not seen)."""
+    order = list(nodes)
+    claimed = {}
+    for rank in range(2):              # every node's own name first, then its models' label
+        for k, node in enumerate(order):
+            if k in claimed.values() or len(nodes[node]) <= rank:
+                continue
+            lab = nodes[node][rank]
+            if lab in names and lab not in claimed:
+                claimed[lab] = k
+    lookup = np.array([claimed.get(n, -1) for n in names] + [-1], np.int64)
+    nodes = order
     node = lookup[np.asarray(codes, np.int64)]
     node = node[node >= 0]
     if not node.size:
@@ -340,7 +363,7 @@ class _Plan:
     all_signals: list
     signal: str
     transient: dict
-    nodes: list
+    nodes: dict
 
 
 def _plan(graph: FeatureGraph) -> _Plan:
@@ -380,7 +403,7 @@ def _plan(graph: FeatureGraph) -> _Plan:
                                      for lab in graph.models[m].trained_labels]
                  for n in graph.nodes if n.transient}
     return _Plan(temporal_specs, impact_specs, kin_labels, kin_signals, labels, all_signals,
-                 signal, transient, list(graph.node_names))
+                 signal, transient, node_labels(graph))
 
 
 def _new_labelled(plan: _Plan) -> _LabelledData:
