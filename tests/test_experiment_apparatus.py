@@ -141,3 +141,16 @@ def test_apparatus_table_reaches_the_simulated_hardware(tmp_path):
     cabled = hardware(load_spec(path))["apparatus"]
     assert cabled.cable_stiffness == 40000.0 and cabled.rigid_link and not cabled.rigid_drive
     assert hardware(load_spec("stroke-a"))["sensor"].adc_bits == 16
+
+
+def test_the_unit_length_and_the_log_floor_decide_moving_vs_stationary():
+    """7.3's 0.4-s units of y_h with 7.1's floor separate moving from stationary; units of
+    100 strain samples (0.1 s) overlap more, and a bare log(|d| + 1e-12) more again."""
+    from contactlab.experiments.apparatus import unit_length_errors
+
+    e = unit_length_errors([2])[2]
+    thesis = e["100 y_h samples, floor half step"]
+    short = e["25 y_h samples, floor half step"]
+    assert thesis < 0.01 < short
+    assert e["100 y_h samples, floor 1e-12"] > thesis
+    assert e["25 y_h samples, floor 1e-12"] > short
