@@ -22,7 +22,7 @@ HEADLINES: dict[str, tuple[str, str]] = {
     'impact-envelope': ('log-energy envelope of an impact',
         "step then linear decay; slope matches the shell's damping"),
     'stroke-segmentation': ('AR segmentation, threshold sweep, ruptures side by side',
-        'thesis sum F1 0.57 at 200 (0.59 best, at 400), per-channel 0.71 (0.73 at 140); ruptures Binseg 0.42, Pelt 0.39'),
+        'thesis sum F1 0.54 at 200 (0.59 best, at 400), per-channel 0.69 (0.72 at 140); ruptures Binseg 0.43, Pelt 0.43'),
     'texture-labelling': ('labelling two-texture samples',
         'LPC blocks A 100 %, B 100 % (thesis 100 %, 81/97 %); log-energy predicts error 0.009 / 0.25 (thesis 5e-4 / 0.22): rough wood 0.19 nat louder than polished aluminium'),
     'hf-models': ('high-frequency models',
