@@ -59,7 +59,7 @@ def show(graph_file: Path, out: Path | None, force: bool, as_json: bool) -> None
     click.echo(f"{g.name}: {g.title}" + (f" (thesis {g.thesis})" if named else ""))
     if not g.edge_probabilities:
         click.echo("  changes: " + ("priced from the training labels (change_prior = trained)"
-                                    if g.change_prior == "trained" else
+                                    if g.trained_change_prior else
                                     "free (change_prior = none)"))
     for n in g.nodes:
         models = ", ".join(f"{r}={m}" if r != m else m for r, m in n.models)

@@ -157,6 +157,7 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
     """``train --graph``: every model the graph names, one models file."""
     from contactlab.observer.graph import load_graph
     from contactlab.observer.kinematics import check_label_map, parse_label_map
+    from contactlab.observer.recognize import untrained_priors_note
     from contactlab.observer.training import train_graph
 
     ctx = click.get_current_context()
@@ -191,7 +192,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                "node_dwell": {k: {"seconds": s, "changes": c} for k, (s, c)
                               in (gm.provenance.get("node_dwell") or {}).items()},
                "node_first": gm.provenance.get("node_first") or {},
-               "change_prior": graph.change_prior, "initial_trained": graph.initial_trained}
+               "change_prior": graph.change_prior, "initial_trained": graph.initial_trained,
+               "notes": untrained_priors_note(graph, gm)}
     if graph_out is not None:
         summary["em"] = _learn(archive, graph, gm, graph_out, trials=trials, quiet=quiet)
     if as_json:
@@ -209,19 +211,15 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
         click.echo(f"{k}: velocity " + ", ".join(f"{n} {v:.3g}" for n, v in p.items()))
     for k, g in summary["gaussian"].items():
         click.echo(f"{k}: phase Gaussian, {g['channels']} channels, {g['samples']} samples")
-    priced = graph.change_prior == "trained" and not graph.edge_probabilities
-    if priced and summary["node_dwell"]:
+    if graph.trained_change_prior and summary["node_dwell"]:
         click.echo("changes priced from the labels: " + ", ".join(
             f"{k} {count(d['changes'], 'change')} in {d['seconds']:.3g} s"
             for k, d in summary["node_dwell"].items()))
     if graph.initial_trained and summary["node_first"]:
         click.echo("runs start in: " + ", ".join(
             f"{k} {count(n, 'run')}" for k, n in summary["node_first"].items()))
-    if (priced and not summary["node_dwell"]) or (graph.initial_trained
-                                                 and not summary["node_first"]):
-        click.echo(f"note: no training label names a node of {graph.name!r} (nodes "
-                   f"{', '.join(graph.node_names)}): changes stay free and the start "
-                   "uniform; name the labels like the nodes (--label-map)", err=True)
+    for line in summary["notes"]:
+        click.echo(f"note: {line}", err=True)
     click.echo(f"models written to {out}")
     if graph_out is not None:
         em = summary["em"]

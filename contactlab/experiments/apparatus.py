@@ -134,8 +134,8 @@ def unit_length_errors(seeds, *, quiet: bool = True) -> dict:
     """Per seed of the hf-train runs, the moving/stationary (H1/H0) normal-fit error of y_h
     unit means for each of :data:`UNIT_VARIANTS`: which unit and floor make "moving is
     never confused with the stationary vibration level" (7.3.3) hold."""
-    from contactlab.conditioning import difference, log_energy, quantisation_floor
-    from contactlab.signals import hf_block_for, factor_for
+    from contactlab.conditioning import difference, log_energy
+    from contactlab.signals import factor_for, hf_block_for
 
     spec = _spec("hf-train", None)
     out = {}
@@ -145,17 +145,14 @@ def unit_length_errors(seeds, *, quiet: bool = True) -> dict:
             _, r = simulate_trial(spec, k, seed)
             codes, _ = labels_hf(r)
             fs = float(r.rate_hz)
-            block, factor = hf_block_for(fs), factor_for(fs)
-            raw = np.asarray(r.strain, np.float64)
-            for floor in {f for _, f in UNIT_VARIANTS}:
-                lf = quantisation_floor(raw) if floor == "half step" else floor
-                y = log_energy(difference(raw), block=block, factor=factor, floor=lf).mean(axis=1)
-                index = factor * np.arange(len(y)) + block
-                pure = codes_at(codes, index, window=window_of("hf", fs))
-                for unit, f in UNIT_VARIANTS:
-                    if f == floor:
-                        for c, v in unit_means(y, pure, unit=unit).items():
-                            units[(unit, f)].setdefault(c, []).extend(v)
+            y, index = channel_mean_yh(r)                         # 7.1's floor (half a step)
+            bare = log_energy(difference(np.asarray(r.strain, np.float64)),
+                              block=hf_block_for(fs), factor=factor_for(fs), floor=1e-12)
+            ys = {"half step": y, 1e-12: bare.mean(axis=1)}
+            pure = pure_codes(codes, index, fs)
+            for unit, floor in UNIT_VARIANTS:
+                for c, v in unit_means(ys[floor], pure, unit=unit).items():
+                    units[(unit, floor)].setdefault(c, []).extend(v)
         out[int(seed)] = {f"{unit} y_h samples, floor {f}": normal_fit_error(u.get(0, []), u.get(1, []))
                           for (unit, f), u in units.items()}
     return out

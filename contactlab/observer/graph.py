@@ -144,6 +144,12 @@ class FeatureGraph:
     #: first use; not part of the graph)
     _tables: dict = field(default_factory=dict, compare=False, repr=False)
 
+    @property
+    def trained_change_prior(self) -> bool:
+        """Whether the observer prices this graph's changes from the models' training
+        (``change_prior = "trained"`` and edges without probabilities)."""
+        return self.change_prior == "trained" and not self.edge_probabilities
+
     # -- lookups -------------------------------------------------------------------
     @property
     def n_nodes(self) -> int:

@@ -399,8 +399,7 @@ class Observer:
                 raise ValueError(f"change_prior[{k!r}] must be a probability in (0, 1); got {v!r}")
         #: per node, the probability per sample of a change out of it (used where the
         #: graph's edges carry no probabilities and its ``change_prior`` is "trained")
-        self.change_prior = (prior if prior and self.graph.change_prior == "trained"
-                             and transitions == "graph" and not self.graph.edge_probabilities
+        self.change_prior = (prior if self.graph.trained_change_prior and transitions == "graph"
                              else {})
         unknown = [k for k in (limits or {}) if k is not None and k not in self.graph.node_names]
         if unknown:

@@ -213,7 +213,7 @@ def change_dwell(graph, models) -> dict | None:
     models were trained on (``node_dwell`` of their provenance), for a graph whose edges
     carry no probabilities and whose ``change_prior`` is ``"trained"``; else None (the
     observer then prices no change, as 6.4)."""
-    if graph.change_prior != "trained" or graph.edge_probabilities:
+    if not graph.trained_change_prior:
         return None
     seen = (getattr(models, "provenance", None) or {}).get("node_dwell") or {}
     out = {n: [float(v[0]), int(v[1])] for n, v in seen.items() if n in graph.node_names}
@@ -251,23 +251,26 @@ def _grouped_notes(path, outcomes) -> list[str]:
 
 def untrained_priors_note(graph, models) -> list[str]:
     """A note (in a list, empty when none) for a graph that asks for priors learned in
-    training (``change_prior = "trained"`` without edge probabilities, or ``initial =
-    "trained"``) recognised with models whose training counted none: changes are then
-    free and the start uniform."""
+    training (:attr:`~contactlab.observer.graph.FeatureGraph.trained_change_prior`, or
+    ``initial = "trained"``) with models whose training counted none: changes are then
+    free and the start uniform.  ``train`` and ``recognize`` both give it."""
     prov = getattr(models, "provenance", None) or {}
-    missing = []
-    if change_dwell(graph, models) is None and graph.change_prior == "trained" \
-            and not graph.edge_probabilities:
-        missing.append("changes are free (no node's labelled changes)")
-    if graph.initial_trained and trained_initial(graph, models) is None:
-        missing.append("the start is uniform (no run's first labelled node)")
+    asked, missing = [], []
+    if graph.trained_change_prior:
+        asked.append("the price of a change")
+        if change_dwell(graph, models) is None:
+            missing.append("changes are free")
+    if graph.initial_trained:
+        asked.append("the start")
+        if trained_initial(graph, models) is None:
+            missing.append("the start is uniform")
     if not missing:
         return []
     why = ("they were trained before training counted them" if "node_dwell" not in prov
-           else "no training label names a node")
-    return [f"{getattr(models, 'source', None) or 'the models'}: graph {graph.name!r} prices "
-            f"changes and its start from the training labels, but {why}: "
-            f"{' and '.join(missing)}; retrain with labels named like the nodes"]
+           else f"no training label names a node ({', '.join(graph.node_names)})")
+    return [f"{getattr(models, 'source', None) or 'the models'}: graph {graph.name!r} takes "
+            f"{' and '.join(asked)} from the training labels, but {why}: "
+            f"{' and '.join(missing)}; train with labels named like the nodes (--label-map)"]
 
 
 def change_priors(dwell: dict | None, fs: float) -> dict | None:

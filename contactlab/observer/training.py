@@ -298,15 +298,14 @@ def _dwell_in(codes, names, rate_hz: float, nodes: dict, dwell: dict, first: dic
             if lab in names and lab not in claimed:
                 claimed[lab] = k
     lookup = np.array([claimed.get(n, -1) for n in names] + [-1], np.int64)
-    nodes = order
     node = lookup[np.asarray(codes, np.int64)]
     node = node[node >= 0]
     if not node.size:
         return
-    first[nodes[node[0]]] = first.get(nodes[node[0]], 0) + 1
-    secs = np.bincount(node, minlength=len(nodes)) / float(rate_hz)
-    out = np.bincount(node[:-1][node[1:] != node[:-1]], minlength=len(nodes))
-    for k, name in enumerate(nodes):
+    first[order[node[0]]] = first.get(order[node[0]], 0) + 1
+    secs = np.bincount(node, minlength=len(order)) / float(rate_hz)
+    out = np.bincount(node[:-1][node[1:] != node[:-1]], minlength=len(order))
+    for k, name in enumerate(order):
         if secs[k] > 0 or out[k]:
             d = dwell.setdefault(name, [0.0, 0])
             d[0] += float(secs[k])
