@@ -81,7 +81,8 @@ def detection_delays(truth, path, node_names, *, window: int = 50, min_run: int 
     runs shorter than this many samples are taken as the run before them (a label's
     flicker is no transition to detect; 0 counts every label change).
 
-    Returns ``{"counts": {bin: n}, "missed": n, "extra": n, "delays": [signed]}``.
+    Returns ``{"counts": {bin: n}, "missed": n, "extra": n, "delays": [signed],
+    "transitions": n, "missed_at": [sample of each missed true transition]}``.
     """
     names = list(node_names)
     t = np.asarray(truth, np.int64)
@@ -100,7 +101,7 @@ def detection_delays(truth, path, node_names, *, window: int = 50, min_run: int 
                for mn, (ts, ks) in by_node.items()}
     used = set()
     counts = dict.fromkeys(DELAY_BINS, 0)
-    delays, missed = [], 0
+    delays, missed_at = [], []
     for node, s in true_tr:
         best = None
         ts, ks = by_node.get(node, (np.zeros(0, np.int64), np.zeros(0, np.int64)))
@@ -109,14 +110,14 @@ def detection_delays(truth, path, node_names, *, window: int = 50, min_run: int 
             if k not in used and (best is None or abs(ms - s) < abs(marks[best][1] - s)):
                 best = k
         if best is None:
-            missed += 1
+            missed_at.append(int(s))
             continue
         used.add(best)
         d = marks[best][1] - s
         delays.append(int(d))
         counts[str(abs(d)) if abs(d) <= 3 else ">3"] += 1
-    return {"counts": counts, "missed": missed, "extra": len(marks) - len(used),
-            "delays": delays, "transitions": len(true_tr)}
+    return {"counts": counts, "missed": len(missed_at), "extra": len(marks) - len(used),
+            "delays": delays, "transitions": len(true_tr), "missed_at": missed_at}
 
 
 def _debounced(lab: np.ndarray, min_run: int) -> np.ndarray:
