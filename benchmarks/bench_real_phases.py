@@ -5,12 +5,15 @@ the bench prints one line and skips when they are absent): HIRO snap-fit assembl
 (200 Hz; labels 1 approach, 2 rotation, 3 insertion, 4 mating -> three phases
 approach / engage (2, 3) / mated) and Baxter pick-and-place (100 Hz; skills 1, 2, 5, 3,
 4; label 0, outside the task, is left unlabelled).  Each CSV is imported as a user
-would (Baxter's repeated time stamps dropped first, in a scratch directory).
+would, with the tool's orientation (HIRO's roll/pitch/yaw, Baxter's endpoint quaternion;
+the wrench is in the sensor's axes) and Baxter's repeated time stamps dropped first, in a
+scratch directory.
 
 Ours: ``graph learn`` on the training trials' labels, ``train --graph`` on them,
 ``recognize`` on the held-out trials, all with default settings.  Peers, on the same
-per-sample features (the ``phase`` stream the learned graph's models read: the wrench
-and velocity through the 5 Hz causal lowpass) and the same labelled points: a
+per-sample features (the ``phase`` stream the learned graph's models read: the wrench in
+the base frame and the velocity through the 5 Hz causal lowpass) and the same labelled
+points: a
 supervised Gaussian HMM (hmmlearn ``GaussianHMM``, full covariances; means and
 covariances from the labels, start and transition probabilities from label counts,
 Viterbi) and a random forest (scikit-learn defaults, ``random_state=0``).  Splits:
@@ -36,6 +39,8 @@ from pathlib import Path
 import numpy as np
 
 COLUMNS = "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=label"
+#: the tool's orientation as each recording stores it
+ORIENTATION = {"hiro": ";rpy=roll,pitch,yaw", "baxter": ";orientation=qw,qx,qy,qz"}
 HIRO_MAP = {"1": "approach", "2": "engage", "3": "engage", "4": "mated"}
 BAXTER_MAP = {"1": "s1", "2": "s2", "5": "s5", "3": "s3", "4": "s4"}
 
@@ -58,7 +63,9 @@ def _import(csvs, out: Path, scratch: Path) -> Path:
         dst = scratch / f"{name}.csv"
         d.to_csv(dst, index=False)
         files.append(str(dst))
-    r = CliRunner().invoke(main, ["import", *files, "--out", str(out), "-q", "--columns", COLUMNS])
+    kind = "hiro" if "hiro" in csvs[0].name else "baxter"
+    r = CliRunner().invoke(main, ["import", *files, "--out", str(out), "-q", "--columns",
+                                  COLUMNS + ORIENTATION[kind]])
     assert r.exit_code == 0, r.output
     return out
 

@@ -43,7 +43,8 @@ def learn(archives, label_map, out, extra, base, name, trials, em, force, as_jso
 
     One node per node name of --label-map; each reads a Gaussian of its phase
     (mean and covariance trained from its labels) on the phase stream: the
-    wrench and the velocity through a 5 Hz lowpass.  Edges are the label
+    wrench (in the base frame when the recording has the tool's orientation)
+    and the velocity through a 5 Hz lowpass.  Edges are the label
     changes the trials show, with their probabilities counted from the label
     sequences (the observer adds log p when a path changes node), and the
     graph asks the observer to keep each node's best path through the pruning

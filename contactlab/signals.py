@@ -321,6 +321,19 @@ def _base_force(trial, wrench: Signal, path) -> np.ndarray:
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 
+def _base_wrench(trial, raw: np.ndarray) -> np.ndarray:
+    """The raw wrench (n, 6) in the base frame's axes when ``trial`` carries its
+    orientation and a wrench as measured (force and torque each rotated,
+    :func:`~contactlab.archive.importer.rotate_wrench`); else as it is."""
+    q = getattr(trial, "orientation", None)
+    if q is None or getattr(trial, "wrench_frame", "sensor") != "sensor":
+        return raw
+    from contactlab.archive.importer import rotate_wrench
+
+    n = min(len(raw), len(q))
+    return rotate_wrench(np.asarray(q, dtype=np.float64)[:n], raw[:n])
+
+
 def _check_sources(trial, signals, path) -> None:
     """DataError naming the measurement a stream of :func:`trial_signals` needs and the
     trial lacks (the streams are what a feature graph's models read, so the hint names a
@@ -410,7 +423,10 @@ def sample_weight(signal: str, fs: float | None) -> float:
 
 
 def phase_stream(trial, path=None) -> np.ndarray:
-    """The task-phase stream at the input rate: the wrench and the velocity (recorded, else
+    """The task-phase stream at the input rate: the wrench (in the base frame's axes when the
+    trial carries the tool's orientation and a wrench as measured, as the contact signals'
+    force is: a phase's load and push keep their direction in the world while the tool
+    turns) and the velocity (recorded, else
     the position's first difference times the rate; none without either) through a causal
     second-order Butterworth lowpass at :data:`PHASE_CUTOFF_HZ` (at most 0.4 times the
     rate), started at rest on the first sample -- (N, 9), or (N, 6) with no kinematics.
@@ -419,7 +435,7 @@ def phase_stream(trial, path=None) -> np.ndarray:
     from scipy.signal import lfilter, lfilter_zi
 
     fs = float(trial.rate_hz)
-    parts = [_raw(trial, "wrench", path)]
+    parts = [_base_wrench(trial, _raw(trial, "wrench", path))]
     if getattr(trial, "velocity", None) is not None:
         parts.append(_raw(trial, "velocity", path)[:, :3])
     elif getattr(trial, "position", None) is not None:

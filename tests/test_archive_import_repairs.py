@@ -268,6 +268,41 @@ def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tm
     assert np.abs(raw["contact"][:, 3:] - got["contact"][:, 3:]).max() > 1.0
 
 
+def test_phase_stream_reads_the_wrench_in_the_base_frame(tmp_path):
+    """The task-phase stream of a trial with its orientation and a wrench as measured is
+    the phase stream of the same recording imported with --wrench-frame base: force and
+    torque rotated by scipy's rotation of the roll/pitch/yaw, then the 5 Hz lowpass."""
+    from scipy.signal import lfilter, lfilter_zi
+    from scipy.spatial.transform import Rotation
+
+    from contactlab.signals import phase_filter, trial_signals
+
+    frame = recording(n=400)
+    frame["roll"] = np.linspace(0.0, 0.8, len(frame))          # the tool turns
+    frame["pitch"], frame["yaw"] = -0.3, np.pi / 2
+    csv = write(frame, tmp_path / "arm.csv")
+    cols = parse_column_map(MAP + ";rpy=roll,pitch,yaw")
+    sensor = import_files([csv], out=tmp_path / "s.h5", quiet=True, columns=cols).path
+    base = import_files([csv], out=tmp_path / "b.h5", quiet=True, columns=cols,
+                        wrench_frame="base").path
+    plain = import_files([csv], out=tmp_path / "p.h5", quiet=True,
+                         columns=parse_column_map(MAP)).path
+    with open_archive(sensor) as s, open_archive(base) as b, open_archive(plain) as p:
+        got = trial_signals(s.trial("arm"), ["phase"])[0]["phase"]
+        ref = trial_signals(b.trial("arm"), ["phase"])[0]["phase"]
+        raw = trial_signals(p.trial("arm"), ["phase"])[0]["phase"]
+    np.testing.assert_allclose(got, ref, atol=1e-9)
+    # the oracle: scipy's rotation (roll, pitch, yaw about fixed x, y, z) of force and torque
+    R = Rotation.from_euler("xyz", frame[["roll", "pitch", "yaw"]].to_numpy())
+    w = frame[WRENCH].to_numpy()
+    x = np.concatenate([R.apply(w[:, :3]), R.apply(w[:, 3:]), raw[:, 6:]], axis=1)
+    b_, a_ = phase_filter(100.0)
+    oracle = lfilter(b_, a_, x[:, :6], axis=0, zi=lfilter_zi(b_, a_)[:, None] * x[:1, :6])[0]
+    np.testing.assert_allclose(got[:, :6], oracle, atol=1e-7)
+    np.testing.assert_array_equal(got[:, 6:], raw[:, 6:])        # the velocity as it was
+    assert np.abs(got[:, :3] - raw[:, :3]).max() > 1.0
+
+
 def test_rotate_vectors_agrees_with_scipy_rotation():
     from scipy.spatial.transform import Rotation
 
