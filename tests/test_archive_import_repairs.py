@@ -235,14 +235,12 @@ def test_cli_prints_and_reports_repairs(tmp_path):
     assert res.exit_code == 2 and "START:END" in res.output
 
 
-def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tmp_path):
-    """8.10's reciprocity needs the motion and the force in one frame: a trial with its
-    orientation and a wrench as measured gives the constraint models the same force as
-    one imported with --wrench-frame base (and through a label map too)."""
-    from contactlab.signals import relabel, trial_signals
-
+def turning_imports(tmp_path):
+    """A recording whose tool turns (roll 0 -> 0.8 rad), imported three ways: with its
+    roll/pitch/yaw and the wrench as measured, the same rotated at import
+    (--wrench-frame base), and without the orientation: (frame, sensor, base, plain)."""
     frame = recording(n=400)
-    frame["roll"] = np.linspace(0.0, 0.8, len(frame))          # the tool turns
+    frame["roll"] = np.linspace(0.0, 0.8, len(frame))
     frame["pitch"], frame["yaw"] = -0.3, np.pi / 2
     csv = write(frame, tmp_path / "arm.csv")
     cols = parse_column_map(MAP + ";rpy=roll,pitch,yaw")
@@ -251,6 +249,16 @@ def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tm
                         wrench_frame="base").path
     plain = import_files([csv], out=tmp_path / "p.h5", quiet=True,
                          columns=parse_column_map(MAP)).path
+    return frame, sensor, base, plain
+
+
+def test_contact_signals_pair_the_base_frame_position_with_a_base_frame_force(tmp_path):
+    """8.10's reciprocity needs the motion and the force in one frame: a trial with its
+    orientation and a wrench as measured gives the constraint models the same force as
+    one imported with --wrench-frame base (and through a label map too)."""
+    from contactlab.signals import relabel, trial_signals
+
+    frame, sensor, base, plain = turning_imports(tmp_path)
     R = quaternion_matrices(rpy_to_quaternion(frame[["roll", "pitch", "yaw"]].to_numpy()))
     expected = np.einsum("nij,nj->ni", R, frame[WRENCH].to_numpy()[:, :3])
     signals = ["contact", "contact-compensated", "velocity"]
@@ -277,16 +285,7 @@ def test_phase_stream_reads_the_wrench_in_the_base_frame(tmp_path):
 
     from contactlab.signals import phase_filter, trial_signals
 
-    frame = recording(n=400)
-    frame["roll"] = np.linspace(0.0, 0.8, len(frame))          # the tool turns
-    frame["pitch"], frame["yaw"] = -0.3, np.pi / 2
-    csv = write(frame, tmp_path / "arm.csv")
-    cols = parse_column_map(MAP + ";rpy=roll,pitch,yaw")
-    sensor = import_files([csv], out=tmp_path / "s.h5", quiet=True, columns=cols).path
-    base = import_files([csv], out=tmp_path / "b.h5", quiet=True, columns=cols,
-                        wrench_frame="base").path
-    plain = import_files([csv], out=tmp_path / "p.h5", quiet=True,
-                         columns=parse_column_map(MAP)).path
+    frame, sensor, base, plain = turning_imports(tmp_path)
     with open_archive(sensor) as s, open_archive(base) as b, open_archive(plain) as p:
         got = trial_signals(s.trial("arm"), ["phase"])[0]["phase"]
         ref = trial_signals(b.trial("arm"), ["phase"])[0]["phase"]
