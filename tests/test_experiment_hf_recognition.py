@@ -66,3 +66,17 @@ def test_headline_puts_ours_beside_the_thesis_and_the_hmm():
     assert "HMM peer 80 %" in line and "with context 70 %" in line
     assert "hf-gaussian 65 %" in line
     assert f"thesis {100 * THESIS['test_ctx']['accuracy']:.0f} %" in line
+
+
+def test_hindsight_text_counts_the_misses_both_share():
+    from contactlab.experiments.hf_recognition import HINDSIGHT_ROW, _hindsight_text
+
+    ours = "Gaussian hypotheses, with context"
+    line = _hindsight_text({ours: (25, 28, {("a", 1), ("b", 9), ("c", 4)}),
+                            HINDSIGHT_ROW: (21, 28, {("a", 1), ("c", 4), ("d", 2)})})
+    assert "Of the 3 transitions" in line and "2 are missed by the hindsight row" in line
+    line = _hindsight_text({ours: (27, 28, {("a", 1)}), HINDSIGHT_ROW: (27, 28, {("d", 2)})})
+    assert "Of the 1 transition the" in line and "0 are missed" in line
+    assert "miss no transition" in _hindsight_text({ours: (28, 28, set()),
+                                                    HINDSIGHT_ROW: (27, 28, {("d", 2)})})
+    assert _hindsight_text({ours: (28, 28, set())}) == ""

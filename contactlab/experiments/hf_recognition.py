@@ -497,10 +497,12 @@ def _hindsight_text(within: dict) -> str:
     hind = within.get(HINDSIGHT_ROW)
     if ours is None or hind is None:
         return ""
-    both = len(ours[2] & hind[2])
-    return (f" Of the {len(ours[2])} transitions the Gaussian hypotheses with context miss, "
-            f"{both} are missed by the hindsight row too: y_h's mean changes more than "
-            "0.25 s from the label there, because the label's speed threshold is crossed "
+    n, both = len(ours[2]), len(ours[2] & hind[2])
+    if not n:
+        return " The Gaussian hypotheses with context miss no transition."
+    return (f" Of the {n} transition{'s' if n > 1 else ''} the Gaussian hypotheses with "
+            f"context miss, {both} {'is' if both == 1 else 'are'} missed by the hindsight "
+            "row too: y_h's mean changes more than 0.25 s from the label there, because the label's speed threshold is crossed "
             "while the vibration is still at rest's level when a move starts or ends "
             "slowly.")
 
