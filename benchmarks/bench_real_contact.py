@@ -10,8 +10,11 @@ sensor's axes, the position in the base frame).  Ours: ``train --graph free-cont
 --label-map ...`` then ``recognize`` with default flags, points of the conditioned time
 base.  Peer: the force threshold ``|F| > k
 sigma`` (:class:`contactlab.peers.force_threshold.ForceThreshold`) with ``k`` chosen on
-the training trials, on the raw samples.  Also: how many recognised trials the misfit
-check warned about (it should be silent where the models fit).
+the training trials, on the raw samples; and, on the points and per-sample features of
+``bench_real_phases`` (the ``phase`` stream: the wrench in the base frame and the velocity
+through the 5 Hz lowpass), its supervised Gaussian HMM and random forest.  Also: how many
+recognised trials the misfit check warned about (it should be silent where the models
+fit).
 """
 
 from __future__ import annotations
@@ -68,6 +71,18 @@ def _threshold(archive, train_ids, test_ids, lmap) -> float:
     return float(np.mean(peer.predict(f) == c))
 
 
+def _learned_peers(archive, train_ids, test_ids, lmap) -> tuple[float, float]:
+    """Point accuracy of the supervised Gaussian HMM and the random forest of
+    ``bench_real_phases`` on the free/contact labels."""
+    from benchmarks.bench_real_phases import _features, _peers
+
+    cmap = dict(part.split("=") for part in lmap.split(","))
+    nodes = list(dict.fromkeys(cmap.values()))
+    hmm, _, forest, _ = _peers(_features(archive, train_ids, cmap, nodes),
+                               _features(archive, test_ids, cmap, nodes), len(nodes))
+    return hmm, forest
+
+
 def _ours(archive, train_ids, test_ids, lmap, models) -> tuple[float, int, float]:
     import json
 
@@ -112,11 +127,13 @@ def run() -> list[dict]:
             t0 = time.perf_counter()
             peer = _threshold(archive, tr, te, lmap)
             peer_s = time.perf_counter() - t0
+            hmm, forest = _learned_peers(archive, tr, te, lmap)
             rows.append({"name": f"free/contact, {name}", "ours_s": secs,
                          "peer": "force threshold (k on train)", "peer_s": peer_s,
                          "ratio": peer_s / secs,
                          "notes": f"points correct: ours {100 * acc:.1f} %, threshold "
-                                  f"{100 * peer:.1f} %; misfit warnings on {misfits} of "
+                                  f"{100 * peer:.1f} %, HMM {100 * hmm:.1f} %, random forest "
+                                  f"{100 * forest:.1f} %; misfit warnings on {misfits} of "
                                   f"{len(te)} recognised trials; default flags"})
         rows.append(run_hour(root, d))
     return rows
