@@ -100,6 +100,8 @@ def learn(archives, label_map, out, extra, base, name, trials, em, force, as_jso
     summary["out"] = str(out)
     summary["edges"] = {e: p for es in doc.get("edge_sets", [])
                         for e, p in zip(es["edges"], es["probabilities"])}
+    for line in summary["notes"]:
+        click.echo(f"note: {line}", err=True)
     if as_json:
         echo_json(summary)
         return

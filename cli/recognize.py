@@ -113,7 +113,9 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     chi-square per degree of freedom of the recognised path's innovations
     above 8; about 1 when they fit: a recording noisier than the training
     data, an unzeroed force sensor) gets a one-line warning on stderr and
-    "misfit": true under trials.ID.fit in --json.
+    "misfit": true under trials.ID.fit in --json.  A trial's n_changes counts
+    the changes its detectors reported (every alarm the observer acted on, not
+    the recognised path's changes, which merged_path lists).
 
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context

@@ -54,7 +54,9 @@ def _thresholds(ctx, param, value):
                    f"level {LEVEL_DEFAULTS['window_s']:g}).")
 @click.option("--sweep", "sweep_values", callback=_thresholds, default=None,
               metavar="T1,T2,...",
-              help="Segment at each threshold (fig 7.7); prints, writes nothing.")
+              help="Segment at each threshold (fig 7.7); prints, writes nothing.  The "
+                   "level test's thresholds are shares of the largest level changes, in "
+                   "(0, 1].")
 @click.option("--change-size", type=float, default=D.CHANGE_SIZE, show_default=True,
               help="page-hinkley only: covariance change q tested up (q) and down (1/q).")
 @click.option("--combine", type=click.Choice(["sum", "channel"]), default="sum",
@@ -124,6 +126,7 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
       contactlab segment runs.h5 --signal wrench --json
       contactlab segment runs.h5 --no-write
       contactlab segment runs.h5 --trial stroke-a-000 --sweep 2,3,5,8
+      contactlab segment wrist.h5 --sweep 0.2,0.4,0.6
       contactlab segment runs.h5 --method page-hinkley --threshold 100
       contactlab segment runs.h5 --method page-hinkley --combine channel --threshold 50
       contactlab segment runs.h5 --workers 2
@@ -162,6 +165,9 @@ def segment(archives, signal, order, method, threshold, window_s, sweep_values, 
                          label_map=lmap, write=not no_write)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
+    for summary in summaries.values():
+        for line in summary.get("notes", []):
+            click.echo(f"note: {line}", err=True)
     if as_json:
         json_summaries(summaries)
         return

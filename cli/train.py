@@ -156,7 +156,8 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                  trials, reduce, force, as_json, quiet, label_map=None, graph_out=None):
     """``train --graph``: every model the graph names, one models file."""
     from contactlab.observer.graph import load_graph
-    from contactlab.observer.kinematics import check_label_map, parse_label_map
+    from contactlab.observer.kinematics import (check_label_map, parse_label_map,
+                                                unmatched_map_note)
     from contactlab.observer.recognize import untrained_priors_note
     from contactlab.observer.training import train_graph
 
@@ -193,7 +194,9 @@ def _train_graph(archive, graph_file, *, out, labels, signal, order, mean, block
                               in (gm.provenance.get("node_dwell") or {}).items()},
                "node_first": gm.provenance.get("node_first") or {},
                "change_prior": graph.change_prior, "initial_trained": graph.initial_trained,
-               "notes": untrained_priors_note(graph, gm)}
+               "notes": unmatched_map_note(lmap, gm.provenance.get("labels_read"),
+                                           Path(archive).name)
+               + untrained_priors_note(graph, gm)}
     if graph_out is not None:
         summary["em"] = _learn(archive, graph, gm, graph_out, trials=trials, quiet=quiet)
     if as_json:

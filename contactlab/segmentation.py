@@ -529,8 +529,8 @@ def segment_level(y, *, fs: float, threshold: float = LEVEL_DEFAULTS["fraction"]
         raise UsageError(f"the level test reads a force (3 columns) or a wrench (6); got "
                          f"{a.shape[1]} columns")
     if not (math.isfinite(threshold) and 0 < threshold <= 1):
-        raise UsageError(f"the level test's threshold is a share of the largest level "
-                         f"changes, in (0, 1]; got {threshold!r}")
+        raise UsageError(f"the level test's threshold (--threshold, each --sweep value) is a "
+                         f"share of the largest level changes, in (0, 1]; got {threshold!r}")
     if not (math.isfinite(window_s) and window_s > 0):
         raise UsageError(f"window must be > 0 s; got {window_s!r}")
     tt = _sample_times(len(a), fs=fs, t0=t0, times=times)
@@ -840,11 +840,21 @@ class SegmentStage(Stage):
                        "boundary": _BOUNDARY_NOTE[seg.parameters.get("method",
                                                                       "page-hinkley")]},
                 parameters={**seg.parameters, "channels": seg.channels.tolist()})
-        return TrialOutcome(entry, results, {"metrics": metrics})
+        names = (getattr(trial, "label_names", None)
+                 if getattr(trial, "labels", None) is not None else None)
+        return TrialOutcome(entry, results, {"metrics": metrics, "label_names": None
+                                             if names is None else [str(n) for n in names]})
 
     def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
-        """Per-trial entries and, with ground truth, metrics pooled over trials."""
+        """Per-trial entries and, with ground truth, metrics pooled over trials; ``notes``:
+        --label-map entries whose label no trial carries."""
+        from contactlab.observer.kinematics import unmatched_map_note
+
         summary: dict = {"trials": {tid: o.entry for tid, o in outcomes.items()}}
+        seen = {n for o in outcomes.values() for n in (o.extra.get("label_names") or [])}
+        notes = unmatched_map_note(self.label_map, seen, Path(path).name) if seen else []
+        if notes:
+            summary["notes"] = notes
         by_level: dict[float, list] = {}
         for o in outcomes.values():
             for level, m in o.extra["metrics"].items():

@@ -2,6 +2,7 @@
 
 import re
 
+import h5py
 import numpy as np
 import pandas as pd
 import pytest
@@ -94,14 +95,17 @@ def test_force_threshold_peer_on_the_same_points():
 @pytest.mark.parametrize("args, message, code", [
     (["--label-map", "1=free,2"], "--label-map: entry 2 '2' is not LABEL=NODE", 2),
     (["--label-map", "1=free,1=contact"], "label '1' mapped twice", 2),
-    (["--label-map", "1=table"], "'table' is not a node or trained label", 1),
+    (["--label-map", "1=table"], "--label-map: 1=table: 'table' is not a node or trained "
+                                 "label", 2),
+    (["--label-map", "1=free;2=contact"], "separate the entries with commas, not ';'", 2),
     (["--label-map", "x=free,y=contact"], "--label-map maps none of the recording's labels "
                                           "(its labels: 0, 1, 2", 1),
     (["--label-map", "one=free,2=contact"], "--label-map entries matching no label: one", 1),
 ])
 def test_bad_label_map_is_one_line(tmp_path, args, message, code):
-    """Malformed maps are usage errors (exit 2); maps that name no label of the recording,
-    or leave a node untrained because an entry matches nothing, name the archive (exit 1)."""
+    """Malformed maps and misspelt node names are usage errors (exit 2); maps that name no
+    label of the recording, or leave a node untrained because an entry matches nothing, name
+    the archive (exit 1)."""
     train = _archive(tmp_path, "rec1", 11, 100.0)
     r = run_cli("train", train, "--graph", "free-contact", *args, "--out", tmp_path / "m.h5")
     assert r.exit_code == code
@@ -160,3 +164,46 @@ def test_explain_runs_on_the_constraint_and_velocity_models(tmp_path):
     assert r.exit_code == 0, r.output
     assert "points marked correctly" in r.stdout
     assert re.search(r"detector (C0|C1|CI|M)/increase: [-0-9.]+ at the change", r.stdout)
+
+
+def test_label_map_entries_matching_no_label_are_noted(tmp_path):
+    """A map entry whose label no trial carries (a typo, another recording's label) is
+    named on stderr by train, recognize, segment and graph learn, and in --json; the models'
+    own map read into another archive is noted too."""
+    train = _archive(tmp_path, "rec1", 11, 100.0)
+    test = _archive(tmp_path, "rec2", 12, 100.0)
+    odd = MAP + ",7=contact"
+    want = "no trial of {} carries the label of 7=contact (their labels: "
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", odd,
+                "--out", tmp_path / "m.h5")
+    assert r.exit_code == 0 and "note: --label-map: " + want.format("rec1.h5") in r.stderr
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", odd,
+                "--out", tmp_path / "m.h5", "--force", "--json")
+    assert any(want.format("rec1.h5") in n for n in one_json_object(r.stdout)["notes"])
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", tmp_path / "m.h5",
+                "--label-map", odd, "--no-write")
+    assert r.exit_code == 0 and want.format("rec2.h5") in r.stderr
+    r = run_cli("segment", test, "--label-map", odd, "--no-write", "--tolerance", "0.25")
+    assert r.exit_code == 0 and want.format("rec2.h5") in r.stderr
+    r = run_cli("graph", "learn", train, "--label-map", odd, "--out", tmp_path / "g.toml")
+    assert r.exit_code == 0 and want.format("rec1.h5") in r.stderr
+    # the map as it should be: no note
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", tmp_path / "m.h5",
+                "--label-map", MAP, "--no-write")
+    assert r.exit_code == 0 and "note: --label-map" not in r.stderr
+    # without --label-map, another recording of the same labels: no note; one whose labels
+    # the training never saw: the models' map is named
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", tmp_path / "m.h5",
+                "--no-write")
+    assert r.exit_code == 0 and "note:" not in r.stderr
+    with h5py.File(test, "a") as f:
+        lab = f["trials/rec2/ground_truth/labels"]
+        lab[-50:] = 4                                  # a label rec1's trials lack
+        names = list(lab.attrs["names"])
+        if "4" not in [str(n) for n in names]:
+            lab.attrs["names"] = names + ["4"]
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", tmp_path / "m.h5",
+                "--no-write")
+    assert r.exit_code == 0, r.output
+    assert "labels read through the models' label map" in r.stderr
+    assert "rec1.h5, whose trials had no label 4" in r.stderr

@@ -89,6 +89,10 @@ def validate_archive(path: str | os.PathLike, *, trials=None,
         return walker.problems
 
 
+#: the problem of a trial asked for (``--trial``) that the archive lacks
+NO_SUCH_TRIAL = "no such trial"
+
+
 def check_archive(path: str | os.PathLike, *, trials=None, values: bool = True,
                   walk_trials: bool = True) -> None:
     """The up-front check every command runs on an archive it reads.
@@ -109,8 +113,12 @@ def raise_problems(path: str | os.PathLike, problems: list[Problem]) -> None:
         return
     first = problems[0]
     more = len(problems) - 1
-    message = first.message + (f" (and {more} more problem{'s' if more > 1 else ''}; "
-                                f"see 'contactlab validate {path}')" if more else "")
+    if all(p.message.startswith(NO_SUCH_TRIAL) for p in problems):    # a mistyped --trial
+        message = first.message + (f"; {more} more of the trials asked for are missing"
+                                   if more else "")
+    else:
+        message = first.message + (f" (and {more} more problem{'s' if more > 1 else ''}; "
+                                    f"see 'contactlab validate {path}')" if more else "")
     field = None if first.path == str(path) else first.path
     raise DataError(message, file=str(path), field=field)
 
@@ -402,9 +410,11 @@ class _Walker:
         if each is not None:
             names = sorted(group.keys())
             if path == "/trials" and self.trials is not None:
+                have = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
                 for name in self.trials:
                     if name not in group:
-                        self.report(f"/trials/{name}", "no such trial")
+                        self.report(f"/trials/{name}", f"{NO_SUCH_TRIAL} (its trials: {have}; "
+                                    f"{len(names)} in all, 'contactlab info' lists them)")
                 names = [n for n in self.trials if n in group]
             if path == "/trials" and not self.walk_trials:
                 names = []

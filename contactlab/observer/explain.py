@@ -146,7 +146,10 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
     names = list(graph.node_names)
     truth = truth_codes(relabel(trial, label_map), index, names)
     win = max(1, int(round(window_s * fs)))
-    out = {"trial": trial.id, "samples": n, "rate_hz": float(fs), "window_samples": win,
+    # sample s is at t0 + s / fs on the trial's own clock (as recognize's path times)
+    t0 = float(np.asarray(trial.time, np.float64)[index[0]]) if n else 0.0
+    out = {"trial": trial.id, "samples": n, "rate_hz": float(fs), "t0_s": t0,
+           "window_samples": win,
            "threshold": obs.threshold, "sides": obs.sides, "gap": obs.gap,
            "path": [[nd, int(s)] for nd, s in merge_path(res.map_path)],
            "accuracy": None, "transitions": [], "segments": [], "segment_accuracy": None}
@@ -194,7 +197,7 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
         else:
             verdict = "not kept"
         out["transitions"].append({
-            "from": prev, "to": true, "sample": a, "time_s": a / fs,
+            "from": prev, "to": true, "sample": a, "time_s": t0 + a / fs,
             "delay": int(min(hit, key=lambda s: abs(s - a)) - a) if hit else None,
             "verdict": verdict, "path_node": names[at], "path_segment": [seg[0], int(seg[1])],
             "detectors": dets, "events": evs,
@@ -208,7 +211,7 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
 TEXT_EVENTS = 3
 
 
-def _event_lines(events: list, fs: float) -> list[str]:
+def _event_lines(events: list, fs: float, t0: float = 0.0) -> list[str]:
     """Text of a window's alarms: one line per alarm time (an alarm crossed by several
     tests of one path is one event), the first :data:`TEXT_EVENTS` in full and the rest
     as counts of what they started and how it fared."""
@@ -219,10 +222,10 @@ def _event_lines(events: list, fs: float) -> list[str]:
     out = []
     items = list(by_time.items())
     for (t, node, model, r), spawned in items[:TEXT_EVENTS]:
-        sp = ", ".join(f"{s['node']}@{s['start'] / fs:.3f}s {s['fate']}"
+        sp = ", ".join(f"{s['node']}@{t0 + s['start'] / fs:.3f}s {s['fate']}"
                        for s in spawned) or "none new"
-        out.append(f"    alarm at {t / fs:.3f}s on {node}/{model} (change {r / fs:.3f}s): "
-                   f"started {sp}")
+        out.append(f"    alarm at {t0 + t / fs:.3f}s on {node}/{model} (change "
+                   f"{t0 + r / fs:.3f}s): started {sp}")
     rest = items[TEXT_EVENTS:]
     if rest:
         fates: dict = {}
@@ -231,36 +234,36 @@ def _event_lines(events: list, fs: float) -> list[str]:
                 k = f"{s['node']} {s['fate']}"
                 fates[k] = fates.get(k, 0) + 1
         what = ", ".join(f"{k} x{v}" for k, v in fates.items()) or "none new"
-        out.append(f"    {len(rest)} more alarms until {rest[-1][0][0] / fs:.3f}s: "
+        out.append(f"    {len(rest)} more alarms until {t0 + rest[-1][0][0] / fs:.3f}s: "
                    f"started {what}")
     return out
 
 
 def format_explanation(ex: dict) -> list[str]:
     """Text lines of :func:`explain_trial`'s result."""
-    fs = ex["rate_hz"]
+    fs, t0 = ex["rate_hz"], ex.get("t0_s", 0.0)
     lines = [f"{ex['trial']}: recognised "
-             + " -> ".join(f"{nd}@{s / fs:.3f}s" for nd, s in ex["path"])]
+             + " -> ".join(f"{nd}@{t0 + s / fs:.3f}s" for nd, s in ex["path"])]
     if ex["accuracy"] is None:
         return lines + [f"  {ex.get('note', 'no ground truth')}"]
     lines.append(f"  points marked correctly {100 * ex['accuracy']:.1f} %; with the true "
                  f"boundaries given, the models alone label {100 * ex['segment_accuracy']:.1f} "
                  "% (each true segment by the node whose fresh instance explains it best)")
     lines.append("  true segments: " + ", ".join(
-        f"{s['node']}@{s['start'] / fs:.2f}s->{s['best']}({s['margin']:+.1f})"
+        f"{s['node']}@{t0 + s['start'] / fs:.2f}s->{s['best']}({s['margin']:+.1f})"
         for s in ex["segments"]) + "  (best node, true minus best other, nats)")
     w = ex["window_samples"]
     for tr in ex["transitions"]:
         lines.append(f"  {tr['from']} -> {tr['to']} at {tr['time_s']:.3f}s: {tr['verdict']}"
                      + (f" (delay {tr['delay']} samples)" if tr["delay"] is not None else "")
                      + f"; the path is in {tr['path_node']} (segment {tr['path_segment'][0]}"
-                     f"@{tr['path_segment'][1] / fs:.3f}s)")
+                     f"@{t0 + tr['path_segment'][1] / fs:.3f}s)")
         for d in tr["detectors"]:
             cr = "never crossed" if d["crossed"] is None else \
-                f"crossed at {d['crossed'] / fs:.3f}s"
+                f"crossed at {t0 + d['crossed'] / fs:.3f}s"
             lines.append(f"    detector {d['model']}/{d['test']}: {d['at_change']:.1f} at the "
                          f"change, max {d['max']:.1f} (T^2 {ex['threshold']:g}), {cr}")
-        lines.extend(_event_lines(tr["events"], fs))
+        lines.extend(_event_lines(tr["events"], fs, t0))
         if not tr["events"]:
             lines.append(f"    no alarm within {w} samples")
         ll = tr["window_loglik"]

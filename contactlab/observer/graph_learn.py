@@ -310,9 +310,9 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                     w = np.asarray(w, np.float64)
                     for a, b, k in runs:
                         force[seq[k]].append(w[a:b, :3])
-    if not sequences:
-        from contactlab.observer.kinematics import check_map_sources
+    from contactlab.observer.kinematics import check_map_sources, unmatched_map_note
 
+    if not sequences:
         check_map_sources(label_map, raw_labels, file=str(archives[0]))
         raise DataError("no trial has labels the label map names", file=str(archives[0]),
                         field="/trials/*/ground_truth/labels")
@@ -328,7 +328,8 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                "label_map": ",".join(f"{k}={v}" for k, v in full.items()),
                "initial": {n["name"]: n.get("initial", 0.0) for n in doc["nodes"]},
                "transitions": {f"{a} -> {b}": n for (a, b), n in sorted(pairs.items())},
-               "models": {n["name"]: n["models"] for n in doc["nodes"]}}
+               "models": {n["name"]: n["models"] for n in doc["nodes"]},
+               "notes": unmatched_map_note(label_map, raw_labels, src)}
     return doc, summary
 
 

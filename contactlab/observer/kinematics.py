@@ -32,6 +32,7 @@ from contactlab.signals import CONTACT_SIGNALS
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
+           "unmatched_map_note",
            "KINEMATIC_SIGNALS"]
 
 KINEMATIC_SIGNALS = CONTACT_SIGNALS + ("velocity", "phase")
@@ -55,6 +56,8 @@ def parse_label_map(text: str | None, *, field: str = "--label-map") -> dict | N
     UsageError (exit 2) naming the option for a malformed entry or a label mapped twice."""
     if text is None or not str(text).strip():
         return None
+    if ";" in str(text):
+        raise UsageError(f"{field}: separate the entries with commas, not ';' (got {text!r})")
     out: dict[str, str] = {}
     for k, part in enumerate(str(text).split(",")):
         src, eq, dst = part.partition("=")
@@ -84,17 +87,32 @@ def check_map_sources(label_map: dict | None, label_names, *, file=None,
 
 def check_label_map(label_map: dict | None, graph: FeatureGraph,
                     field: str = "--label-map") -> None:
-    """DataError (file = the graph) when a map's target is neither a node nor a
-    trained label of ``graph``."""
+    """UsageError (exit 2, as a misspelt option value) when a map's target is neither a
+    node nor a trained label of ``graph``."""
     if not label_map:
         return
     known = set(graph.node_names) | {lab for s in graph.models.values()
                                      for lab in s.trained_labels}
     for src, dst in label_map.items():
         if dst not in known:
-            raise DataError(f"{src}={dst}: {dst!r} is not a node or trained label of graph "
-                            f"{graph.name!r} (known: {', '.join(sorted(known))})",
-                            file=graph.source or graph.name, field=field)
+            raise UsageError(f"{field}: {src}={dst}: {dst!r} is not a node or trained label "
+                             f"of graph {graph.name!r} (known: {', '.join(sorted(known))})")
+
+
+def unmatched_map_note(label_map: dict | None, label_names, where: str) -> list[str]:
+    """A note (in a list, empty when none) naming the entries of ``label_map`` whose label
+    no trial read carries: a map may cover labels some recordings lack, but an entry
+    that matches nothing at all is more often a typo, which would otherwise pass without
+    a word.  ``label_names``: every label of the trials read; ``where``: what they were
+    (an archive, "the trials read")."""
+    if not label_map or label_names is None:
+        return []
+    names = {str(n) for n in label_names}
+    missing = [f"{src}={dst}" for src, dst in label_map.items() if str(src) not in names]
+    if not missing:
+        return []
+    return [f"--label-map: no trial of {where} carries the label of "
+            f"{', '.join(missing)} (their labels: {', '.join(sorted(names)) or 'none'})"]
 
 
 #: Noise levels below these (1 nm, 1 uN) are no measurement noise: the runs are

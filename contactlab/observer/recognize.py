@@ -398,7 +398,10 @@ class RecognizeStage(Stage):
             entry["no_accuracy"] = no_accuracy
         extra = {"confusion": np.zeros((K, K), np.int64),
                  "confusion_online": np.zeros((K, K), np.int64), "delays": None,
-                 "rec": rec if self.keep else None}
+                 "rec": rec if self.keep else None,
+                 "label_names": ([str(n) for n in trial.label_names]
+                                 if getattr(trial, "labels", None) is not None
+                                 and getattr(trial, "label_names", None) is not None else None)}
         if rec.truth is not None and (rec.truth >= 0).any():
             c = confusion_matrix(rec.truth, r.labels, K)[0]
             con = confusion_matrix(rec.truth, r.map_node, K)[0]
@@ -440,6 +443,30 @@ class RecognizeStage(Stage):
             return lmap, None
         return lmap, f"{why}; no accuracy (map them onto nodes with --label-map)"
 
+    def _map_notes(self, path, outcomes: dict[str, TrialOutcome]) -> list[str]:
+        """Notes on the label map: a given map's entries that no trial's label carries
+        (:func:`unmatched_map_note`), or the models' own map read into trials with labels
+        their training never saw (a recording labelled otherwise: its codes may mean
+        something else there)."""
+        from contactlab.observer.kinematics import unmatched_map_note
+
+        lists = [o.extra.get("label_names") for o in outcomes.values()]
+        seen = {n for names in lists if names for n in names}
+        if not self.label_map or not seen:
+            return []
+        if self.map_given:
+            return unmatched_map_note(self.label_map, seen, Path(path).name)
+        prov = self.models.provenance or {}
+        new = sorted(seen - set(prov.get("labels_read") or seen))
+        if new:
+            shown = ",".join(f"{k}={v}" for k, v in self.label_map.items())
+            where = Path(prov.get("archive") or "the training archive").name
+            return [f"{path}: labels read through the models' label map ({shown}) from "
+                    f"training on {where}, whose trials had no label "
+                    f"{', '.join(new)}; give --label-map if this recording's labels mean "
+                    "something else"]
+        return []
+
     def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
         """Confusion matrices and delay table summed over the archive's trials."""
         names = list(self.graph.node_names)
@@ -471,7 +498,7 @@ class RecognizeStage(Stage):
             "parameters": self.parameters, "written": bool(self.write),
             "warnings": [misfit_warning(path, tid, o.entry["fit"])
                          for tid, o in outcomes.items() if o.entry["fit"]["misfit"]],
-            "notes": _grouped_notes(path, outcomes)
+            "notes": _grouped_notes(path, outcomes) + self._map_notes(path, outcomes)
             + untrained_priors_note(self.graph, self.models),
         }
         if self.keep:

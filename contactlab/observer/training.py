@@ -321,8 +321,12 @@ def _example_label(seen) -> str:
 def _no_label(lab, seen, path, label_map, field, unmatched=()) -> DataError:
     """The one-line error for a graph label the (mapped) ground truth lacks: the labels it
     has, the --label-map entries that matched nothing, or, without a map, how to give one."""
+    from contactlab.observer.graph_learn import OUTSIDE
+
     hint = (f"; --label-map entries matching no label: {', '.join(unmatched)}" if unmatched
-            else "" if label_map else
+            else f"; a learned graph's {lab!r} node trains on the labels the task's map "
+            f"leaves out: train with the map 'graph learn' printed (it adds L={lab})"
+            if label_map and lab.startswith(OUTSIDE) else "" if label_map else
             "; map the recording's labels onto the graph's with --label-map, e.g. "
             f"--label-map \"{_example_label(seen)}={lab}\"")
     return DataError(f"no label {lab!r} in the ground truth (labels: "
@@ -656,6 +660,7 @@ def train_graph(archive, graph, *, order: int = D.GRAPH_ORDER, mean: bool = D.GR
         "transient_longest_s": longest,
         "node_dwell": data.dwell,
         "node_first": data.first,
+        "labels_read": sorted(data.raw_labels),
         "graph": {"name": graph.name, "source": graph.source,
                   "sha256": sha256_file(Path(graph.source)) if graph.source
                   and Path(graph.source).is_file() else None},
