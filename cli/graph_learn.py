@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from contactlab.cli.common import archives_argument, echo_json, json_option, quiet_option
+from contactlab.cli.common import archives_argument, count, echo_json, json_option, quiet_option
 from contactlab.cli.inputs import checks_archive
 
 
@@ -109,6 +109,11 @@ def learn(archives, label_map, out, extra, base, name, trials, em, force, as_jso
     for node, p in summary["initial"].items():
         if p:
             click.echo(f"  start in {node}: {p:.3g}")
+    if em:
+        ll = [v for v in summary["em"]["final_loglik"] if v is not None]
+        click.echo(f"edges refined by EM over the runs of {count(len(archives), 'archive')}"
+                   + (f" (final log-likelihood {sum(ll):.6g})" if ll else "")
+                   + ": p per sample of the node left")
     for e, p in summary["edges"].items():
         n = summary["transitions"].get(e)
         click.echo(f"  {e}: p = {p:.3g}" + (f" ({n} seen)" if n else " (added by EM)"))

@@ -152,6 +152,28 @@ def test_graph_learn_em_and_extra_models(archive, tmp_path):
     assert all(0 <= v <= 1 for v in p.values())
 
 
+def test_em_keeps_the_per_sample_measure_of_the_label_counts(archive, tmp_path):
+    """graph learn's edge probabilities are per sample of the node left (n_ij / N_i, the
+    supervised HMM's); EM's refinement gives the same measure (the off-diagonal of its
+    per-sample transition matrix), not the probability given a change (1 along a chain,
+    which would make every change free): on the labelled runs it learns from, each edge
+    lands near its label count."""
+    from contactlab.observer.graph import load_graph
+
+    plain, em = tmp_path / "plain.toml", tmp_path / "em.toml"
+    for out, extra in ((plain, []), (em, ["--em"])):
+        r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", MAP,
+                                      "--out", str(out), "-q", *extra])
+        assert r.exit_code == 0, r.output
+    counted, learned = load_graph(plain).edge_probabilities[0], load_graph(em).edge_probabilities[0]
+    assert counted and max(counted.values()) < 0.05          # changes are rare per sample
+    for edge, p in counted.items():
+        assert 0.2 * p < learned[edge] < 5.0 * p, (edge, p, learned[edge])
+    r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", MAP, "--em",
+                                  "--out", str(tmp_path / "em2.toml")])
+    assert "edges refined by EM" in r.output
+
+
 def test_graph_learn_refuses_a_map_matching_nothing(archive, tmp_path):
     r = CliRunner().invoke(main, ["graph", "learn", str(archive), "--label-map", "7=a",
                                   "--out", str(tmp_path / "x.toml")])

@@ -351,7 +351,11 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
                    source: str | None = None) -> tuple[dict, dict]:
     """``doc`` refined by EM (10.1.3): the models trained from the labelled trials of the
     first archive, Baum-Welch over every run of ``archives``; edges EM adds join the edge
-    set and every edge's probability becomes its learned jump probability."""
+    set and every edge's probability becomes its learned transition probability per
+    sample (the off-diagonal of Baum-Welch's transition matrix, averaged over the
+    archives): the same measure as the label counts ``n_ij / N_i`` it refines, not the
+    probability given a change, which is 1 along a chain of phases and would make every
+    change free."""
     from contactlab.observer.graph import parse_graph
     from contactlab.observer.learning import learn_graph
     from contactlab.observer.recognize import bind_models
@@ -365,7 +369,7 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
         d, s = learn_graph(path, graph, built, reduce=gm.reduce, trials=trials, quiet=quiet)
         out = d if out is None else out
         added += [e for e in s["added"] if e["edge"] not in {x["edge"] for x in added}]
-        for e, p in s["jump_probabilities"].get(ACTION, {}).items():
+        for e, p in s["transition_probabilities"].get(ACTION, {}).items():
             jumps[e] = jumps.get(e, 0.0) + p / len(archives)
         lls.append(s["loglik"][-1] if s["loglik"] else None)
     es = next(s for s in doc.get("edge_sets", []) if s["actions"] == [ACTION]) \
@@ -379,7 +383,7 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
         for e, p in zip(edges, probs):
             a = e.split("->")[0].strip()
             total[a] = total.get(a, 0.0) + p
-        probs = [round(p / max(1.0, total[e.split("->")[0].strip()]), 6)
+        probs = [float(f"{p / max(1.0, total[e.split('->')[0].strip()]):.6g}")
                  for e, p in zip(edges, probs)]
         new["edge_sets"] = [{"actions": [ACTION], "edges": edges, "probabilities": probs}]
-    return new, {"added": added, "jump_probabilities": jumps, "final_loglik": lls}
+    return new, {"added": added, "transition_probabilities": jumps, "final_loglik": lls}

@@ -108,7 +108,8 @@ def learn_graph(archive, graph: FeatureGraph, models: Mapping[str, FeatureModel]
     names = list(graph.node_names)
     doc = graph_document(graph)
     summary = {"trials": len(lls), "iterations": len(res.loglik), "converged": res.converged,
-               "loglik": [float(v) for v in res.loglik], "added": [], "jump_probabilities": {}}
+               "loglik": [float(v) for v in res.loglik], "added": [], "jump_probabilities": {},
+               "transition_probabilities": {}}
     for a, edges in added.items():
         action = graph.actions[a] if graph.actions else None
         for i, j, count, p in edges:
@@ -131,4 +132,7 @@ def learn_graph(archive, graph: FeatureGraph, models: Mapping[str, FeatureModel]
         summary["jump_probabilities"][action or "*"] = {
             f"{names[i]} -> {names[j]}": round(float(jp[i, j]), 4)
             for i, j in zip(*np.nonzero(jp > 1e-3))}
+        per = res.transitions[a] * (1.0 - np.eye(len(names)))
+        summary["transition_probabilities"][action or "*"] = {
+            f"{names[i]} -> {names[j]}": float(per[i, j]) for i, j in zip(*np.nonzero(per))}
     return doc, summary
