@@ -367,6 +367,34 @@ def stick_slip_position(seed: int, *, apparatus: dict | None = None) -> dict:
             "no-stick-slip-force": float(1.0 - after.mean()) if len(after) else 1.0}
 
 
+#: the YZ wall's angles (deg) of the corner facts: inside 9.1.3's window, and below it
+CORNER_ANGLES_IN = (-10.0, -5.0, 0.0, 10.0, 20.0, 30.0, 40.0, 45.0)
+CORNER_ANGLES_BELOW = (-25.0, -20.0)
+
+
+def corner_window(seed: int, *, apparatus: dict | None = None) -> dict:
+    """9.1.3's three guarded moves (spec guarded-move-actions, its first trial's draw with
+    the YZ wall's angle set): the share of the runs at :data:`CORNER_ANGLES_IN` whose finger
+    ends in the corner, and of those at :data:`CORNER_ANGLES_BELOW` whose finger ends stuck
+    on the YZ wall; ``_corner`` the final contacts per angle."""
+    spec = _spec("guarded-move-actions", apparatus)
+    group = spec.groups[0]
+    ends = {}
+    for angle in CORNER_ANGLES_IN + CORNER_ANGLES_BELOW:
+        g = replace(group, vary={**group.vary, "environment_uniform":
+                                 {"angle_y_deg": (angle, angle)}})
+        _, r = simulate_trial(replace(spec, groups=(g,)), 0, seed)
+        last = r.contact[-int(r.rate_hz):].mean(axis=0)
+        touched = dict(zip(r.surfaces, last.tolist()))
+        wy, wx = touched.get("wall_y", 0.0), touched.get("wall_x", 0.0)
+        ends[angle] = ("corner" if wy >= 0.9 and wx >= 0.9 else
+                       "YZ wall" if wy >= 0.9 and wx == 0.0 else "other")
+    return {"corner-window": float(np.mean([ends[a] == "corner" for a in CORNER_ANGLES_IN])),
+            "corner-stick-below": float(np.mean([ends[a] == "YZ wall"
+                                                 for a in CORNER_ANGLES_BELOW])),
+            "_corner": {f"{a:g}": e for a, e in ends.items()}}
+
+
 def force_loop(seed: int, *, apparatus: dict | None = None) -> dict:
     """Contact kept while the integral force controller presses 0.2 N into a Lexan wall and
     0.2 N into the floor (the maze's walls, 9.2)."""
@@ -403,7 +431,8 @@ def measure(seed: int, *, apparatus: dict | None = None, quiet: bool = True) -> 
              lambda: guarded_move_motion(seed, **hw),
              lambda: wood_slope(seed, **hw), lambda: loss_impact(seed, **hw),
              lambda: texture_speed(seed, **hw), lambda: stick_slip_position(seed, **hw),
-             lambda: force_loop(seed, **hw), lambda: kinematic_error(seed, **hw)]
+             lambda: force_loop(seed, **hw), lambda: kinematic_error(seed, **hw),
+             lambda: corner_window(seed, **hw)]
     out: dict = {}
     with bar(total=len(steps), desc="apparatus", quiet=quiet) as pb:
         for step in steps:

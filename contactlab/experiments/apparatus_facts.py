@@ -165,6 +165,17 @@ FACTS: tuple[Fact, ...] = (
          "straight-line fit to the x and y position data over a maximum of 80 mm.",
          "largest deviation of the recorded x-y positions from their straight-line fit "
          "along an 80 mm slide against a wall", "mm", 0.3, 3.0),
+    Fact("corner-window", "9.1.3",
+         "An analysis of sticking shows that these three actions will place the fingertip in "
+         "the corner for angles between -10 deg and 45 deg.",
+         "fraction of the three-guarded-move runs (spec guarded-move-actions) with the YZ "
+         "wall at -10, -5, 0, 10, 20, 30, 40 and 45 deg whose finger ends in the corner "
+         "(both walls touched through the run's last second)", "", 0.99, math.inf),
+    Fact("corner-stick-below", "9.1.3",
+         "For angles less than -10 deg the fingertip will stick to the YZ wall.",
+         "fraction of the same runs with the YZ wall at -25 and -20 deg whose finger ends on "
+         "the YZ wall short of the corner (YZ wall touched, the other wall not, through the "
+         "last second)", "", 0.99, math.inf),
     Fact("wood-slope", "8.1.1.2",
          "A plot of the position data shows that the wood surface was not flat. For some "
          "data sets an 11 deg slope can be observed.",
