@@ -75,6 +75,28 @@ def test_guarded_move_is_smooth_in_free_space_and_slides_on_the_surface():
     assert not get("guarded-move-exploration-slides").holds(m["guarded-move-exploration-slides"])
 
 
+def test_the_three_guarded_moves_reach_the_corner_over_9_1_3s_window():
+    # 9.1.3: the corner reached for YZ-wall angles -10..45 deg, the finger stuck on the wall
+    # below -10; the earlier protocol (0.1 N on the table, 6 s to slide) reached it from
+    # 20 deg only: the table's friction and the damper's slow crawl near the edge
+    edges = dict(angles_in=(-10.0, 45.0), angles_below=(-20.0,))   # the window's edges
+    m = A.corner_window(4, **edges)
+    assert get("corner-window").holds(m["corner-window"]), m["_corner"]
+    assert get("corner-stick-below").holds(m["corner-stick-below"]), m["_corner"]
+    spec = load_spec("guarded-move-actions")
+    from dataclasses import replace
+    g = spec.groups[0]
+    forces = [dict(f) for f in g.controller["forces"]]
+    forces[-1]["force_n"] = [0.1, 0.1, -0.1]
+    old = replace(spec, groups=(replace(g, controller={**g.controller, "forces": forces},
+                                        duration_s=10.0),))
+    from unittest import mock
+    with mock.patch.object(A, "_spec", lambda name, apparatus: old):
+        m = A.corner_window(4, angles_in=(-10.0, 45.0), angles_below=())
+    assert not get("corner-window").holds(m["corner-window"])
+    assert m["_corner"]["-10"] == "YZ wall" and m["_corner"]["45"] == "corner"
+
+
 def _free_move(adc_bits: int):
     _, sen, _ = build_hardware({"adc_bits": adc_bits})
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.018, 0.018), 0.5, 0.4),))

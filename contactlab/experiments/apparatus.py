@@ -372,15 +372,17 @@ CORNER_ANGLES_IN = (-10.0, -5.0, 0.0, 10.0, 20.0, 30.0, 40.0, 45.0)
 CORNER_ANGLES_BELOW = (-25.0, -20.0)
 
 
-def corner_window(seed: int, *, apparatus: dict | None = None) -> dict:
+def corner_window(seed: int, *, apparatus: dict | None = None, angles_in=CORNER_ANGLES_IN,
+                  angles_below=CORNER_ANGLES_BELOW) -> dict:
     """9.1.3's three guarded moves (spec guarded-move-actions, its first trial's draw with
-    the YZ wall's angle set): the share of the runs at :data:`CORNER_ANGLES_IN` whose finger
-    ends in the corner, and of those at :data:`CORNER_ANGLES_BELOW` whose finger ends stuck
-    on the YZ wall; ``_corner`` the final contacts per angle."""
+    the YZ wall's angle set): the share of the runs at ``angles_in`` whose finger ends in
+    the corner, and of those at ``angles_below`` whose finger ends stuck on the YZ wall;
+    ``_corner`` the final contacts per angle."""
+    angles_in, angles_below = tuple(angles_in), tuple(angles_below)
     spec = _spec("guarded-move-actions", apparatus)
     group = spec.groups[0]
     ends = {}
-    for angle in CORNER_ANGLES_IN + CORNER_ANGLES_BELOW:
+    for angle in angles_in + angles_below:
         g = replace(group, vary={**group.vary, "environment_uniform":
                                  {"angle_y_deg": (angle, angle)}})
         _, r = simulate_trial(replace(spec, groups=(g,)), 0, seed)
@@ -389,9 +391,10 @@ def corner_window(seed: int, *, apparatus: dict | None = None) -> dict:
         wy, wx = touched.get("wall_y", 0.0), touched.get("wall_x", 0.0)
         ends[angle] = ("corner" if wy >= 0.9 and wx >= 0.9 else
                        "YZ wall" if wy >= 0.9 and wx == 0.0 else "other")
-    return {"corner-window": float(np.mean([ends[a] == "corner" for a in CORNER_ANGLES_IN])),
-            "corner-stick-below": float(np.mean([ends[a] == "YZ wall"
-                                                 for a in CORNER_ANGLES_BELOW])),
+    return {"corner-window": float(np.mean([ends[a] == "corner" for a in angles_in]))
+            if angles_in else math.nan,
+            "corner-stick-below": float(np.mean([ends[a] == "YZ wall" for a in angles_below]))
+            if angles_below else math.nan,
             "_corner": {f"{a:g}": e for a, e in ends.items()}}
 
 
