@@ -170,7 +170,9 @@ FACTS: tuple[Fact, ...] = (
          "the corner for angles between -10 deg and 45 deg.",
          "fraction of the three-guarded-move runs (spec guarded-move-actions) with the YZ "
          "wall at -10, -5, 0, 10, 20, 30, 40 and 45 deg whose finger ends in the corner "
-         "(both walls touched through the run's last second)", "", 0.99, math.inf),
+         "(both walls touched through the run's last second; the table is not required: a "
+         "finger the walls' friction holds just above it has reached the corner)", "", 0.99,
+         math.inf),
     Fact("corner-stick-below", "9.1.3",
          "For angles less than -10 deg the fingertip will stick to the YZ wall.",
          "fraction of the same runs with the YZ wall at -25 and -20 deg whose finger ends on "

@@ -198,7 +198,10 @@ def _report(res, angles, sig, secs, graph, *, out_dir: Path, seed: int) -> dict:
         f"The simulated finger reaches the corner in {len(reached)} of {n} runs"
         + (f"; in the others ({', '.join(stuck)}; wall angles "
            + ", ".join(f"{a:.0f}" for a in sorted(stuck_angles))
-           + " deg) it stick-slips along the wall or stops on it" if stuck else "")
+           + " deg) it does not end on the table in the corner: it stops on the YZ wall, "
+           "or the impact into the XZ wall lifts it and the two walls' friction holds it "
+           "off the table (the integral force controller's 20-mN load is met by that "
+           "friction, so nothing brings it down)" if stuck else "")
         + ". 9.1.3's sticking analysis, which leaves out the table's friction, has every "
         "angle in [-10, 45] deg reach the corner and the finger stick on the YZ wall below "
         "-10 deg: two facts of 'reproduce apparatus' (corner-window, corner-stick-below). "
