@@ -386,16 +386,36 @@ def corner_window(seed: int, *, apparatus: dict | None = None, angles_in=CORNER_
         g = replace(group, vary={**group.vary, "environment_uniform":
                                  {"angle_y_deg": (angle, angle)}})
         _, r = simulate_trial(replace(spec, groups=(g,)), 0, seed)
-        last = r.contact[-int(r.rate_hz):].mean(axis=0)
-        touched = dict(zip(r.surfaces, last.tolist()))
-        wy, wx = touched.get("wall_y", 0.0), touched.get("wall_x", 0.0)
-        ends[angle] = ("corner" if wy >= 0.9 and wx >= 0.9 else
-                       "YZ wall" if wy >= 0.9 and wx == 0.0 else "other")
+        ends[angle] = _ends_in(r)
     return {"corner-window": float(np.mean([ends[a] == "corner" for a in angles_in]))
             if angles_in else math.nan,
             "corner-stick-below": float(np.mean([ends[a] == "YZ wall" for a in angles_below]))
             if angles_below else math.nan,
             "_corner": {f"{a:g}": e for a, e in ends.items()}}
+
+
+def corner_integral_force(seed: int, *, apparatus: dict | None = None) -> dict:
+    """9.1.2's one command through the corner: the share of spec guarded-move-multi's
+    integral-force runs whose finger ends touching both walls (:func:`_ends_in`)."""
+    spec = _spec("guarded-move-multi", apparatus)
+    first = 0
+    for g in spec.groups:
+        if g.controller.get("kind") == "integral_force":
+            break
+        first += g.trials
+    ends = [_ends_in(simulate_trial(spec, k, seed)[1]) for k in range(first, first + g.trials)]
+    return {"corner-integral-force": float(np.mean([e == "corner" for e in ends])),
+            "_corner_integral_force": ends}
+
+
+def _ends_in(r) -> str:
+    """Where a corner run's finger ends: "corner" (both walls touched through the last
+    second), "YZ wall" (that wall only) or "other"."""
+    last = r.contact[-int(r.rate_hz):].mean(axis=0)
+    touched = dict(zip(r.surfaces, last.tolist()))
+    wy, wx = touched.get("wall_y", 0.0), touched.get("wall_x", 0.0)
+    return ("corner" if wy >= 0.9 and wx >= 0.9 else
+            "YZ wall" if wy >= 0.9 and wx == 0.0 else "other")
 
 
 def force_loop(seed: int, *, apparatus: dict | None = None) -> dict:
@@ -435,7 +455,7 @@ def measure(seed: int, *, apparatus: dict | None = None, quiet: bool = True) -> 
              lambda: wood_slope(seed, **hw), lambda: loss_impact(seed, **hw),
              lambda: texture_speed(seed, **hw), lambda: stick_slip_position(seed, **hw),
              lambda: force_loop(seed, **hw), lambda: kinematic_error(seed, **hw),
-             lambda: corner_window(seed, **hw)]
+             lambda: corner_window(seed, **hw), lambda: corner_integral_force(seed, **hw)]
     out: dict = {}
     with bar(total=len(steps), desc="apparatus", quiet=quiet) as pb:
         for step in steps:

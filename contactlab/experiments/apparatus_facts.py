@@ -178,6 +178,12 @@ FACTS: tuple[Fact, ...] = (
          "fraction of the same runs with the YZ wall at -25 and -20 deg whose finger ends on "
          "the YZ wall short of the corner (YZ wall touched, the other wall not, through the "
          "last second)", "", 0.99, math.inf),
+    Fact("corner-integral-force", "9.1.2",
+         "With the integral endpoint force controller, command (100, -100, 200) mN, the "
+         "expected feature sequence ... through the corner is reliably found.",
+         "fraction of the integral-force runs of spec guarded-move-multi (the thesis's "
+         "command) whose finger ends in the corner (both walls touched through the run's "
+         "last second)", "", 0.8, math.inf),
     Fact("wood-slope", "8.1.1.2",
          "A plot of the position data shows that the wood surface was not flat. For some "
          "data sets an 11 deg slope can be observed.",
