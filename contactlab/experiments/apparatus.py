@@ -396,7 +396,7 @@ def corner_window(seed: int, *, apparatus: dict | None = None, angles_in=CORNER_
 
 def corner_integral_force(seed: int, *, apparatus: dict | None = None) -> dict:
     """9.1.2's one command through the corner: the share of spec guarded-move-multi's
-    integral-force runs whose finger ends touching both walls (:func:`_ends_in`)."""
+    integral-force runs whose finger ends in the table's corner (:func:`_ends_in`)."""
     spec = _spec("guarded-move-multi", apparatus)
     first = 0
     for g in spec.groups:
@@ -409,13 +409,15 @@ def corner_integral_force(seed: int, *, apparatus: dict | None = None) -> dict:
 
 
 def _ends_in(r) -> str:
-    """Where a corner run's finger ends: "corner" (both walls touched through the last
-    second), "YZ wall" (that wall only) or "other"."""
+    """Where a corner run's finger ends: "corner" (the table and both walls touched through
+    the last second), "off the table" (both walls only: held up by their friction), "YZ
+    wall" (that wall, not the other) or "other"."""
     last = r.contact[-int(r.rate_hz):].mean(axis=0)
     touched = dict(zip(r.surfaces, last.tolist()))
-    wy, wx = touched.get("wall_y", 0.0), touched.get("wall_x", 0.0)
-    return ("corner" if wy >= 0.9 and wx >= 0.9 else
-            "YZ wall" if wy >= 0.9 and wx == 0.0 else "other")
+    fl, wy, wx = (touched.get(k, 0.0) for k in ("floor", "wall_y", "wall_x"))
+    if wy >= 0.9 and wx >= 0.9:
+        return "corner" if fl >= 0.9 else "off the table"
+    return "YZ wall" if wy >= 0.9 and wx == 0.0 else "other"
 
 
 def force_loop(seed: int, *, apparatus: dict | None = None) -> dict:

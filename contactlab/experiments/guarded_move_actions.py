@@ -198,17 +198,17 @@ def _report(res, angles, sig, secs, graph, *, out_dir: Path, seed: int) -> dict:
         f"The simulated finger reaches the corner in {len(reached)} of {n} runs"
         + (f"; in the others ({', '.join(stuck)}; wall angles "
            + ", ".join(f"{a:.0f}" for a in sorted(stuck_angles))
-           + " deg) it does not end on the table in the corner: it stops on the YZ wall, "
-           "or the impact into the XZ wall lifts it and the two walls' friction holds it "
-           "off the table (the integral force controller's 20-mN load is met by that "
-           "friction, so nothing brings it down)" if stuck else "")
+           + " deg) it stick-slips along the YZ wall or stops on it" if stuck else "")
         + ". 9.1.3's sticking analysis, which leaves out the table's friction, has every "
         "angle in [-10, 45] deg reach the corner and the finger stick on the YZ wall below "
-        "-10 deg: two facts of 'reproduce apparatus' (corner-window, corner-stick-below). "
-        "They identified the third move's vertical load (at most 26 mN for the table's "
-        "friction to leave the window's -10 deg edge, 20 mN used; 0.1 N held the finger on "
-        "the wall up to 10 deg) and its length (the integral force controller slides at "
-        "~2 mm/s near the edge: 26 s, 6 s before, reached the corner from 20 deg only). "
+        "-10 deg (facts corner-window and corner-stick-below of 'reproduce apparatus'). With "
+        "the simulator's static coefficients (wall 0.61, table 0.40) the two cannot both "
+        "hold: the window's -10 deg edge needs the table to take at most 10 mN of the "
+        "push's margin (a vertical load of at most 26 mN), and a finger pressed into the "
+        "corner stays on the table only under a load above the walls' static friction "
+        "(0.61 x 141 mN, 86 mN; at 20 mN the impact into the XZ wall left it held off the "
+        "table in 7 of 20 runs). At this spec's 0.1 N both hold only with a wall "
+        "coefficient near 0.35 (9.1.3's 35-deg friction angle less the table's share). "
         "Runs are scored against where the finger went.")
     a = res["actions"]
     stuck_read = [t for t, e in a["trials"].items()
