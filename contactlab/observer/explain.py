@@ -248,7 +248,10 @@ def format_explanation(ex: dict) -> list[str]:
         return lines + [f"  {ex.get('note', 'no ground truth')}"]
     lines.append(f"  points marked correctly {100 * ex['accuracy']:.1f} %; with the true "
                  f"boundaries given, the models alone label {100 * ex['segment_accuracy']:.1f} "
-                 "% (each true segment by the node whose fresh instance explains it best)")
+                 "% (each true segment by the node whose fresh instance explains it best"
+                 + ("; far below the path's share: a node's models misfit its long true "
+                    "segments, which the path splits into changes (see the fit check)"
+                    if ex["segment_accuracy"] < ex["accuracy"] - 0.2 else "") + ")")
     lines.append("  true segments: " + ", ".join(
         f"{s['node']}@{t0 + s['start'] / fs:.2f}s->{s['best']}({s['margin']:+.1f})"
         for s in ex["segments"]) + "  (best node, true minus best other, nats)")
