@@ -53,16 +53,14 @@ def hmm_accuracy(train, test, states) -> tuple[float, int, object, list]:
     """Supervised HMM: point accuracy, transitions missed (no decoded change of the
     right kind within 50 samples), the model, the test points."""
     from contactlab.observer.recognize import detection_delays
-    from contactlab.peers.hmm import decode, fit_hmm, labelled_points
+    from contactlab.peers.hmm import decode, fit_hmm, labelled_points, state_path
 
     tr, te = labelled_points(train, states), labelled_points(test, states)
     hmm = fit_hmm(tr, len(states))
     total, paths = decode(hmm, te, len(states))
     missed = 0
     for p, s in zip(te, paths):
-        ch = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
-        path = [(states[s[c]], int(c)) for c in ch]
-        missed += detection_delays(p["truth"], path, states)["missed"]
+        missed += detection_delays(p["truth"], state_path(s, states), states)["missed"]
     return float(np.trace(total) / total.sum()), missed, hmm, te
 
 

@@ -840,10 +840,10 @@ class SegmentStage(Stage):
                        "boundary": _BOUNDARY_NOTE[seg.parameters.get("method",
                                                                       "page-hinkley")]},
                 parameters={**seg.parameters, "channels": seg.channels.tolist()})
-        names = (getattr(trial, "label_names", None)
-                 if getattr(trial, "labels", None) is not None else None)
-        return TrialOutcome(entry, results, {"metrics": metrics, "label_names": None
-                                             if names is None else [str(n) for n in names]})
+        from contactlab.observer.kinematics import trial_label_names
+
+        return TrialOutcome(entry, results, {"metrics": metrics,
+                                             "label_names": trial_label_names(trial)})
 
     def summarize(self, path, outcomes: dict[str, TrialOutcome]) -> dict:
         """Per-trial entries and, with ground truth, metrics pooled over trials; ``notes``:

@@ -310,28 +310,37 @@ def _base_force(trial, wrench: Signal, path) -> np.ndarray:
     before the 7.1 lowpass (the lowpass is linear: this is the conditioned
     base-frame force); without an orientation the force is taken as it is (a tool
     that does not turn, or a wrench already in the base frame)."""
-    q = getattr(trial, "orientation", None)
-    if q is None or getattr(trial, "wrench_frame", "sensor") != "sensor":
+    q = _sensor_orientation(trial)
+    if q is None:
         return wrench.y[:, :3]
     from contactlab.archive.importer import rotate_vectors
 
     raw = _raw(trial, "wrench", path)[:, :3]
-    q = np.asarray(q, dtype=np.float64)[: len(raw)]
+    q = q[: len(raw)]
     f = rotate_vectors(q, raw[: len(q)])
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 
-def _base_wrench(trial, raw: np.ndarray) -> np.ndarray:
-    """The raw wrench (n, 6) in the base frame's axes when ``trial`` carries its
-    orientation and a wrench as measured (force and torque each rotated,
-    :func:`~contactlab.archive.importer.rotate_wrench`); else as it is."""
+def _sensor_orientation(trial) -> np.ndarray | None:
+    """The tool's orientation (n, 4) when ``trial`` carries it and its wrench is as
+    measured (in the sensor's axes): what turns the force into the base frame; else None."""
     q = getattr(trial, "orientation", None)
     if q is None or getattr(trial, "wrench_frame", "sensor") != "sensor":
+        return None
+    return np.asarray(q, dtype=np.float64)
+
+
+def _base_wrench(trial, raw: np.ndarray) -> np.ndarray:
+    """The raw wrench (n, 6) in the base frame's axes where :func:`_sensor_orientation`
+    gives an orientation (force and torque each rotated,
+    :func:`~contactlab.archive.importer.rotate_wrench`); else as it is."""
+    q = _sensor_orientation(trial)
+    if q is None:
         return raw
     from contactlab.archive.importer import rotate_wrench
 
     n = min(len(raw), len(q))
-    return rotate_wrench(np.asarray(q, dtype=np.float64)[:n], raw[:n])
+    return rotate_wrench(q[:n], raw[:n])
 
 
 def _check_sources(trial, signals, path) -> None:

@@ -56,3 +56,14 @@ def test_unlabelled_samples_and_short_runs():
     assert hindsight_path(y, np.full(600, -1), NAMES) == []
     with pytest.raises(ValueError, match="samples"):
         hindsight_path(y[:10], truth, NAMES)
+
+
+def test_a_decoded_state_sequence_scores_like_an_observers_path():
+    from contactlab.peers.hmm import state_path
+
+    s = np.array([0, 0, 1, 1, 1, 0, 0])
+    assert state_path(s, NAMES) == [("rest", 0), ("moving", 2), ("rest", 5)]
+    assert state_path(np.zeros(0, np.int64), NAMES) == []
+    truth = np.array([0, 0, 0, 1, 1, 1, 0])
+    d = detection_delays(truth, state_path(s, NAMES), NAMES, window=2)
+    assert d["missed"] == 0 and sorted(d["delays"]) == [-1, -1]

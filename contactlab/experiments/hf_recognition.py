@@ -355,7 +355,7 @@ def _headline(res, hmm_res, check) -> str:
                    if "test_ctx_gauss" in check else "") + "); see 'Where ours differ'")
 
 
-def _differences(res, hmm_res, gm, check, within=None) -> list[str]:
+def _differences(res, hmm_res, gm, check, within: dict) -> list[str]:
     means = {k: float(m.theta_mean[0, 0]) for k, m in gm.temporal.items()}
     out = [
         "The stationary classes: the trained means of the LPC mean coefficient are "
@@ -434,8 +434,7 @@ def _differences(res, hmm_res, gm, check, within=None) -> list[str]:
         "flicker more than a change of vibration a detector could mark. The thesis's runs "
         "were segmented by hand, 30 transitions for 12 runs of three or two phases; the "
         "'missed' column counts both. Taking each such run as the run before it leaves "
-        + _within_text(within or _within_table(res, check)) + " (the second delay table)."
-        + _hindsight_text(within or {}))
+        + _within_text(within) + " (the second delay table)." + _hindsight_text(within))
     return out
 
 
@@ -458,13 +457,11 @@ def _within_table(res, check, hmm_paths=None, points=None) -> dict:
                                   for rec in r["_runs"])
     if hmm_paths is not None and points is not None:
         from contactlab.peers.hindsight import hindsight_path
+        from contactlab.peers.hmm import state_path
 
         fs = res["test_cf"]["_runs"][0].fs
-        hmm = []
-        for p, s in zip(points, hmm_paths):
-            ch = np.r_[0, np.flatnonzero(np.diff(s)) + 1]
-            hmm.append((p["id"], p["truth"], [(STATES[s[c]], int(c)) for c in ch], fs))
-        out[HMM_ROW] = _within_count(hmm)
+        out[HMM_ROW] = _within_count((p["id"], p["truth"], state_path(s, STATES), fs)
+                                     for p, s in zip(points, hmm_paths))
         out[HINDSIGHT_ROW] = _within_count(
             (p["id"], p["truth"], hindsight_path(p["y"], p["truth"], STATES,
                                                  min_run=int(round(0.1 * fs))), fs)
@@ -502,9 +499,9 @@ def _hindsight_text(within: dict) -> str:
         return " The Gaussian hypotheses with context miss no transition."
     return (f" Of the {n} transition{'s' if n > 1 else ''} the Gaussian hypotheses with "
             f"context miss, {both} {'is' if both == 1 else 'are'} missed by the hindsight "
-            "row too: y_h's mean changes more than 0.25 s from the label there, because the label's speed threshold is crossed "
-            "while the vibration is still at rest's level when a move starts or ends "
-            "slowly.")
+            "row too: y_h's mean changes more than 0.25 s from the label there, because the "
+            "label's speed threshold is crossed while the vibration is still at rest's level "
+            "when a move starts or ends slowly.")
 
 
 def _within_text(within: dict) -> str:

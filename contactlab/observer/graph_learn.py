@@ -364,13 +364,13 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
     graph = parse_graph(doc, source=source)
     gm = train_graph(archives[0], graph, trials=trials, quiet=quiet, label_map=label_map)
     graph, gm, built = bind_models(graph, gm)
-    out, added, jumps, lls = None, [], {}, []
+    out, added, trans, lls = None, [], {}, []
     for path in archives:
         d, s = learn_graph(path, graph, built, reduce=gm.reduce, trials=trials, quiet=quiet)
         out = d if out is None else out
         added += [e for e in s["added"] if e["edge"] not in {x["edge"] for x in added}]
         for e, p in s["transition_probabilities"].get(ACTION, {}).items():
-            jumps[e] = jumps.get(e, 0.0) + p / len(archives)
+            trans[e] = trans.get(e, 0.0) + p / len(archives)
         lls.append(s["loglik"][-1] if s["loglik"] else None)
     es = next(s for s in doc.get("edge_sets", []) if s["actions"] == [ACTION]) \
         if doc.get("edge_sets") else None
@@ -378,7 +378,7 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
     if es is not None or added:
         edges = list(es["edges"]) if es else []
         edges += [e["edge"] for e in added if e["edge"] not in edges]
-        probs = [jumps.get(e, 0.0) for e in edges]
+        probs = [trans.get(e, 0.0) for e in edges]
         total: dict = {}
         for e, p in zip(edges, probs):
             a = e.split("->")[0].strip()
@@ -386,4 +386,4 @@ def refine_with_em(doc: dict, archives, *, label_map: dict, trials=None, quiet: 
         probs = [float(f"{p / max(1.0, total[e.split('->')[0].strip()]):.6g}")
                  for e, p in zip(edges, probs)]
         new["edge_sets"] = [{"actions": [ACTION], "edges": edges, "probabilities": probs}]
-    return new, {"added": added, "transition_probabilities": jumps, "final_loglik": lls}
+    return new, {"added": added, "transition_probabilities": trans, "final_loglik": lls}

@@ -32,7 +32,7 @@ from contactlab.signals import CONTACT_SIGNALS
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
-           "unmatched_map_note",
+           "unmatched_map_note", "trial_label_names",
            "KINEMATIC_SIGNALS"]
 
 KINEMATIC_SIGNALS = CONTACT_SIGNALS + ("velocity", "phase")
@@ -97,6 +97,15 @@ def check_label_map(label_map: dict | None, graph: FeatureGraph,
         if dst not in known:
             raise UsageError(f"{field}: {src}={dst}: {dst!r} is not a node or trained label "
                              f"of graph {graph.name!r} (known: {', '.join(sorted(known))})")
+
+
+def trial_label_names(trial) -> list[str] | None:
+    """The names of ``trial``'s ground-truth labels (None without labels), for
+    :func:`unmatched_map_note` over the trials a stage read."""
+    names = getattr(trial, "label_names", None)
+    if getattr(trial, "labels", None) is None or names is None:
+        return None
+    return [str(n) for n in names]
 
 
 def unmatched_map_note(label_map: dict | None, label_names, where: str) -> list[str]:

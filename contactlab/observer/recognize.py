@@ -38,7 +38,7 @@ from contactlab.archive.results import TrialResults
 from contactlab.errors import DataError
 from contactlab.observer.fit import PathFit, path_fit
 from contactlab.observer.graph import FeatureGraph, load_graph
-from contactlab.observer.kinematics import check_map_sources
+from contactlab.observer.kinematics import check_map_sources, trial_label_names
 from contactlab.observer.models.composite import build_models
 from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.observer.paths import count_changes
@@ -399,9 +399,7 @@ class RecognizeStage(Stage):
         extra = {"confusion": np.zeros((K, K), np.int64),
                  "confusion_online": np.zeros((K, K), np.int64), "delays": None,
                  "rec": rec if self.keep else None,
-                 "label_names": ([str(n) for n in trial.label_names]
-                                 if getattr(trial, "labels", None) is not None
-                                 and getattr(trial, "label_names", None) is not None else None)}
+                 "label_names": trial_label_names(trial)}
         if rec.truth is not None and (rec.truth >= 0).any():
             c = confusion_matrix(rec.truth, r.labels, K)[0]
             con = confusion_matrix(rec.truth, r.map_node, K)[0]
@@ -450,8 +448,7 @@ class RecognizeStage(Stage):
         something else there)."""
         from contactlab.observer.kinematics import unmatched_map_note
 
-        lists = [o.extra.get("label_names") for o in outcomes.values()]
-        seen = {n for names in lists if names for n in names}
+        seen = {n for o in outcomes.values() for n in (o.extra.get("label_names") or [])}
         if not self.label_map or not seen:
             return []
         if self.map_given:

@@ -15,7 +15,7 @@ import numpy as np
 
 from contactlab.signals import trial_signals, truth_codes, window_of
 
-__all__ = ["labelled_points", "fit_hmm", "decode", "point_accuracy"]
+__all__ = ["labelled_points", "fit_hmm", "decode", "state_path", "point_accuracy"]
 
 
 def labelled_points(archive, states, *, reduce: str = "mean") -> list[dict]:
@@ -75,6 +75,14 @@ def decode(model, runs: list[dict], n_states: int) -> tuple[np.ndarray, list[np.
         if r["truth"] is not None:
             total += confusion_matrix(r["truth"], s, n_states)[0]
     return total, paths
+
+
+def state_path(states, names) -> list[tuple[str, int]]:
+    """A decoded state sequence as an observer's path, ``[(name, first sample), ...]`` at
+    each change (what :func:`contactlab.observer.recognize.detection_delays` scores)."""
+    s = np.asarray(states)
+    ch = np.r_[0, np.flatnonzero(np.diff(s)) + 1] if len(s) else np.zeros(0, np.int64)
+    return [(names[s[c]], int(c)) for c in ch]
 
 
 def point_accuracy(train_archive, test_archive, states, *, reduce: str = "mean") -> float:
