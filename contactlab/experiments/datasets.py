@@ -311,7 +311,10 @@ def _multi(spec, runs) -> list[dict]:
     for plan, r, group in runs:
         phase = sliding_phase(r.command, r.contact[:, 0], r.command_kind)
         sticks = stick_episodes(r.moving, phase, min_stick=round(MIN_STICK_S * r.rate_hz))
-        g = rows.setdefault(group.name, {"sticks": [], "corner": [], "end": [], "state": []})
+        g = rows.setdefault(group.name, {"sticks": [], "corner": [], "end": [], "state": [],
+                                         "push": None})
+        if group.controller.get("kind") == "integral_force":
+            g["push"] = group.controller["forces"][-1]["force_n"]
         g["state"].append(_trial_end_state(r))
         g["sticks"].append(sticks)
         g["corner"].append(corner_reached(r.contact))
@@ -346,13 +349,13 @@ def _multi(spec, runs) -> list[dict]:
             "" if k == n else
             "With the handbook friction of contactlab.sim.materials the thesis's "
             "(100,-100,200) mN command lies inside the friction cone once the finger is on the "
-            "YZ wall: table 0.40 x 0.2 N + wall 0.61 x 0.1 N = 0.141 N of friction > the "
-            "0.1 N pushing along x, so the finger stops on the wall instead of sliding into the "
+            "YZ wall: " + friction_budget(integ["push"], *corner_friction(spec))
+            + ", so the finger stops on the wall instead of sliding into the "
             "corner (finding kept, not tuned away; datasets_spec/guarded-move-multi.toml). The "
             "thesis's own sticking analysis (9.1.3) ignores the table's friction."
             + ("" if not off else
                f" {off} trial(s) stopped on the table before reaching the wall although the "
-               "0.141 N horizontal push exceeds the table's nominal 0.40 x 0.2 = 0.08 N; not "
+               "horizontal push exceeds the table's nominal friction; not "
                "isolated (the simulated friction varies along the rough wood; cf. the "
                "thesis's 'catching on the wood')."),
             k=k, n=n, end_state=integ["state"], end_contacts=integ["end"],
@@ -370,6 +373,31 @@ def wall_slide_margin(force, angle_deg: float, mu_floor: float, mu_wall: float) 
     along = fx * np.cos(a) + fy * np.sin(a)
     into = max(-fx * np.sin(a) + fy * np.cos(a), 0.0)
     return float(along - mu_floor * max(-fz, 0.0) - mu_wall * into)
+
+
+def corner_friction(spec) -> tuple[float, float]:
+    """Static coefficients (table, walls) of a corner spec's materials against the steel
+    fingertip (:data:`contactlab.sim.materials.MATERIALS`)."""
+    from contactlab.sim.materials import get_material
+
+    env = spec.groups[0].environment
+    return (get_material(env["material"]).mu_static,
+            get_material(env["wall_material"]).mu_static)
+
+
+def friction_budget(force, mu_floor: float, mu_wall: float, angle_deg: float = 0.0) -> str:
+    """9.1.3's sticking analysis with the table's friction, as text: the Coulomb friction a
+    push ``force`` (fx, fy, fz, N; fz < 0 presses on the table) meets on the table and on
+    the YZ wall turned ``angle_deg``, against its component along the wall."""
+    a = np.radians(angle_deg)
+    fx, fy, fz = (float(v) for v in force)
+    along = fx * np.cos(a) + fy * np.sin(a)
+    into = max(-fx * np.sin(a) + fy * np.cos(a), 0.0)
+    load = max(-fz, 0.0)
+    held = mu_floor * load + mu_wall * into
+    return (f"table {mu_floor:.2f} x {load:.2g} N + wall {mu_wall:.2f} x {into:.2g} N = "
+            f"{held:.3g} N of friction {'>' if held > along else '<'} the {along:.2g} N "
+            "pushing along the wall")
 
 
 def _trial_end_state(r, wall: int = 1, tail_s: float = 0.1) -> str:

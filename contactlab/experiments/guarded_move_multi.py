@@ -269,6 +269,16 @@ def _headline(res, n) -> str:
             f"{_count(res['xz'], 'visits_xz')}/{n['xz']} (thesis: often)")
 
 
+def _budget() -> str:
+    """The integral-force command's Coulomb budget on the YZ wall (spec guarded-move-multi)."""
+    from contactlab.acquire.spec import load_spec
+    from contactlab.experiments.datasets import corner_friction, friction_budget
+
+    spec = load_spec("guarded-move-multi")
+    g = next(g for g in spec.groups if g.controller.get("kind") == "integral_force")
+    return friction_budget(g.controller["forces"][-1]["force_n"], *corner_friction(spec))
+
+
 def _differences(res, expl, n) -> list[str]:
     f = res["force"]
     ends = {" > ".join(e["score"]["truth"]) for e in f["trials"].values()}
@@ -277,9 +287,9 @@ def _differences(res, expl, n) -> list[str]:
         f"Under the integral force controller the simulated finger reaches the corner in "
         f"{corner} of {n['force']} runs (simulated surface sequences: {'; '.join(sorted(ends))}). "
         "With the handbook friction of the simulator's materials the thesis's command lies "
-        "inside the friction cone on the wall (table 0.40 x 0.2 N plus wall 0.61 x 0.1 N = "
-        "0.141 N > 0.1 N along x), so the finger stops on the wall instead of sliding into the "
-        "corner; the thesis's own sticking analysis (9.1.3) leaves the table's friction out. "
+        f"inside the friction cone on the wall ({_budget()}), so the finger stops on the "
+        "wall instead of sliding into the corner; the thesis's own sticking analysis (9.1.3) "
+        "leaves the table's friction out. "
         "This is kept as a finding, not tuned away: the runs are scored against where their "
         f"finger went. {_count(f)} of {n['force']} are tracked exactly; in the others the "
         "path ends in the corner node (S,3,F) while the finger is held on the wall by "
