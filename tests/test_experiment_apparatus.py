@@ -77,25 +77,25 @@ def test_guarded_move_is_smooth_in_free_space_and_slides_on_the_surface():
 
 def test_the_corner_window_follows_the_walls_friction():
     # 9.1.3: the corner reached for YZ-wall angles -10..45 deg, the finger stuck on the wall
-    # below -10.  With the walls' coefficient identified from that window (hard plastic,
-    # 0.35: Coulomb's edge at -10 deg with the table's 0.40 x 0.1 N) -5 and 45 deg reach
-    # the table's corner and -20 deg sticks; the same draws with the handbook aluminium
-    # walls (0.61: edge at +0.5 deg) stick at -5 deg as well
+    # below -10.  With the coefficients identified from 9.1.2-9.1.3 (table 0.20, hard
+    # plastic walls 0.35: Coulomb's edge at -18 deg under the third push's 0.1 N load)
+    # -10 and 45 deg reach the table's corner and -20 deg sticks; the same draw with the
+    # handbook aluminium walls (0.61: edge at -6.5 deg) sticks at -10 deg
     from contactlab.experiments.guarded_move_actions import wall_windows
 
-    assert wall_windows("hard_plastic")["with_table"][0] == -10.0
-    assert wall_windows("polished_aluminium")["with_table"][0] == 0.5
-    m = A.corner_window(4, angles_in=(-5.0, 45.0), angles_below=(-20.0,))
-    assert m["_corner"] == {"-5": "corner", "45": "corner", "-20": "YZ wall"}, m["_corner"]
+    assert wall_windows("hard_plastic")["with_table"][0] == -18.0
+    assert wall_windows("polished_aluminium")["with_table"][0] == -6.5
+    m = A.corner_window(4, angles_in=(-10.0, 45.0), angles_below=(-20.0,))
+    assert m["_corner"] == {"-10": "corner", "45": "corner", "-20": "YZ wall"}, m["_corner"]
     assert get("corner-stick-below").holds(m["corner-stick-below"])
     assert get("corner-window").holds(m["corner-window"])
     spec = load_spec("guarded-move-actions")
     from dataclasses import replace
     g = spec.groups[0]
-    at_minus5 = replace(spec, groups=(replace(g, vary={**g.vary, "environment_uniform":
-                                                       {"angle_y_deg": (-5.0, -5.0)}}),))
+    at_minus10 = replace(spec, groups=(replace(g, vary={**g.vary, "environment_uniform":
+                                                        {"angle_y_deg": (-10.0, -10.0)}}),))
     from unittest import mock
-    with mock.patch.object(A, "_spec", lambda name, apparatus: at_minus5):
+    with mock.patch.object(A, "_spec", lambda name, apparatus: at_minus10):
         assert A.corner_ends(4, trials=(0,)) == ["corner"]
         assert A.corner_ends(4, trials=(0,), wall_material="polished_aluminium") == ["YZ wall"]
 

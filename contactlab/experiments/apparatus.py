@@ -347,8 +347,9 @@ def texture_speed(seed: int, *, apparatus: dict | None = None) -> dict:
 
 def stick_slip_position(seed: int, *, apparatus: dict | None = None) -> dict:
     """Stick-to-slip transitions of the 100 N/m position controller dragging the finger 30 mm
-    over wood (9.1.2); and the integral force controller's stuck fraction (9.1.3)."""
-    env = sim.plane(material="rough_wood")
+    over the corner's wooden table (9.1.2); and the integral force controller's stuck
+    fraction on it (9.1.3)."""
+    env = sim.plane(material="table_wood")
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.0, -0.003), 0.3, 0.1),
                                          sim.Move((0.030, 0.0, 0.0), 3.0, 0.6)))
     r = _sim(env, ctrl, 3.8, seed, (0.0, 0.0, 0.0099), apparatus=apparatus)
@@ -625,25 +626,16 @@ def _differences(facts: list[dict], measured: dict) -> list[str]:
 
 
 _WHY = {
-    "corner-window": "The walls' coefficient was identified from this statement: with the "
-                     "wooden table's 0.40 x 0.1 N the third push slides along the YZ wall down "
-                     "to -10 deg by Coulomb's law for a wall coefficient of at most 0.355, and "
-                     "the walls are hard plastic (0.35; aluminium's 0.61 stopped every run "
-                     "below +0.5 deg). Only the window's edge fails: at -10 deg the push's "
-                     "margin is 0.6 mN, less than the table's friction varies along the wood "
-                     "(15 % rms of 40 mN), so the finger sticks where the wood is rougher. "
+    "corner-window": "The walls' and the table's coefficients were identified from this "
+                     "statement and the table's others (contactlab.sim.materials table_wood; "
+                     "datasets_spec/guarded-move-actions.toml); where the window's edge fails, "
+                     "the wood's friction, varying 15 % rms along the table, caught the finger. "
                      "guarded-move-actions reruns its test draws with other walls: the count "
-                     "follows the coefficient.",
+                     "follows the walls' coefficient.",
     "corner-integral-force": "The thesis's command, read (0.1, 0.1, -0.2) N in the simulator's "
-                             "axes, presses 0.2 N on the table: the wood's 0.40 x 0.2 N plus "
-                             "the plastic wall's 0.35 x 0.1 N (0.115 N) exceed the 0.1 N "
-                             "pushing along the wall, so the finger stops on it. Measured on "
-                             "seed 1 with 30-s runs: with the wood's coefficient at 0.2 (the "
-                             "handbook's low end for wood on metal; 0.2-0.6) 5 of 5 runs "
-                             "crawl into the corner, at its 0.40 none. The wood's coefficient "
-                             "also sets the position controller's stick-slip (9.1.1-9.1.2) "
-                             "and every page with a wooden surface, so it is left to one "
-                             "calibration of the wood against all of those statements.",
+                             "axes, pushes 0.1 N along the YZ wall against the table's and the "
+                             "wall's friction (contactlab.sim.materials table_wood: at the "
+                             "table's 0.25 or 0.30 it stays on the wall, seed 1, 30 s).",
     "moving-vs-stationary": "A free, moving PHANToM on a rigid drive reaches the sensor only "
                             "through the shell's inertia: the drive's force noise (the DAC's steps "
                             "while the command changes, brush/cable friction ripple, commutation "

@@ -179,6 +179,7 @@ def _report(res, angles, sig, secs, graph, walls, *, out_dir: Path, seed: int) -
     n = len(res["actions"]["trials"])
     reached = _reached(res["actions"])
     spec_wall = next(iter(walls))
+    fr = _friction(spec_wall)
     page.paragraph(
         f"Training: the 20 runs of datasets_spec/guarded-move-actions.toml simulated with seed "
         f"{seed}; test: the same spec with seed {seed + 1}. Each run: at rest, a guarded move "
@@ -239,15 +240,14 @@ def _report(res, angles, sig, secs, graph, walls, *, out_dir: Path, seed: int) -
            + " deg) it stick-slips along the YZ wall or stops on it" if stuck else "")
         + ". 9.1.3's sticking analysis has every angle in [-10, 45] deg reach the corner and "
         "the finger stick on the YZ wall below -10 deg (facts corner-window and "
-        "corner-stick-below of 'reproduce apparatus', written before the walls' friction was "
-        "identified from them). The walls' material is not stated; with the wooden table's "
-        "0.40 x 0.1 N the third push slides along the YZ wall down to -10 deg by Coulomb's "
-        "law only for a wall coefficient of at most 0.355, and the spec's walls are hard "
-        f"plastic (0.35: it slides from {wall_windows(spec_wall)['with_table'][0]:.1f} deg; "
-        "the handbook aluminium of the earlier spec, 0.61, stops it below +0.5 deg). At the edge "
-        "itself the table decides: its friction varies along the wood (15 % rms), and a "
-        "finger that meets a rougher patch there sticks. "
-        "Runs are scored against where the finger went.")
+        "corner-stick-below of 'reproduce apparatus', written before the table's and the "
+        "walls' friction were identified from them and 9.1.2's statements). The walls' "
+        f"material is not stated; with the table's {fr['table']:.2f} x {fr['load']:.2g} N "
+        "the third push slides along the YZ wall at -10 deg and sticks at -20 deg by "
+        f"Coulomb's law for a wall coefficient in {fr['lo']:.2f}..{fr['hi']:.2f}, and the "
+        f"spec's walls are {spec_wall.replace('_', ' ')} ({fr['wall']:.2f}: it slides from "
+        f"{wall_windows(spec_wall)['with_table'][0]:.1f} deg). Runs are scored against where "
+        "the finger went; the table below reruns the same draws with other walls.")
     _wall_table(page, walls, angles, seed, spec_wall)
     a = res["actions"]
     stuck_read = [t for t, e in a["trials"].items()
@@ -280,6 +280,26 @@ def _report(res, angles, sig, secs, graph, walls, *, out_dir: Path, seed: int) -
     return summary
 
 
+def _friction(wall: str) -> dict:
+    """The spec's table and ``wall`` coefficients, the third move's load on the table, and
+    the wall coefficients (lo, hi) for which that push sticks at -20 deg and slides at -10
+    deg (Coulomb, with the table's friction)."""
+    from contactlab.acquire.spec import load_spec
+    from contactlab.sim.materials import get_material
+
+    g = load_spec(SPEC).groups[0]
+    fx, fy, fz = g.controller["forces"][-1]["force_n"]
+    table = get_material(g.environment["material"]).mu_static
+
+    def edge(angle):                   # the wall coefficient at which the push just slides
+        a = np.radians(angle)
+        along, into = fx * np.cos(a) + fy * np.sin(a), -fx * np.sin(a) + fy * np.cos(a)
+        return (along - table * max(-fz, 0.0)) / into
+
+    return {"table": table, "load": max(-fz, 0.0), "wall": get_material(wall).mu_static,
+            "lo": edge(-20.0), "hi": edge(-10.0)}
+
+
 def _window(w) -> str:
     return "none" if w is None else f"{w[0]:.1f}..{w[1]:.1f}"
 
@@ -301,7 +321,7 @@ def _wall_table(page, walls, angles, seed, spec_wall) -> None:
                      ", ".join(f"{v} {k}" for k, v in kinds.items())])
     page.table(rows, columns=["walls", "static / kinetic friction on steel",
                               "Coulomb window, wall alone (deg)",
-                              "with the table's 0.40 x 0.1 N (deg)",
+                              "with the table's friction (deg)",
                               "runs ending in the corner", "ends"],
                caption=f"The cause varied: the 20 test draws (seed {seed + 1}: the same wall "
                        "angles and starts) rerun with the walls made of other materials, "
