@@ -25,7 +25,11 @@ def test_the_graphs_hold_the_thesis_sequence_and_its_variants():
     assert all(g.nodes[idx[n]].transient for n in ("8", "9", "10"))
     p = corner_graph("position")
     pi = {n: i for i, n in enumerate(p.node_names)}
-    assert {(pi["3"], pi["6"]), (pi["6"], pi["3"]), (pi["6"], pi["8"])} <= set(p.edges)
+    # a stuck node per surface: a table stick slips on along the table, a wall stick
+    # along the wall
+    assert {(pi["3"], pi["6t"]), (pi["6t"], pi["3"]), (pi["6t"], pi["8"]),
+            (pi["5"], pi["6"]), (pi["6"], pi["5"])} <= set(p.edges)
+    assert not {(pi["6t"], pi["5"]), (pi["6"], pi["3"])} & set(p.edges)
     assert (idx["3"], idx["6"]) not in edges          # sticking is the position graph's
     x = corner_graph("xz")
     assert "7" in x.node_names and x.models["CXZ"].params["constraint"] == "XZ"
@@ -35,7 +39,7 @@ def test_the_graphs_hold_the_thesis_sequence_and_its_variants():
 
 def test_label_map_covers_the_nodes_and_surfaces():
     assert set(LABEL_NODES.values()) <= set(corner_graph("force").node_names)
-    assert set(SURFACE) == set(corner_graph("xz").node_names)
+    assert set(SURFACE) == set(corner_graph("xz").node_names) | set(corner_graph("position").node_names)
 
 
 def test_surfaces_merge_and_read_sticks():

@@ -30,6 +30,7 @@ CORNER_LABEL_NODES = {"free-fixed": "0", "free-moving": "1", "floor-fixed": "2",
 #: node -> the surface it stands for
 CORNER_SURFACES = {"0": "free", "1": "free", "8": "table", "2": "table", "3": "table",
                    "9": "wall", "4": "wall", "5": "wall", "10": "corner", "6": "corner",
+                   "6t": "corner",
                    "7": "XZ wall"}
 #: truth runs shorter than this many samples (50 ms at 250 Hz) are contact chatter
 MIN_RUN = 12
