@@ -223,3 +223,57 @@ def test_graph_learn_models_from_a_bundled_graph(tmp_path):
                                   "hf-gaussian", "--models", "velocity", "--label-map", lmap,
                                   "--out", str(tmp_path / "h.toml")])
     assert r.exit_code == 2 and "give one of them" in r.output
+
+
+def test_a_phase_recorded_with_another_sensor_offset_is_still_that_phase(archive, tmp_path,
+                                                                          monkeypatch):
+    # a wrist sensor not zeroed again between recordings: the test recording's force sits
+    # 1.5 N above the training ones'.  Trained on one recording, a phase's force is known
+    # to the noise within it (0.3 N), and "mated" (3 N) lifted to 4.5 N fits the broad
+    # "engage" (6-12 N) better; the phase models' offset between recordings (1 N,
+    # contactlab.signals.PHASE_OFFSET_SD) keeps it mated
+    import contactlab.signals as signals
+
+    df = _recording(7)
+    df["fz"] += 1.5
+    f = tmp_path / "offset.csv"
+    df.to_csv(f, index=False)
+    other = tmp_path / "offset.h5"
+    r = CliRunner().invoke(main, ["import", str(f), "--out", str(other), "-q", "--columns",
+                                  COLUMNS])
+    assert r.exit_code == 0, r.output
+    g = tmp_path / "learned.toml"
+    train = ["--trial", "run0", "--trial", "run1"]
+    r = CliRunner().invoke(main, ["graph", "learn", str(archive), *train, "--label-map", MAP,
+                                  "--out", str(g), "--json"])
+    lmap = json.loads(r.stdout)["label_map"]
+
+    def accuracy(offset):
+        monkeypatch.setattr(signals, "PHASE_OFFSET_SD", offset)
+        m = tmp_path / f"m{offset[0]}.h5"
+        r = CliRunner().invoke(main, ["train", str(archive), *train, "--graph", str(g),
+                                      "--label-map", lmap, "--out", str(m), "-q"])
+        assert r.exit_code == 0, r.output
+        r = CliRunner().invoke(main, ["recognize", str(other), "--graph", str(g), "--models",
+                                      str(m), "--label-map", MAP, "--json", "-q",
+                                      "--no-write"])
+        assert r.exit_code == 0, r.output
+        return json.loads(r.stdout)["accuracy"]
+
+    with_offset, without = accuracy((1.0, 0.1)), accuracy((0.0, 0.0))
+    assert with_offset > 0.9 and with_offset > without + 0.1, (with_offset, without)
+
+
+def test_the_phase_offset_adds_its_variance_to_the_trained_covariance():
+    from contactlab.signals import phase_offset_sd
+
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(500, 9))
+    sd = phase_offset_sd(9)
+    assert sd.tolist() == [1.0] * 3 + [0.1] * 3 + [0.0] * 3
+    plain = GaussianFeature(name="a", ridge=0.0).fit([x])
+    wide = GaussianFeature(name="a", ridge=0.0, offset_sd=sd).fit([x])
+    assert np.allclose(wide.cov - plain.cov, np.diag(sd ** 2), atol=1e-11)
+    assert np.allclose(plain.cov, np.cov(x, rowvar=False), atol=1e-11)
+    with pytest.raises(ValueError):
+        GaussianFeature(name="a", offset_sd=sd[:6]).fit([x])

@@ -28,7 +28,7 @@ from contactlab.observer.models.constraint import K, ConstraintFeature, parse_co
 from contactlab.observer.models.gaussian import (GaussianFeature, read_gaussian_models,
                                                  write_gaussian_models)
 from contactlab.observer.models.velocity import FixedVelocity, MovingVelocity
-from contactlab.signals import CONTACT_SIGNALS
+from contactlab.signals import CONTACT_SIGNALS, PHASE, phase_offset_sd
 
 __all__ = ["kinematic_specs", "fit_kinematic_models", "write_kinematic_models",
            "read_kinematic_models", "parse_label_map", "check_label_map", "check_map_sources",
@@ -201,7 +201,10 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
                                           position_sd=pos_sd, force_sd=frc_sd, signal=signal)
                 out["constraint"][label] = model.fit(segs)
             elif kind == "gaussian":
-                out["gaussian"][label] = GaussianFeature(name=label, signal=signal).fit(segs)
+                offset = (phase_offset_sd(segs[0].shape[1]) if signal == PHASE
+                          and segs[0].ndim == 2 and segs[0].shape[1] in (6, 9) else None)
+                out["gaussian"][label] = GaussianFeature(name=label, signal=signal,
+                                                         offset_sd=offset).fit(segs)
             else:
                 out["velocity"][label] = _VELOCITY[kind](name=label).fit(segs)
         except ValueError as exc:
