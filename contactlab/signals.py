@@ -87,7 +87,8 @@ PHASE_CUTOFF_HZ = 5.0
 #: s07->s03; none 0.945 / 0.998 / 0.882 / 0.853; 0.5 N, 0.05 N m 0.971 / 0.998 / 0.946 /
 #: 0.901; 1 N, 0.1 N m 0.969 / 0.998 / 0.947 / 0.945; 2 N, 0.2 N m 0.967 / 0.987 / 0.947 /
 #: 0.946): the one setting at or above the supervised HMM and the random forest (within
-#: 0.001) on every split.
+#: 0.001) on every split.  A wrist-sensor scale: a graph's Gaussian model sets its own
+#: (``wrench_offset_sd = [N, N m]``) for an apparatus whose forces are far smaller.
 PHASE_OFFSET_SD = (1.0, 0.1)
 #: channel reductions of :func:`trial_signals`
 REDUCE = ("mean", "none")
@@ -470,14 +471,15 @@ def phase_stream(trial, path=None) -> np.ndarray:
     return np.ascontiguousarray(lfilter(b, a, x, axis=0, zi=zi)[0])
 
 
-def phase_offset_sd(channels: int) -> np.ndarray:
+def phase_offset_sd(channels: int, wrench_sd=None) -> np.ndarray:
     """Per channel of a phase stream of ``channels`` (9: wrench then velocity; 6: the
-    wrench alone), the standard deviation of its offset between recordings
-    (:data:`PHASE_OFFSET_SD` on the wrench, 0 on the velocity)."""
+    wrench alone), the standard deviation of its offset between recordings: ``wrench_sd``
+    (force N, torque N m; default :data:`PHASE_OFFSET_SD`) on the wrench, 0 on the
+    velocity."""
     if channels not in (6, 9):
         raise ValueError(f"a phase stream has 6 or 9 channels; got {channels}")
     out = np.zeros(channels)
-    out[:3], out[3:6] = PHASE_OFFSET_SD
+    out[:3], out[3:6] = PHASE_OFFSET_SD if wrench_sd is None else wrench_sd
     return out
 
 

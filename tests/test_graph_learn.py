@@ -277,3 +277,16 @@ def test_the_phase_offset_adds_its_variance_to_the_trained_covariance():
     assert np.allclose(plain.cov, np.cov(x, rowvar=False), atol=1e-11)
     with pytest.raises(ValueError):
         GaussianFeature(name="a", offset_sd=sd[:6]).fit([x])
+
+
+def test_a_graph_sets_its_phase_models_offset_and_a_bad_one_names_the_field():
+    from contactlab.errors import ContactlabError
+
+    doc = graph_from_labels([["a", "b"]], {"1": "a", "2": "b"}, name="g")
+    doc["models"]["a"]["wrench_offset_sd"] = [0.01, 0.001]
+    g = parse_graph(doc, source="g.toml")
+    assert g.models["a"].params["wrench_offset_sd"] == (0.01, 0.001)
+    doc["models"]["a"]["wrench_offset_sd"] = [1.0]
+    with pytest.raises(ContactlabError) as e:
+        parse_graph(doc, source="g.toml")
+    assert "models.a.wrench_offset_sd" in str(e.value)

@@ -39,7 +39,7 @@ MODEL_KINDS: dict[str, dict[str, bool]] = {
     "constraint": {"constraint": True, "trained": False, "mode": False, "rotate_deg": False,
                    "noise_scale": False, "offset_sd": False, "prior_samples": False,
                    "change_size": False, "position_sd": False, "force_sd": False},
-    "gaussian": {"trained": False},
+    "gaussian": {"trained": False, "wrench_offset_sd": False},
 }
 #: kinds a graph may name that the observer cannot run, with the reason
 UNAVAILABLE_KINDS: dict[str, str] = {}
@@ -479,6 +479,14 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
             _check_impact_prior(params, where, err)
         if kind == "constraint":
             _check_constraint(params, where, err)
+        if "wrench_offset_sd" in params:
+            v = params["wrench_offset_sd"]
+            if not (isinstance(v, list) and len(v) == 2 and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool)
+                    and math.isfinite(x) and x >= 0 for x in v)):
+                raise err(f"{where}.wrench_offset_sd", "must be [force N, torque N m], two "
+                          f"numbers >= 0; got {v!r}")
+            params["wrench_offset_sd"] = tuple(float(x) for x in v)
         out[name] = ModelSpec(name, kind, signal, params)
     _check_one_signal_per_label(out, err)
     return out

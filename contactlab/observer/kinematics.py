@@ -201,8 +201,10 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
                                           position_sd=pos_sd, force_sd=frc_sd, signal=signal)
                 out["constraint"][label] = model.fit(segs)
             elif kind == "gaussian":
-                offset = (phase_offset_sd(segs[0].shape[1]) if signal == PHASE
-                          and segs[0].ndim == 2 and segs[0].shape[1] in (6, 9) else None)
+                offset = (phase_offset_sd(segs[0].shape[1],
+                                          spec.params.get("wrench_offset_sd"))
+                          if signal == PHASE and segs[0].ndim == 2
+                          and segs[0].shape[1] in (6, 9) else None)
                 out["gaussian"][label] = GaussianFeature(name=label, signal=signal,
                                                          offset_sd=offset).fit(segs)
             else:
