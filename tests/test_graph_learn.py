@@ -290,3 +290,26 @@ def test_a_graph_sets_its_phase_models_offset_and_a_bad_one_names_the_field():
     with pytest.raises(ContactlabError) as e:
         parse_graph(doc, source="g.toml")
     assert "models.a.wrench_offset_sd" in str(e.value)
+
+
+def test_graph_learn_says_when_the_phases_forces_are_small_beside_the_offset(tmp_path):
+    # forces of a PHANToM-sized task (phases 0.1 N apart) against the 1 N wrist-sensor
+    # offset the phase models allow: graph learn says so; a wrist-scale task (the module's
+    # 3-12 N phases) gets no note
+    from contactlab.observer.graph_learn import small_forces_note
+
+    df = _recording(3)
+    for c in ("fx", "fy", "fz", "tx", "ty", "tz"):
+        df[c] = df[c] / 100.0
+    f = tmp_path / "small.csv"
+    df.to_csv(f, index=False)
+    arc = tmp_path / "small.h5"
+    r = CliRunner().invoke(main, ["import", str(f), "--out", str(arc), "-q", "--columns", COLUMNS])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["graph", "learn", str(arc), "--label-map", MAP, "--out",
+                                  str(tmp_path / "g.toml"), "--json"])
+    assert r.exit_code == 0, r.output
+    notes = json.loads(r.stdout)["notes"]
+    assert any("wrench_offset_sd" in n for n in notes), notes
+    big = {"a": {"force": np.array([0.0, 0.0, 3.0])}, "b": {"force": np.array([0.0, 0.0, 12.0])}}
+    assert small_forces_note(big) == []

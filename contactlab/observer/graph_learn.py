@@ -74,6 +74,7 @@ from contactlab.errors import DataError
 from contactlab.signals import factor_for, relabel
 
 __all__ = ["label_sequences", "count_transitions", "graph_from_labels", "learn_from_labels",
+           "small_forces_note",
            "base_document",
            "ACTION", "CONTACT_N", "EXTRA_FAMILIES", "OUTSIDE", "outside_map"]
 
@@ -329,8 +330,28 @@ def learn_from_labels(archives, label_map: dict, *, trials=None, name: str | Non
                "initial": {n["name"]: n.get("initial", 0.0) for n in doc["nodes"]},
                "transitions": {f"{a} -> {b}": n for (a, b), n in sorted(pairs.items())},
                "models": {n["name"]: n["models"] for n in doc["nodes"]},
-               "notes": unmatched_map_note(label_map, raw_labels, src)}
+               "notes": unmatched_map_note(label_map, raw_labels, src)
+               + ([] if base is not None else small_forces_note(stats))}
     return doc, summary
+
+
+def small_forces_note(stats: dict) -> list[str]:
+    """A note (in a list, empty when none) when the phases' mean forces differ by less
+    than three times the wrench offset between recordings that the phase models allow
+    (:data:`contactlab.signals.PHASE_OFFSET_SD`, a wrist sensor's scale): an apparatus
+    with forces that small should set its own (``wrench_offset_sd``)."""
+    from contactlab.signals import PHASE_OFFSET_SD
+
+    means = np.array([v["force"] for v in stats.values() if np.any(v["force"] != 0)])
+    if len(means) < 2:
+        return []
+    spread = float(np.max(means.max(axis=0) - means.min(axis=0)))
+    if spread >= 3.0 * PHASE_OFFSET_SD[0]:
+        return []
+    return [f"the phases' mean forces differ by at most {spread:.3g} N, beside the "
+            f"{PHASE_OFFSET_SD[0]:g} N offset between recordings the phase models allow "
+            "(a wrist sensor's scale): for an apparatus with forces this small, set "
+            "wrench_offset_sd = [force N, torque N m] in the graph's gaussian models"]
 
 
 def base_document(graph) -> dict:
