@@ -290,6 +290,10 @@ def test_a_graph_sets_its_phase_models_offset_and_a_bad_one_names_the_field():
     with pytest.raises(ContactlabError) as e:
         parse_graph(doc, source="g.toml")
     assert "models.a.wrench_offset_sd" in str(e.value)
+    doc["models"]["a"].update(wrench_offset_sd=[0.01, 0.001], signal="hf")
+    with pytest.raises(ContactlabError) as e:            # an offset of the phase stream only
+        parse_graph(doc, source="g.toml")
+    assert "models.a.wrench_offset_sd" in str(e.value)
 
 
 def test_graph_learn_says_when_the_phases_forces_are_small_beside_the_offset(tmp_path):

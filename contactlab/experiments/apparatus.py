@@ -404,7 +404,8 @@ def corner_integral_force(seed: int, *, apparatus: dict | None = None) -> dict:
         if g.controller.get("kind") == "integral_force":
             break
         first += g.trials
-    ends = [_ends_in(simulate_trial(spec, k, seed)[1]) for k in range(first, first + g.trials)]
+    ends = corner_ends(seed, spec="guarded-move-multi", apparatus=apparatus,
+                       trials=range(first, first + g.trials))
     return {"corner-integral-force": float(np.mean([e == "corner" for e in ends])),
             "_corner_integral_force": ends}
 

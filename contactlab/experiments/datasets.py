@@ -368,11 +368,24 @@ def wall_slide_margin(force, angle_deg: float, mu_floor: float, mu_wall: float) 
     -y), minus the Coulomb friction of floor and wall it must overcome, for a finger pressed
     with ``force`` (fx, fy, fz; fz < 0 presses on the floor). Negative: the finger sticks to
     the wall (the sticking analysis of 9.1.3, with the floor's friction included)."""
+    along, into, load = wall_push(force, angle_deg)
+    return float(along - mu_floor * load - mu_wall * into)
+
+
+def wall_push(force, angle_deg: float = 0.0) -> tuple[float, float, float]:
+    """A push ``force`` (fx, fy, fz, N; fz < 0 presses on the table) split for the YZ wall
+    turned ``angle_deg`` about z: (along the wall, into it (>= 0), onto the table (>= 0))."""
     a = np.radians(angle_deg)
     fx, fy, fz = (float(v) for v in force)
-    along = fx * np.cos(a) + fy * np.sin(a)
-    into = max(-fx * np.sin(a) + fy * np.cos(a), 0.0)
-    return float(along - mu_floor * max(-fz, 0.0) - mu_wall * into)
+    return (float(fx * np.cos(a) + fy * np.sin(a)),
+            max(float(-fx * np.sin(a) + fy * np.cos(a)), 0.0), max(-fz, 0.0))
+
+
+def wall_coefficient_edge(force, angle_deg: float, mu_floor: float) -> float:
+    """The wall coefficient at which ``force`` just slides along the YZ wall turned
+    ``angle_deg`` (:func:`wall_slide_margin` = 0): it sticks on walls with more."""
+    along, into, load = wall_push(force, angle_deg)
+    return (along - mu_floor * load) / into
 
 
 def corner_friction(spec) -> tuple[float, float]:
@@ -389,11 +402,7 @@ def friction_budget(force, mu_floor: float, mu_wall: float, angle_deg: float = 0
     """9.1.3's sticking analysis with the table's friction, as text: the Coulomb friction a
     push ``force`` (fx, fy, fz, N; fz < 0 presses on the table) meets on the table and on
     the YZ wall turned ``angle_deg``, against its component along the wall."""
-    a = np.radians(angle_deg)
-    fx, fy, fz = (float(v) for v in force)
-    along = fx * np.cos(a) + fy * np.sin(a)
-    into = max(-fx * np.sin(a) + fy * np.cos(a), 0.0)
-    load = max(-fz, 0.0)
+    along, into, load = wall_push(force, angle_deg)
     held = mu_floor * load + mu_wall * into
     return (f"table {mu_floor:.2f} x {load:.2g} N + wall {mu_wall:.2f} x {into:.2g} N = "
             f"{held:.3g} N of friction {'>' if held > along else '<'} the {along:.2g} N "
@@ -413,17 +422,13 @@ def _trial_end_state(r, wall: int = 1, tail_s: float = 0.1) -> str:
 
 
 def _actions(spec, runs) -> list[dict]:
-    from contactlab.sim.materials import get_material
-
     angles = [wall_angle_deg(plan.environment) for plan, _, _ in runs]
     ok = [corner_reached(r.contact) for _, r, _ in runs]
     state = [_trial_end_state(r) for _, r, _ in runs]
     speed = [float(np.linalg.norm(r.fingertip_velocity[-round(0.5 * r.rate_hz):, :2],
                                   axis=1).mean()) for _, r, _ in runs]
     plan0 = runs[0][0]
-    planes = {p.name: p for p in plan0.environment.planes}
-    mu_f = get_material(planes["floor"].material).mu_static
-    mu_w = get_material(planes["wall_y"].material).mu_static
+    mu_f, mu_w = corner_friction(spec)
     push = plan0.controller.forces[-1][1]
     margin = [wall_slide_margin(push, a, mu_f, mu_w) for a in angles]
     k, n = sum(ok), len(ok)

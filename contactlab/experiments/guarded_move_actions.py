@@ -155,15 +155,12 @@ def _spec_wall() -> str:
 def wall_windows(material: str) -> dict:
     """The Coulomb window of the third move on walls of ``material``: the wall angles
     (deg, 0.5-deg grid over -30..60) at which the spec's last push slides along the YZ wall
-    (:func:`contactlab.experiments.datasets.wall_slide_margin` > 0), with the wooden
-    table's static friction and, as 9.1.3's analysis, without it."""
-    from contactlab.acquire.spec import load_spec
+    (:func:`contactlab.experiments.datasets.wall_slide_margin` > 0), with the table's
+    static friction and, as 9.1.3's analysis, without it."""
     from contactlab.experiments.datasets import wall_slide_margin
     from contactlab.sim.materials import get_material
 
-    g = load_spec(SPEC).groups[0]
-    push = g.controller["forces"][-1]["force_n"]
-    mu_f = get_material(g.environment["material"]).mu_static
+    push, mu_f = _push_and_table()
     mu_w = get_material(material).mu_static
     grid = np.arange(-30.0, 60.01, 0.5)
     out = {}
@@ -171,6 +168,15 @@ def wall_windows(material: str) -> dict:
         ok = grid[[wall_slide_margin(push, a, mf, mu_w) > 0 for a in grid]]
         out[key] = (float(ok.min()), float(ok.max())) if ok.size else None
     return out
+
+
+def _push_and_table() -> tuple[list, float]:
+    """The spec's third push (N) and its table's static coefficient."""
+    from contactlab.acquire.spec import load_spec
+    from contactlab.experiments.datasets import corner_friction
+
+    spec = load_spec(SPEC)
+    return spec.groups[0].controller["forces"][-1]["force_n"], corner_friction(spec)[0]
 
 
 def _report(res, angles, sig, secs, graph, walls, *, out_dir: Path, seed: int) -> dict:
@@ -284,20 +290,13 @@ def _friction(wall: str) -> dict:
     """The spec's table and ``wall`` coefficients, the third move's load on the table, and
     the wall coefficients (lo, hi) for which that push sticks at -20 deg and slides at -10
     deg (Coulomb, with the table's friction)."""
-    from contactlab.acquire.spec import load_spec
+    from contactlab.experiments.datasets import wall_coefficient_edge, wall_push
     from contactlab.sim.materials import get_material
 
-    g = load_spec(SPEC).groups[0]
-    fx, fy, fz = g.controller["forces"][-1]["force_n"]
-    table = get_material(g.environment["material"]).mu_static
-
-    def edge(angle):                   # the wall coefficient at which the push just slides
-        a = np.radians(angle)
-        along, into = fx * np.cos(a) + fy * np.sin(a), -fx * np.sin(a) + fy * np.cos(a)
-        return (along - table * max(-fz, 0.0)) / into
-
-    return {"table": table, "load": max(-fz, 0.0), "wall": get_material(wall).mu_static,
-            "lo": edge(-20.0), "hi": edge(-10.0)}
+    push, table = _push_and_table()
+    return {"table": table, "load": wall_push(push)[2], "wall": get_material(wall).mu_static,
+            "lo": wall_coefficient_edge(push, -20.0, table),
+            "hi": wall_coefficient_edge(push, -10.0, table)}
 
 
 def _window(w) -> str:
@@ -308,15 +307,13 @@ def _wall_table(page, walls, angles, seed, spec_wall) -> None:
     """The cause varied: the test draws rerun with walls of other materials."""
     from contactlab.sim.materials import get_material
 
-    window = _window
-
     rows = []
     for m, ends in walls.items():
         mat = get_material(m)
         w = wall_windows(m)
         kinds = {k: ends.count(k) for k in dict.fromkeys(ends)}
         rows.append([m.replace("_", " "), f"{mat.mu_static:.2f} / {mat.mu_kinetic:.2f}",
-                     window(w["wall_only"]), window(w["with_table"]),
+                     _window(w["wall_only"]), _window(w["with_table"]),
                      f"{kinds.get('corner', 0)}/{len(ends)}",
                      ", ".join(f"{v} {k}" for k, v in kinds.items())])
     page.table(rows, columns=["walls", "static / kinetic friction on steel",

@@ -206,7 +206,7 @@ def _report(res, expl, sig, secs, *, out_dir: Path, seed: int) -> dict:
         "lets a finger that stopped on the table go on to the wall. The position graph has a "
         "stuck (S,3,F) node per surface (6t on the table, 6 on the wall; as 9.1.1's "
         "guarded-move-stick-slip graph): with one shared node a stick on the table could slip "
-        "into the wall's sliding node, and did (1 of 5 runs tracked on this seed, against 5 "
+        "into the wall's sliding node, and did (1 of 5 runs tracked on seed 1, against 5 "
         "of 5). Runs are scored by the "
         "surfaces visited against the simulator's labels, not against the thesis's fixed "
         "sequence, because the simulated finger does not always reach the corner.")
@@ -283,8 +283,8 @@ def _headline(res, n) -> str:
 
 
 def _position_misses(r) -> str:
-    """Where the position-control runs tracked wrongly first leave the simulator's
-    surfaces: the first wrong surface and the merged path up to it."""
+    """Where the position-control runs tracked wrongly leave the simulator's surfaces:
+    the first wrong surface and the first eight nodes of the merged path."""
     parts = []
     for tid, e in r["trials"].items():
         sc = e["score"]

@@ -486,6 +486,9 @@ def _parse_models(raw, err) -> dict[str, ModelSpec]:
                     and math.isfinite(x) and x >= 0 for x in v)):
                 raise err(f"{where}.wrench_offset_sd", "must be [force N, torque N m], two "
                           f"numbers >= 0; got {v!r}")
+            if signal != "phase":
+                raise err(f"{where}.wrench_offset_sd", "is the phase stream's wrench offset; "
+                          f"this model reads {signal!r}")
             params["wrench_offset_sd"] = tuple(float(x) for x in v)
         out[name] = ModelSpec(name, kind, signal, params)
     _check_one_signal_per_label(out, err)

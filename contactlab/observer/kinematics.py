@@ -203,8 +203,7 @@ def fit_kinematic_models(graph: FeatureGraph, runs: dict, *, source: str | None 
             elif kind == "gaussian":
                 offset = (phase_offset_sd(segs[0].shape[1],
                                           spec.params.get("wrench_offset_sd"))
-                          if signal == PHASE and segs[0].ndim == 2
-                          and segs[0].shape[1] in (6, 9) else None)
+                          if signal == PHASE else None)
                 out["gaussian"][label] = GaussianFeature(name=label, signal=signal,
                                                          offset_sd=offset).fit(segs)
             else:
