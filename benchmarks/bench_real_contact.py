@@ -8,7 +8,8 @@ train on the first 14, recognise the other 13; rotation, insertion and mating co
 contact).  Both are imported with the tool's orientation (the wrench is measured in the
 sensor's axes, the position in the base frame).  Ours: ``train --graph free-contact
 --label-map ...`` then ``recognize`` with default flags, points of the conditioned time
-base.  Peer: the force threshold ``|F| > k
+base (the payload's weight refitted where the tool turns: :func:`contactlab.observer.
+recognize.observe_trial`).  Peer: the force threshold ``|F| > k
 sigma`` (:class:`contactlab.peers.force_threshold.ForceThreshold`) with ``k`` chosen on
 the training trials, on the raw samples; and, on the points and per-sample features of
 ``bench_real_phases`` (the ``phase`` stream: the wrench in the base frame and the velocity

@@ -117,6 +117,13 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
     the changes its detectors reported (every alarm the observer acted on, not
     the recognised path's changes, which merged_path lists).
 
+    A wrist sensor in a turning tool reads the tool's weight turning in its
+    axes: on a trial with the tool's orientation (import with orientation or
+    rpy) and a graph with a free-space node on the contact signals, the
+    weight and the sensor's offset are fitted to the free space the first
+    pass finds, and the trial is recognised again on the force less them
+    (up to four passes; trials.ID.payload in --json).
+
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context
     graph's action-dependent edges read the archive's action channel, or

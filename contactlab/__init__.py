@@ -13,6 +13,7 @@ Subpackages and modules follow the thesis's figure 1.3 / 6.1, one box each:
 - :mod:`contactlab.archive`       HDF5 trace archives (format in ``datasets_spec/ARCHIVE.md``)
 - :mod:`contactlab.conditioning`  signal conditioning of section 7.1
 - :mod:`contactlab.signals`       trials to conditioned signals and ground truth (7.1)
+- :mod:`contactlab.payload`       a turning tool's weight and a wrist sensor's offset
 - :mod:`contactlab.estimators`    square-root estimators of appendix A
 - :mod:`contactlab.detection`     Page-Hinkley change detection of section 6.3.1
 - :mod:`contactlab.segmentation`  change-detector segmentation of strains and forces (7.2.1)
@@ -112,7 +113,7 @@ _EXPORTS = {
 
 #: the subpackages and modules, reachable as attributes (``contactlab.observer``)
 _SUBMODULES = (
-    "archive", "conditioning", "signals", "estimators", "detection", "segmentation",
+    "archive", "conditioning", "signals", "payload", "estimators", "detection", "segmentation",
     "segmenter", "temporal", "observer", "constraints", "planar", "maze", "sim", "acquire",
     "synthetic", "peers", "experiments", "report", "metrics", "export", "errors", "cli",
 )

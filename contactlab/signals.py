@@ -250,7 +250,7 @@ def conditioned_signal(trial, signal: str | None = None) -> tuple[np.ndarray, np
     return s.y, s.times, s.fs
 
 
-def trial_signals(trial, signals, *, reduce: str = "none", path=None
+def trial_signals(trial, signals, *, reduce: str = "none", path=None, payload=None
                   ) -> tuple[dict[str, np.ndarray], np.ndarray, float]:
     """The observer's measurement streams of a trial on one conditioned time base.
 
@@ -260,7 +260,8 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     :func:`factor_for`-th sample from the factor's last when no conditioned signal is
     asked for).  ``reduce="mean"`` replaces a
     conditioned signal's channels by their mean.  All streams are cut to the
-    shortest.
+    shortest.  ``payload``: a :class:`~contactlab.payload.Payload` whose correction the
+    contact signals' base-frame force subtracts (a trial with its orientation only).
     """
     if reduce not in REDUCE:
         raise ValueError(f"reduce must be one of {REDUCE}; got {reduce!r}")
@@ -275,7 +276,8 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
             if contact is None:
                 w = condition(trial, "wrench", path=path)
                 p = condition(trial, "position", path=path)
-                contact = (np.concatenate([p.y[:, :3], _base_force(trial, w, path)], axis=1),
+                contact = (np.concatenate([p.y[:, :3], _base_force(trial, w, path, payload)],
+                                          axis=1),
                            w.index)
             out[s] = contact[0]
             indices.append(contact[1])
@@ -314,7 +316,7 @@ def trial_signals(trial, signals, *, reduce: str = "none", path=None
     return out, index[:n], fs
 
 
-def _base_force(trial, wrench: Signal, path) -> np.ndarray:
+def _base_force(trial, wrench: Signal, path, payload=None) -> np.ndarray:
     """The conditioned force of ``wrench`` (the trial's conditioned wrench) in the
     position's (base) axes.
 
@@ -324,8 +326,10 @@ def _base_force(trial, wrench: Signal, path) -> np.ndarray:
     (``wrench_frame == "sensor"``) has its raw force rotated into the base frame
     before the 7.1 lowpass (the lowpass is linear: this is the conditioned
     base-frame force); without an orientation the force is taken as it is (a tool
-    that does not turn, or a wrench already in the base frame)."""
-    q = _sensor_orientation(trial)
+    that does not turn, or a wrench already in the base frame).  ``payload``
+    (:class:`~contactlab.payload.Payload`): its correction is subtracted from the
+    rotated force, before the lowpass."""
+    q = sensor_orientation(trial)
     if q is None:
         return wrench.y[:, :3]
     from contactlab.archive.importer import rotate_vectors
@@ -333,10 +337,12 @@ def _base_force(trial, wrench: Signal, path) -> np.ndarray:
     raw = _raw(trial, "wrench", path)[:, :3]
     q = q[: len(raw)]
     f = rotate_vectors(q, raw[: len(q)])
+    if payload is not None:
+        f = f - payload.correction(q)
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 
-def _sensor_orientation(trial) -> np.ndarray | None:
+def sensor_orientation(trial) -> np.ndarray | None:
     """The tool's orientation (n, 4) when ``trial`` carries it and its wrench is as
     measured (in the sensor's axes): what turns the force into the base frame; else None."""
     q = getattr(trial, "orientation", None)
@@ -346,10 +352,10 @@ def _sensor_orientation(trial) -> np.ndarray | None:
 
 
 def _base_wrench(trial, raw: np.ndarray) -> np.ndarray:
-    """The raw wrench (n, 6) in the base frame's axes where :func:`_sensor_orientation`
+    """The raw wrench (n, 6) in the base frame's axes where :func:`sensor_orientation`
     gives an orientation (force and torque each rotated,
     :func:`~contactlab.archive.importer.rotate_wrench`); else as it is."""
-    q = _sensor_orientation(trial)
+    q = sensor_orientation(trial)
     if q is None:
         return raw
     from contactlab.archive.importer import rotate_wrench

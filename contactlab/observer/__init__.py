@@ -23,7 +23,7 @@ from contactlab.observer.models import (CompositeNode, FeatureModel, FixedVeloci
 from contactlab.observer.observer import (Observer, ObserverResult, ObserverStep, labels_from_path,
                                           observe)
 from contactlab.observer.paths import ChangeEvent, PathInfo
-from contactlab.observer.recognize import recognize_archive, recognize_trial
+from contactlab.observer.recognize import observe_trial, recognize_archive, recognize_trial
 from contactlab.observer.training import GraphModels, fit_graph, train_graph
 from contactlab.signals import trial_signals
 
@@ -33,6 +33,6 @@ __all__ = [
     "MovingVelocity", "CompositeNode", "build_models", "node_models",
     "Observer", "ObserverStep", "ObserverResult", "observe", "labels_from_path",
     "ChangeEvent", "PathInfo",
-    "recognize_archive", "recognize_trial", "GraphModels", "train_graph", "fit_graph",
+    "recognize_archive", "recognize_trial", "observe_trial", "GraphModels", "train_graph", "fit_graph",
     "trial_signals",
 ]

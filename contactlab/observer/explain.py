@@ -35,9 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from contactlab.observer.observer import Observer, observe
-from contactlab.observer.recognize import (detection_delays, merge_path, observer_setup,
-                                          trial_actions)
+from contactlab.observer.observer import Observer
+from contactlab.observer.recognize import detection_delays, merge_path, observe_trial
 from contactlab.signals import relabel, truth_codes
 
 __all__ = ["explain_trial", "format_explanation", "EXPLAIN_WINDOW_S"]
@@ -136,12 +135,11 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
                   observer_kw: dict | None = None, label_map: dict | None = None,
                   window_s: float = EXPLAIN_WINDOW_S, path=None) -> dict:
     """The explanation of one trial's recognition (module notes) as a JSON-able dict."""
-    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
-    obs = Observer(graph, models, **kw)
-    models = obs.models                     # as the observer weighs them
-    data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in data.items()}
-    act = action if action is not None else trial_actions(trial, graph, index, path=path)
-    res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act)
+    run = observe_trial(trial, graph, models, reduce=reduce, action=action,
+                        observer_kw=observer_kw, path=path)
+    obs, res, index, fs = run.observer, run.result, run.index, run.fs
+    models = run.models                     # as the observer weighs them
+    data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in run.data.items()}
     n = len(index)
     names = list(graph.node_names)
     truth = truth_codes(relabel(trial, label_map), index, names)

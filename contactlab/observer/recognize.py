@@ -44,13 +44,22 @@ from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.observer.paths import count_changes
 from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
-from contactlab.signals import relabel, trial_signals, truth_codes
+from contactlab.payload import Payload, fit_payload, free_mask
+from contactlab.signals import (CONTACT_SIGNALS, sensor_orientation, relabel, trial_signals,
+                                truth_codes)
 from contactlab.stages import Stage, TrialOutcome, run_stage
 
-__all__ = ["recognize_archive", "recognize_trial", "TrialRecognition",
+__all__ = ["recognize_archive", "recognize_trial", "TrialRecognition", "observe_trial",
+           "ObservedTrial",
            "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]
 
 STAGE = "recognize"
+#: the most passes of :func:`observe_trial` (the first as recorded, then with the payload
+#: fitted on the free space the pass before found)
+PAYLOAD_PASSES = 4
+#: a pass whose free space adds at most this share of the samples the payload was fitted
+#: on ends the passes
+PAYLOAD_GROWTH = 0.05
 DELAY_BINS = ("0", "1", "2", "3", ">3")
 
 
@@ -65,6 +74,8 @@ class TrialRecognition:
     fs: float
     #: how well the final MAP path's models fit the measurements (:mod:`contactlab.observer.fit`)
     fit: PathFit | None = None
+    #: the payload correction of the second pass (:func:`observe_trial`), or None
+    payload: Payload | None = None
 
 
 def merge_path(path) -> list[tuple[str, int]]:
@@ -165,34 +176,108 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
                     path=None, label_map: dict | None = None) -> TrialRecognition:
     """Run the observer over one archive trial (``models``: built model objects;
     ``label_map``: the trial's label names -> node names for the truth)."""
-    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path)
+    if getattr(trial, "labels", None) is not None:
+        check_map_sources(label_map, getattr(trial, "label_names", None),
+                          file=str(path) if path else None,
+                          field=f"/trials/{trial.id}/ground_truth/labels")
+    run = observe_trial(trial, graph, models, reduce=reduce, action=action,
+                        observer_kw=observer_kw, chunk=chunk, path=path)
+    truth = truth_codes(relabel(trial, label_map), run.index, graph.node_names)
+    times = np.asarray(trial.time, np.float64)[run.index]
+    fit = path_fit(graph, run.models, run.data, run.result.map_path, n=len(run.index))
+    return TrialRecognition(trial.id, run.result, times, truth, run.fs, fit, run.payload)
+
+
+@dataclass(frozen=True)
+class ObservedTrial:
+    """One trial through the observer: its result, the streams it read (``data`` on the
+    points whose newest raw sample is ``index``, at ``fs``), the models as the observer
+    weighed them, and the payload correction of the second pass (or None)."""
+
+    result: ObserverResult
+    data: dict
+    index: np.ndarray
+    fs: float
+    models: dict
+    observer: Observer
+    payload: Payload | None
+
+
+def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
+                  action=None, observer_kw: dict | None = None, chunk: int = 4096,
+                  path=None, payload: bool = True) -> ObservedTrial:
+    """The observer over one trial, again where the payload needs it.
+
+    A trial whose wrench was measured in a turning tool's axes (it carries its
+    orientation), read by a graph with a free-space node on the contact signals, is
+    observed as recorded; the payload's weight and the sensor's offset
+    (:func:`contactlab.payload.fit_payload`) are fitted on the samples the MAP path puts
+    in free space, and the trial is observed again with the force drift they explain
+    removed; and so on while the free space found grows (it grows when the first
+    passes read a drift as contact), at most :data:`PAYLOAD_PASSES` passes.  Other
+    trials, and every trial with ``payload=False``, are observed once."""
+    run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
+                        None)
+    free = _free_nodes(graph, models)
+    q = sensor_orientation(trial)
+    if not payload or not free or q is None:
+        return run
+    n_raw = min(len(q), len(trial.time))
+    force = np.asarray(trial.wrench, np.float64)[:n_raw, :3]
+    fitted_on = None
+    for _ in range(PAYLOAD_PASSES - 1):
+        mask = free_mask(run.result.map_path, run.index, free, n_raw,
+                         fs_raw=float(trial.rate_hz))
+        if fitted_on is not None and (mask & ~fitted_on).sum() \
+                <= PAYLOAD_GROWTH * fitted_on.sum():
+            break
+        fitted = fit_payload(q[:n_raw], force, mask, fs=float(trial.rate_hz))
+        if fitted is None:
+            break
+        del run                  # the last pass's streams: not held through the next
+        run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
+                            fitted)
+        fitted_on = mask
+    return run
+
+
+def _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
+                  payload) -> ObservedTrial:
+    kw, data, index, fs = observer_setup(trial, graph, models, observer_kw, reduce, path,
+                                         payload=payload)
     obs = Observer(graph, models, **kw)
-    models = obs.models                     # as the observer weighs them
     act = action if action is not None else trial_actions(trial, graph, index, path=path)
     if act is not None and not isinstance(act, str) and np.ndim(act) == 1 \
             and np.any(np.asarray(act) < 0):
         raise DataError("action codes not declared by the graph", file=str(path) if path
                         else None, field=f"/trials/{trial.id}/measurements/action")
-    if getattr(trial, "labels", None) is not None:
-        check_map_sources(label_map, getattr(trial, "label_names", None),
-                          file=str(path) if path else None,
-                          field=f"/trials/{trial.id}/ground_truth/labels")
     res = observe(obs, data if len(data) > 1 else next(iter(data.values())), action=act,
                   chunk=chunk)
-    truth = truth_codes(relabel(trial, label_map), index, graph.node_names)
-    times = np.asarray(trial.time, np.float64)[index]
-    fit = path_fit(graph, models, data, res.map_path, n=len(index))
-    return TrialRecognition(trial.id, res, times, truth, fs, fit)
+    return ObservedTrial(res, data, index, fs, obs.models, obs, payload)
+
+
+def _free_nodes(graph: FeatureGraph, models: dict) -> set[str]:
+    """The nodes of ``graph`` whose constraint model is free space (degree 0) on a
+    contact signal: where the payload's fit takes its samples."""
+    out = set()
+    for node in graph.nodes:
+        for m in node.model_names:
+            mod = models.get(m)
+            if getattr(mod, "degree", None) == 0 and getattr(mod, "signal", None) \
+                    in CONTACT_SIGNALS:
+                out.add(node.name)
+    return out
 
 
 def observer_setup(trial, graph: FeatureGraph, models: dict, observer_kw: dict | None,
-                   reduce: str, path=None):
+                   reduce: str, path=None, *, payload: Payload | None = None):
     """``(observer keywords, data, index, fs)`` of one trial: its streams for the graph's
-    models, and ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit)
-    turned into :class:`Observer`'s ``transient_max`` in samples at the trial's rate and
-    the trial's recorded rate as its ``rate_hz``."""
+    models (the contact signals' force less ``payload``'s correction, if given), and
+    ``observer_kw`` with ``transient_max_s`` (seconds; 0 or None: no limit) turned into
+    :class:`Observer`'s ``transient_max`` in samples at the trial's rate and the trial's
+    recorded rate as its ``rate_hz``."""
     signals = sorted({models[m].signal for m in graph.models})
-    data, index, fs = trial_signals(trial, signals, reduce=reduce, path=path)
+    data, index, fs = trial_signals(trial, signals, reduce=reduce, path=path, payload=payload)
     kw = observer_keywords(observer_kw, fs)
     kw["rate_hz"] = float(trial.rate_hz)
     return kw, data, index, fs
@@ -393,7 +478,8 @@ class RecognizeStage(Stage):
                  "merged_path": [[n, float(rec.times[max(s, 0)]) if len(rec.times)
                                   else s / rec.fs] for n, s in merge_path(r.map_path)],
                  "n_changes": count_changes(r.events),
-                 "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict()}
+                 "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict(),
+                 "payload": rec.payload.to_dict() if rec.payload is not None else None}
         if no_accuracy:
             entry["no_accuracy"] = no_accuracy
         extra = {"confusion": np.zeros((K, K), np.int64),
