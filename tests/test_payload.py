@@ -166,3 +166,29 @@ def test_recognition_removes_a_turning_payloads_drift(tmp_path):
     read_twice = twice.result.labels[free[twice.index]] == node
     assert read_twice.mean() > 0.95
     assert read_once.mean() < read_twice.mean() - 0.1     # the drift read as contact
+
+
+def test_a_payload_that_explains_nothing_is_not_kept(tmp_path):
+    """A zeroed sensor on a tool that does not turn: the fit is a tare of a few mN, the
+    second pass's path is no likelier by BIC's 3 log n, and the first pass is kept,
+    streams and all."""
+    from contactlab.archive import open_archive
+    from contactlab.observer import observe_trial
+    from contactlab.observer.recognize import bind_models
+
+    train, _ = _csv(tmp_path, "still", 11, 0.0)
+    test, _ = _csv(tmp_path, "still-too", 12, 0.0)
+    models = tmp_path / "m.h5"
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", "1=free,2=contact,3=free",
+                "--out", models, "-q")
+    assert r.exit_code == 0, r.output
+    graph, _, built = bind_models("free-contact", models)
+    with open_archive(test) as a:
+        tr = a.trial(a.trial_ids[0])
+        once = observe_trial(tr, graph, built, payload=False)
+        kept = observe_trial(tr, graph, built)
+    assert kept.payload is None
+    np.testing.assert_array_equal(kept.result.labels, once.result.labels)
+    assert kept.observer is not None
+    for s in once.data:
+        np.testing.assert_array_equal(kept.data[s], once.data[s])

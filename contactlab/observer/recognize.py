@@ -28,7 +28,7 @@ Choices where 7.3 is silent (also in the report):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -214,8 +214,12 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
     (:func:`contactlab.payload.fit_payload`) are fitted on the samples the MAP path puts
     in free space, and the trial is observed again with the force drift they explain
     removed; and so on while the free space found grows (it grows when the first
-    passes read a drift as contact), at most :data:`PAYLOAD_PASSES` passes.  Other
-    trials, and every trial with ``payload=False``, are observed once."""
+    passes read a drift as contact), at most :data:`PAYLOAD_PASSES` passes.  A pass is
+    kept only when its most probable path's log-likelihood exceeds the last kept one's
+    by more than the payload's six parameters cost by BIC, ``3 log n`` (``n`` points):
+    the same models explaining the corrected force better (a payload that changes
+    within the trial, an object picked up, is fitted by no one ``w``).  Other trials,
+    and every trial with ``payload=False``, are observed once."""
     run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                         None)
     free = _free_nodes(graph, models)
@@ -234,11 +238,25 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
         fitted = fit_payload(q[:n_raw], force, mask, fs=float(trial.rate_hz))
         if fitted is None:
             break
-        del run                  # the last pass's streams: not held through the next
-        run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
+        kept_ll = _path_ll(run)
+        run = replace(run, data=None, observer=None)   # not held through the next pass
+        new = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                             fitted)
-        fitted_on = mask
+        if _path_ll(new) - kept_ll <= 3.0 * np.log(max(len(run.index), 2)):
+            # the payload does not explain the data better: the kept pass, with its
+            # streams conditioned again and its observer as it was set up
+            del new
+            kw, data, _, _ = observer_setup(trial, graph, models, observer_kw, reduce, path,
+                                            payload=run.payload)
+            return replace(run, data=data, observer=Observer(graph, models, **kw))
+        run, fitted_on = new, mask
     return run
+
+
+def _path_ll(run: ObservedTrial) -> float:
+    """The log-likelihood of a pass's most probable path."""
+    paths = run.result.paths
+    return float(paths[0].loglik) if paths else -np.inf
 
 
 def _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
