@@ -130,6 +130,17 @@ def _csv(tmp_path, name, seed, degrees):
     return out, rec
 
 
+def _trained(tmp_path, test_degrees):
+    """(test archive, models file): free-contact trained on a tool that does not turn."""
+    train, _ = _csv(tmp_path, "still", 11, 0.0)
+    test, _ = _csv(tmp_path, "test", 12, test_degrees)
+    models = tmp_path / "m.h5"
+    r = run_cli("train", train, "--graph", "free-contact", "--label-map", "1=free,2=contact,3=free",
+                "--out", models, "-q")
+    assert r.exit_code == 0, r.output
+    return test, models
+
+
 def test_recognition_removes_a_turning_payloads_drift(tmp_path):
     """Trained where the tool does not turn; recognised where it turns 16 deg in free
     space with a 4.4 N tool (the free force drifts by 1.2 N, 12 sd of the sensor's
@@ -139,12 +150,7 @@ def test_recognition_removes_a_turning_payloads_drift(tmp_path):
     from contactlab.observer import observe_trial
     from contactlab.observer.recognize import bind_models
 
-    train, _ = _csv(tmp_path, "still", 11, 0.0)
-    test, _ = _csv(tmp_path, "turning", 12, 10.0)
-    models = tmp_path / "m.h5"
-    r = run_cli("train", train, "--graph", "free-contact", "--label-map", "1=free,2=contact,3=free",
-                "--out", models, "-q")
-    assert r.exit_code == 0, r.output
+    test, models = _trained(tmp_path, 10.0)
     r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "--json",
                 "-q", "--no-write")
     assert r.exit_code == 0, r.output
@@ -176,12 +182,7 @@ def test_a_payload_that_explains_nothing_is_not_kept(tmp_path):
     from contactlab.observer import observe_trial
     from contactlab.observer.recognize import bind_models
 
-    train, _ = _csv(tmp_path, "still", 11, 0.0)
-    test, _ = _csv(tmp_path, "still-too", 12, 0.0)
-    models = tmp_path / "m.h5"
-    r = run_cli("train", train, "--graph", "free-contact", "--label-map", "1=free,2=contact,3=free",
-                "--out", models, "-q")
-    assert r.exit_code == 0, r.output
+    test, models = _trained(tmp_path, 0.0)
     graph, _, built = bind_models("free-contact", models)
     with open_archive(test) as a:
         tr = a.trial(a.trial_ids[0])
