@@ -57,6 +57,10 @@ from contactlab.cli.inputs import checks_archive
                    "labelled run in the trials the models were trained on; where training "
                    f"had none, {D.OBSERVER_TRANSIENT_MAX_S:g} s, a stated default about twice "
                    "the longest impact labelled in the simulated hf training runs]")
+@click.option("--payload/--no-payload", "payload", default=True, show_default=True,
+              help="On a trial with the tool's orientation, fit the payload's weight and "
+                   "the sensor's offset to the free space a first pass finds and recognise "
+                   "again on the corrected force (see below).")
 @click.option("--label-map", "label_map", default=None, metavar="L=NODE,...",
               help="Map the archive's labels onto node names for the accuracy "
                    "[default: the map the models were trained with].")
@@ -79,8 +83,8 @@ from contactlab.cli.inputs import checks_archive
 @quiet_option
 @checks_archive
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
-              sides, transitions, transient_max, label_map, trials, explain, no_write, csv_out, force, workers,
-              scheduler, as_json, quiet):
+              sides, transitions, transient_max, payload, label_map, trials, explain, no_write,
+              csv_out, force, workers, scheduler, as_json, quiet):
     """Recognise the contact state of every trial of each ARCHIVE along a feature graph.
 
     Per trial the observer of 6.4 runs over the graph's signals; the
@@ -99,6 +103,8 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context.toml \\
           --models graph-models.h5 --json
       contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 --json
+      contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 \\
+          --no-write --no-payload
       contactlab recognize wrist.h5 --graph free-contact --models fc-models.h5 \\
           --no-write --csv wrist-path.csv
       contactlab recognize test.h5 --graph datasets_spec/graphs/hf-context-free.toml \\
@@ -119,10 +125,15 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
 
     A wrist sensor in a turning tool reads the tool's weight turning in its
     axes: on a trial with the tool's orientation (import with orientation or
-    rpy) and a graph with a free-space node on the contact signals, the
-    weight and the sensor's offset are fitted to the free space the first
-    pass finds, and the trial is recognised again on the force less them
-    (up to four passes; trials.ID.payload in --json).
+    rpy, either wrench frame) and a graph with a free-space node on the
+    contact signals, the weight (base frame) and the sensor's offset (sensor
+    axes) are fitted to the free space the first pass finds (at least 0.5 s),
+    and the trial is recognised again on the force less them, while the free
+    space found grows (up to four passes).  A pass is kept only when its path
+    is likelier by more than BIC's 3 log n for the six parameters.  The text
+    output prints the fit under the trial; --json gives trials.ID.payload and
+    trials.ID.payload_status (why it was or was not applied); --no-payload
+    recognises once, as recorded.
 
     Train the models first ('contactlab train --graph' on labelled runs, with
     labels named like the graph's models' 'trained' labels); the context
@@ -168,7 +179,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
                            change_size=change_size, p_prune=p_prune, gap=gap, sides=sides,
                            write=not no_write and explain is None, label_map=lmap,
                            transitions=transitions, keep=csv_out is not None,
-                           transient_max_s=transient_max)
+                           transient_max_s=transient_max, payload=payload)
     if explain is not None:
         _explain(stage, archives, explain, csv_out, as_json)
         return
@@ -195,12 +206,15 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
 
 
 def _echo(archive, summary):
-    from contactlab.observer.recognize import DELAY_BINS
+    from contactlab.observer.recognize import DELAY_BINS, payload_line
 
     for tid, e in summary["trials"].items():
         path = " -> ".join(f"{n}@{s:.3f}s" for n, s in e["merged_path"])
         acc = "" if e["accuracy"] is None else f" ({100 * e['accuracy']:.1f} % correct)"
         click.echo(f"{tid}: {path}{acc}")
+        line = payload_line(e.get("payload"), e.get("payload_status"))
+        if line:
+            click.echo(f"  {line}")
     if summary["accuracy"] is not None:
         labels = summary["confusion"]["labels"]
         matrix = summary["confusion"]["matrix"]
@@ -241,7 +255,7 @@ def _explain(stage, archives, trial_id: str, csv_out, as_json: bool) -> None:
         label_map, _ = stage._trial_label_map(trial)
         ex = explain_trial(trial, stage.graph, stage.built, reduce=stage.models.reduce,
                            action=stage.action, observer_kw=stage.observer_kw,
-                           label_map=label_map, path=archives[0])
+                           label_map=label_map, path=archives[0], payload=stage.payload)
     if as_json:
         echo_json(ex)
         return

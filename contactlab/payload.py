@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Payload", "fit_payload", "free_mask", "RESIDUAL_SD_N", "CORRELATION_S",
-           "PRIOR_SD_N", "MIN_FREE_S", "MARGIN_S"]
+__all__ = ["Payload", "fit_payload", "free_mask", "sensor_force", "RESIDUAL_SD_N",
+           "CORRELATION_S", "PRIOR_SD_N", "MIN_FREE_S", "MARGIN_S"]
 
 #: sd (N) of a wrist sensor's free-space force about (1): 0.03-0.17 N per axis on the HIRO
 #: recordings, 0.9-1.7 N on the wiping demonstration's hand-held tool (a wrist sensor's
@@ -61,13 +61,17 @@ MARGIN_S = 0.1
 
 @dataclass(frozen=True)
 class Payload:
-    """A fit of (1): ``weight_n`` (base frame), ``offset_n`` (sensor axes), ``free_s``
-    (seconds fitted) and
-    ``turn_deg`` (the largest angle of a fitted orientation from the first fitted one:
-    how far the tool turned while the fit watched)."""
+    """A fit of (1): ``weight_n`` (base frame), ``offset_n`` (sensor axes), their
+    posterior standard deviations per axis (``weight_sd_n``, ``offset_sd_n``: large where
+    the tool turned too little to tell them apart; their sum at the fitted orientations
+    is then still known), ``free_s`` (seconds fitted) and ``turn_deg`` (the largest angle
+    of a fitted orientation from the first fitted one: how far the tool turned while
+    the fit watched)."""
 
     weight_n: np.ndarray
     offset_n: np.ndarray
+    weight_sd_n: np.ndarray
+    offset_sd_n: np.ndarray
     free_s: float
     turn_deg: float
 
@@ -81,9 +85,21 @@ class Payload:
         return self.weight_n + rotate_vectors(q, o)
 
     def to_dict(self) -> dict:
-        return {"weight_n": [float(v) for v in self.weight_n],
-                "offset_n": [float(v) for v in self.offset_n],
+        """The fit with each vector's frame in its key."""
+        return {"weight_base_n": [float(v) for v in self.weight_n],
+                "weight_sd_n": [float(v) for v in self.weight_sd_n],
+                "offset_sensor_n": [float(v) for v in self.offset_n],
+                "offset_sd_n": [float(v) for v in self.offset_sd_n],
                 "free_s": float(self.free_s), "turn_deg": float(self.turn_deg)}
+
+    def text(self) -> str:
+        """One line: the weight and offset with their sds, the free space and the turn."""
+        def vec(v, sd):
+            return ("[" + ", ".join(f"{a:.2f}" for a in v) + f"] +- {float(np.max(sd)):.2f} N")
+        return (f"payload weight {vec(self.weight_n, self.weight_sd_n)} (base frame), sensor "
+                f"offset {vec(self.offset_n, self.offset_sd_n)} (sensor axes), fitted on "
+                f"{self.free_s:.1f} s of free space while the tool turned "
+                f"{self.turn_deg:.0f} deg")
 
 
 def fit_payload(q: np.ndarray, force: np.ndarray, mask: np.ndarray, *, fs: float
@@ -111,12 +127,26 @@ def fit_payload(q: np.ndarray, force: np.ndarray, mask: np.ndarray, *, fs: float
     AtA = np.block([[n * np.eye(3), S], [S.T, n * np.eye(3)]])
     Atb = np.concatenate([fb.sum(axis=0), fsens.sum(axis=0)])
     lam = 1.0 / (RESIDUAL_SD_N ** 2 * max(CORRELATION_S * fs, 1.0))
-    theta = np.linalg.solve(lam * AtA + np.eye(6) / PRIOR_SD_N ** 2, lam * Atb)
+    H = lam * AtA + np.eye(6) / PRIOR_SD_N ** 2        # the posterior precision
+    theta = np.linalg.solve(H, lam * Atb)
     w, o = theta[:3], theta[3:]
+    sd = np.sqrt(np.diag(np.linalg.inv(H)))
     # the turn the fit saw: the largest angle from the first fitted orientation
     dots = np.abs(qf @ qf[0])
     turn = float(np.degrees(2.0 * np.arccos(np.clip(dots.min(), -1.0, 1.0))))
-    return Payload(w, o, n / float(fs), turn)
+    return Payload(w, o, sd[:3], sd[3:], n / float(fs), turn)
+
+
+def sensor_force(trial, q: np.ndarray) -> np.ndarray:
+    """The trial's force (n, 3) in the sensor's axes: the wrench as measured, or, for a
+    wrench imported in the base frame, rotated back by the orientations ``q`` (n, 4)."""
+    from contactlab.archive.importer import rotate_vectors
+
+    f = np.asarray(trial.wrench, np.float64)[: len(q), :3]
+    if getattr(trial, "wrench_frame", "sensor") == "base":
+        conj = np.asarray(q, np.float64)[: len(f)] * np.array([1.0, -1.0, -1.0, -1.0])
+        return rotate_vectors(conj, f)
+    return f
 
 
 def free_mask(path, index: np.ndarray, free_nodes, n_raw: int, *, fs_raw: float

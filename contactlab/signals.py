@@ -327,16 +327,20 @@ def _base_force(trial, wrench: Signal, path, payload=None) -> np.ndarray:
     before the 7.1 lowpass (the lowpass is linear: this is the conditioned
     base-frame force); without an orientation the force is taken as it is (a tool
     that does not turn, or a wrench already in the base frame).  ``payload``
-    (:class:`~contactlab.payload.Payload`): its correction is subtracted from the
-    rotated force, before the lowpass."""
+    (:class:`~contactlab.payload.Payload`, a trial with its orientation): its
+    correction is subtracted from the base-frame force, before the lowpass."""
     q = sensor_orientation(trial)
-    if q is None:
+    if q is None and payload is None:
         return wrench.y[:, :3]
     from contactlab.archive.importer import rotate_vectors
 
     raw = _raw(trial, "wrench", path)[:, :3]
-    q = q[: len(raw)]
-    f = rotate_vectors(q, raw[: len(q)])
+    if q is None:                       # a base-frame wrench, with its orientation
+        q = np.asarray(trial.orientation, dtype=np.float64)[: len(raw)]
+        f = raw[: len(q)]
+    else:
+        q = q[: len(raw)]
+        f = rotate_vectors(q, raw[: len(q)])
     if payload is not None:
         f = f - payload.correction(q)
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]

@@ -97,7 +97,7 @@ def test_free_mask_takes_free_segments_less_the_margin():
     assert m.sum() == (index[249] - index[0] + 1 - 2 * k) + (index[699] - index[600] + 1 - 2 * k)
 
 
-def _csv(tmp_path, name, seed, degrees):
+def _csv(tmp_path, name, seed, degrees, *extra):
     """A hand-held tool's recording (contactlab.synthetic.free_contact) read by a wrist
     sensor of 0.1 N noise carrying a 0.45 kg tool, zeroed at the start: first held in
     free space for 3 s while the tool turns ``degrees`` about one axis and as much about
@@ -125,15 +125,16 @@ def _csv(tmp_path, name, seed, degrees):
     out = tmp_path / f"{name}.h5"
     r = run_cli("import", path, "--out", out, "-q", "--columns",
                 "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state;"
-                "orientation=qw,qx,qy,qz")
+                "orientation=qw,qx,qy,qz", *extra)
     assert r.exit_code == 0, r.output
     return out, rec
 
 
-def _trained(tmp_path, test_degrees):
-    """(test archive, models file): free-contact trained on a tool that does not turn."""
+def _trained(tmp_path, test_degrees, *extra):
+    """(test archive, models file): free-contact trained on a tool that does not turn;
+    ``extra``: the test recording's import options."""
     train, _ = _csv(tmp_path, "still", 11, 0.0)
-    test, _ = _csv(tmp_path, "test", 12, test_degrees)
+    test, _ = _csv(tmp_path, "test", 12, test_degrees, *extra)
     models = tmp_path / "m.h5"
     r = run_cli("train", train, "--graph", "free-contact", "--label-map", "1=free,2=contact,3=free",
                 "--out", models, "-q")
@@ -155,10 +156,20 @@ def test_recognition_removes_a_turning_payloads_drift(tmp_path):
                 "-q", "--no-write")
     assert r.exit_code == 0, r.output
     (tid, trial), = one_json_object(r.stdout)["trials"].items()
-    assert trial["accuracy"] > 0.95
-    weight = np.array(trial["payload"]["weight_n"])
+    assert trial["accuracy"] > 0.95 and trial["payload_status"] == "applied"
+    weight = np.array(trial["payload"]["weight_base_n"])
     np.testing.assert_allclose(weight, [0.0, 0.0, -0.45 * G], atol=0.6)
     assert trial["payload"]["turn_deg"] > 12
+    assert max(trial["payload"]["weight_sd_n"]) < 0.6
+    # the text output says what was fitted; --no-payload recognises once, as recorded
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "-q",
+                "--no-write")
+    assert r.exit_code == 0 and "  payload weight [" in r.stdout and "(base frame)" in r.stdout
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "--json",
+                "-q", "--no-write", "--no-payload")
+    (_, alone), = one_json_object(r.stdout)["trials"].items()
+    assert alone["payload"] is None and alone["payload_status"] is None
+    assert alone["accuracy"] < trial["accuracy"] - 0.05
 
     graph, _, built = bind_models("free-contact", models)
     with open_archive(test) as a:
@@ -193,3 +204,42 @@ def test_a_payload_that_explains_nothing_is_not_kept(tmp_path):
     assert kept.observer is not None
     for s in once.data:
         np.testing.assert_array_equal(kept.data[s], once.data[s])
+
+
+def test_a_base_frame_wrench_is_corrected_too(tmp_path):
+    """The README's import with --wrench-frame base stores the wrench rotated, the
+    sensor's kept aside: the fit reads the force back in the sensor's axes and gives
+    what the sensor-frame import gives."""
+    test, models = _trained(tmp_path, 10.0, "--wrench-frame", "base")
+    r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "--json",
+                "-q", "--no-write")
+    assert r.exit_code == 0, r.output
+    (_, trial), = one_json_object(r.stdout)["trials"].items()
+    assert trial["payload_status"] == "applied" and trial["accuracy"] > 0.95
+    np.testing.assert_allclose(trial["payload"]["weight_base_n"], [0.0, 0.0, -0.45 * G],
+                               atol=0.6)
+
+
+def test_why_a_payload_is_not_corrected_is_said(tmp_path):
+    """Too little free space before the first pass leaves it (a window starting on the
+    surface), and a recording without an orientation: the status says which."""
+    from contactlab.archive import open_archive
+    from contactlab.observer import observe_trial
+    from contactlab.observer.recognize import bind_models, payload_line
+
+    test, models = _trained(tmp_path, 10.0)
+    graph, _, built = bind_models("free-contact", models)
+    with open_archive(test) as a:
+        tr = a.trial(a.trial_ids[0])
+        first = np.flatnonzero(np.asarray(tr.labels) == list(tr.label_names).index("2"))[0]
+    short = tmp_path / "short.h5"
+    r = run_cli("import", tmp_path / "test.csv", "--out", short, "-q", "--window",
+                f"{(first - 60) / 200.0}:", "--columns",
+                "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state;"
+                "orientation=qw,qx,qy,qz")
+    assert r.exit_code == 0, r.output
+    with open_archive(short) as a:
+        run = observe_trial(a.trial(a.trial_ids[0]), graph, built)
+    assert run.payload is None and run.payload_status.startswith("free space too short")
+    assert payload_line(None, run.payload_status).startswith("payload not corrected: free")
+    assert payload_line(None, "no orientation") is None

@@ -36,7 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from contactlab.observer.observer import Observer
-from contactlab.observer.recognize import detection_delays, merge_path, observe_trial
+from contactlab.observer.recognize import (detection_delays, merge_path, observe_trial,
+                                          payload_line)
 from contactlab.signals import relabel, truth_codes
 
 __all__ = ["explain_trial", "format_explanation", "EXPLAIN_WINDOW_S"]
@@ -133,10 +134,10 @@ def _events(res, graph, gap: float, a: int, b: int) -> list[dict]:
 
 def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=None,
                   observer_kw: dict | None = None, label_map: dict | None = None,
-                  window_s: float = EXPLAIN_WINDOW_S, path=None) -> dict:
+                  window_s: float = EXPLAIN_WINDOW_S, path=None, payload: bool = True) -> dict:
     """The explanation of one trial's recognition (module notes) as a JSON-able dict."""
     run = observe_trial(trial, graph, models, reduce=reduce, action=action,
-                        observer_kw=observer_kw, path=path)
+                        observer_kw=observer_kw, path=path, payload=payload)
     obs, res, index, fs = run.observer, run.result, run.index, run.fs
     models = run.models                     # as the observer weighs them
     data = {s: np.asarray(v, np.float64).reshape(len(v), -1) for s, v in run.data.items()}
@@ -150,6 +151,8 @@ def explain_trial(trial, graph, models: dict, *, reduce: str = "none", action=No
            "window_samples": win,
            "threshold": obs.threshold, "sides": obs.sides, "gap": obs.gap,
            "path": [[nd, int(s)] for nd, s in merge_path(res.map_path)],
+           "payload": run.payload.to_dict() if run.payload is not None else None,
+           "payload_status": run.payload_status,
            "accuracy": None, "transitions": [], "segments": [], "segment_accuracy": None}
     if truth is None or not (truth >= 0).any():
         out["note"] = "the trial has no ground truth named like the graph's nodes"
@@ -242,6 +245,9 @@ def format_explanation(ex: dict) -> list[str]:
     fs, t0 = ex["rate_hz"], ex.get("t0_s", 0.0)
     lines = [f"{ex['trial']}: recognised "
              + " -> ".join(f"{nd}@{t0 + s / fs:.3f}s" for nd, s in ex["path"])]
+    line = payload_line(ex.get("payload"), ex.get("payload_status"))
+    if line:
+        lines.append(f"  {line}")
     if ex["accuracy"] is None:
         return lines + [f"  {ex.get('note', 'no ground truth')}"]
     lines.append(f"  points marked correctly {100 * ex['accuracy']:.1f} %; with the true "

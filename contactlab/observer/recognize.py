@@ -44,13 +44,12 @@ from contactlab.observer.observer import Observer, ObserverResult, observe
 from contactlab.observer.paths import count_changes
 from contactlab.metrics import confusion_matrix
 from contactlab.observer.training import GraphModels
-from contactlab.payload import Payload, fit_payload, free_mask
-from contactlab.signals import (CONTACT_SIGNALS, sensor_orientation, relabel, trial_signals,
-                                truth_codes)
+from contactlab.payload import MIN_FREE_S, Payload, fit_payload, free_mask, sensor_force
+from contactlab.signals import CONTACT_SIGNALS, relabel, trial_signals, truth_codes
 from contactlab.stages import Stage, TrialOutcome, run_stage
 
 __all__ = ["recognize_archive", "recognize_trial", "TrialRecognition", "observe_trial",
-           "ObservedTrial",
+           "ObservedTrial", "payload_line",
            "detection_delays", "merge_path", "trial_actions", "DELAY_BINS", "STAGE"]
 
 STAGE = "recognize"
@@ -76,6 +75,8 @@ class TrialRecognition:
     fit: PathFit | None = None
     #: the payload correction of the second pass (:func:`observe_trial`), or None
     payload: Payload | None = None
+    #: why it was or was not corrected (:attr:`ObservedTrial.payload_status`)
+    payload_status: str | None = None
 
 
 def merge_path(path) -> list[tuple[str, int]]:
@@ -173,19 +174,22 @@ def trial_actions(trial, graph: FeatureGraph, index, *, path=None) -> np.ndarray
 
 def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
                     action=None, observer_kw: dict | None = None, chunk: int = 4096,
-                    path=None, label_map: dict | None = None) -> TrialRecognition:
+                    path=None, label_map: dict | None = None,
+                    payload: bool = True) -> TrialRecognition:
     """Run the observer over one archive trial (``models``: built model objects;
-    ``label_map``: the trial's label names -> node names for the truth)."""
+    ``label_map``: the trial's label names -> node names for the truth; ``payload``:
+    correct a turning tool's payload, :func:`observe_trial`)."""
     if getattr(trial, "labels", None) is not None:
         check_map_sources(label_map, getattr(trial, "label_names", None),
                           file=str(path) if path else None,
                           field=f"/trials/{trial.id}/ground_truth/labels")
     run = observe_trial(trial, graph, models, reduce=reduce, action=action,
-                        observer_kw=observer_kw, chunk=chunk, path=path)
+                        observer_kw=observer_kw, chunk=chunk, path=path, payload=payload)
     truth = truth_codes(relabel(trial, label_map), run.index, graph.node_names)
     times = np.asarray(trial.time, np.float64)[run.index]
     fit = path_fit(graph, run.models, run.data, run.result.map_path, n=len(run.index))
-    return TrialRecognition(trial.id, run.result, times, truth, run.fs, fit, run.payload)
+    return TrialRecognition(trial.id, run.result, times, truth, run.fs, fit, run.payload,
+                            run.payload_status)
 
 
 @dataclass(frozen=True)
@@ -201,6 +205,10 @@ class ObservedTrial:
     models: dict
     observer: Observer
     payload: Payload | None
+    #: why the payload was or was not corrected (None when not asked): ``applied``, ``no
+    #: orientation``, ``no free-space node ...``, ``free space too short ...``, ``not
+    #: kept ...``
+    payload_status: str | None = None
 
 
 def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
@@ -222,35 +230,64 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
     and every trial with ``payload=False``, are observed once."""
     run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                         None)
-    free = _free_nodes(graph, models)
-    q = sensor_orientation(trial)
-    if not payload or not free or q is None:
+    if not payload:
         return run
+    free = _free_nodes(graph, models)
+    q = getattr(trial, "orientation", None)
+    if not free:
+        return replace(run, payload_status="no free-space node on the contact signals")
+    if q is None:
+        return replace(run, payload_status="no orientation")
+    q = np.asarray(q, np.float64)
     n_raw = min(len(q), len(trial.time))
-    force = np.asarray(trial.wrench, np.float64)[:n_raw, :3]
-    fitted_on = None
+    q = q[:n_raw]
+    force = sensor_force(trial, q)
+    fs_raw = float(trial.rate_hz)
+    fitted_on, status = None, None
     for _ in range(PAYLOAD_PASSES - 1):
-        mask = free_mask(run.result.map_path, run.index, free, n_raw,
-                         fs_raw=float(trial.rate_hz))
+        mask = free_mask(run.result.map_path, run.index, free, n_raw, fs_raw=fs_raw)
         if fitted_on is not None and (mask & ~fitted_on).sum() \
                 <= PAYLOAD_GROWTH * fitted_on.sum():
             break
-        fitted = fit_payload(q[:n_raw], force, mask, fs=float(trial.rate_hz))
+        fitted = fit_payload(q, force, mask, fs=fs_raw)
         if fitted is None:
+            status = (f"free space too short ({mask.sum() / fs_raw:.2f} s after the margins; "
+                      f"{MIN_FREE_S:g} s needed)") if fitted_on is None else None
             break
         kept_ll = _path_ll(run)
         run = replace(run, data=None, observer=None)   # not held through the next pass
         new = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                             fitted)
-        if _path_ll(new) - kept_ll <= 3.0 * np.log(max(len(run.index), 2)):
+        gain, cost = _path_ll(new) - kept_ll, 3.0 * np.log(max(len(run.index), 2))
+        if not gain > cost:
             # the payload does not explain the data better: the kept pass, with its
             # streams conditioned again and its observer as it was set up
             del new
+            if fitted_on is None:
+                status = (f"not kept: the corrected force's path gains {gain:.1f} nats, "
+                          f"BIC asks {cost:.1f}")
             kw, data, _, _ = observer_setup(trial, graph, models, observer_kw, reduce, path,
                                             payload=run.payload)
-            return replace(run, data=data, observer=Observer(graph, models, **kw))
+            run = replace(run, data=data, observer=Observer(graph, models, **kw))
+            break
         run, fitted_on = new, mask
-    return run
+    if run.payload is not None:
+        status = "applied"
+    return replace(run, payload_status=status)
+
+
+def payload_line(payload: dict | None, status: str | None) -> str | None:
+    """One text line on a trial's payload correction (``to_dict`` of the fit and the
+    status of :func:`observe_trial`); None where there is nothing to say (the correction
+    not asked for, or a trial without an orientation)."""
+    if payload is not None:
+        fit = Payload(*(np.asarray(payload[k]) for k in ("weight_base_n", "offset_sensor_n",
+                                                          "weight_sd_n", "offset_sd_n")),
+                      payload["free_s"], payload["turn_deg"])
+        return fit.text()
+    if status is None or status == "no orientation":
+        return None
+    return f"payload not corrected: {status}"
 
 
 def _path_ll(run: ObservedTrial) -> float:
@@ -442,6 +479,12 @@ def _trial_datasets(rec: TrialRecognition, graph: FeatureGraph) -> tuple[dict, d
         ds["truth"] = rec.truth
     attrs = {"nodes": ",".join(graph.node_names), "n_changes": len(ev),
              "merged_path": ";".join(f"{n}@{tt(s):.4f}" for n, s in merged)}
+    if rec.payload_status is not None:
+        attrs["payload_status"] = rec.payload_status
+    if rec.payload is not None:
+        import json
+
+        attrs["payload"] = json.dumps(rec.payload.to_dict())
     return ds, attrs
 
 
@@ -457,8 +500,9 @@ class RecognizeStage(Stage):
                  sides: str | None = None, delay_window: int = 50, write: bool = True,
                  keep: bool = False, label_map: dict | None = None,
                  transitions: str = D.OBSERVER_TRANSITIONS,
-                 transient_max_s: float | None = None):
+                 transient_max_s: float | None = None, payload: bool = True):
         self.graph, self.models, self.built = bind_models(graph, models)
+        self.payload = bool(payload)
         sides = sides or self.graph.sides or D.OBSERVER_SIDES
         p_prune = p_prune or self.graph.p_prune or D.OBSERVER_PRUNE
         self.label_map = label_map if label_map is not None else self.models.label_map
@@ -481,7 +525,7 @@ class RecognizeStage(Stage):
         self.parameters = {**self.observer_kw, "graph": self.graph.source or self.graph.name,
                            "models": self.models.source, "reduce": self.models.reduce,
                            "action": action, "delay_window": delay_window,
-                           "label_map": self.label_map}
+                           "label_map": self.label_map, "payload": self.payload}
 
     def run_trial(self, trial) -> TrialOutcome:
         """Observe one trial; its MAP path, confusion counts, delays and results."""
@@ -489,7 +533,7 @@ class RecognizeStage(Stage):
         label_map, no_accuracy = self._trial_label_map(trial)
         rec = recognize_trial(trial, graph, self.built, reduce=self.models.reduce,
                               action=self.action, observer_kw=self.observer_kw,
-                              label_map=label_map)
+                              label_map=label_map, payload=self.payload)
         r = rec.result
         entry = {"path": [[n, float(rec.times[max(s, 0)]) if len(rec.times) else s / rec.fs]
                           for n, s in r.map_path],
@@ -497,7 +541,8 @@ class RecognizeStage(Stage):
                                   else s / rec.fs] for n, s in merge_path(r.map_path)],
                  "n_changes": count_changes(r.events),
                  "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict(),
-                 "payload": rec.payload.to_dict() if rec.payload is not None else None}
+                 "payload": rec.payload.to_dict() if rec.payload is not None else None,
+                 "payload_status": rec.payload_status}
         if no_accuracy:
             entry["no_accuracy"] = no_accuracy
         extra = {"confusion": np.zeros((K, K), np.int64),
