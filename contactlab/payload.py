@@ -11,8 +11,8 @@ signals), the free-space force is
 trained free-space model allows for it; when it turns, the force drifts although nothing
 touches the tool.  On the HIRO recordings of ``../shared/data/real``, the failed
 assemblies recorded four years after the others turn the tool 18 deg during the approach
-with a 4.4 N payload: the base-frame free force drifts by 0.9 N, more than 20 times the
-free-space noise of the trials trained on, and the bundled free-contact graph read the
+with a 4.4 N payload: the base-frame free force drifts by 0.9-1.3 N, more than 10 times
+the free-space noise of the trials trained on, and the bundled free-contact graph read the
 approach as contact from its middle on.  (1) with ``w`` and ``o`` fitted on the same
 approach leaves 0.03-0.17 N.
 

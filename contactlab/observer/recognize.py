@@ -73,7 +73,7 @@ class TrialRecognition:
     fs: float
     #: how well the final MAP path's models fit the measurements (:mod:`contactlab.observer.fit`)
     fit: PathFit | None = None
-    #: the payload correction of the second pass (:func:`observe_trial`), or None
+    #: the payload correction of the kept pass (:func:`observe_trial`), or None
     payload: Payload | None = None
     #: why it was or was not corrected (:attr:`ObservedTrial.payload_status`)
     payload_status: str | None = None
@@ -196,7 +196,7 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
 class ObservedTrial:
     """One trial through the observer: its result, the streams it read (``data`` on the
     points whose newest raw sample is ``index``, at ``fs``), the models as the observer
-    weighed them, and the payload correction of the second pass (or None)."""
+    weighed them, and the payload correction of the kept pass (or None)."""
 
     result: ObserverResult
     data: dict
@@ -216,9 +216,9 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
                   path=None, payload: bool = True) -> ObservedTrial:
     """The observer over one trial, again where the payload needs it.
 
-    A trial whose wrench was measured in a turning tool's axes (it carries its
-    orientation), read by a graph with a free-space node on the contact signals, is
-    observed as recorded; the payload's weight and the sensor's offset
+    A trial that carries the tool's orientation (its wrench measured in the sensor's
+    axes, or imported in the base frame), read by a graph with a free-space node on the
+    contact signals, is observed as recorded; the payload's weight and the sensor's offset
     (:func:`contactlab.payload.fit_payload`) are fitted on the samples the MAP path puts
     in free space, and the trial is observed again with the force drift they explain
     removed; and so on while the free space found grows (it grows when the first
@@ -232,12 +232,12 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
                         None)
     if not payload:
         return run
-    free = _free_nodes(graph, models)
     q = getattr(trial, "orientation", None)
-    if not free:
-        return replace(run, payload_status="no free-space node on the contact signals")
     if q is None:
         return replace(run, payload_status="no orientation")
+    free = _free_nodes(graph, models)
+    if not free:
+        return replace(run, payload_status="no free-space node on the contact signals")
     q = np.asarray(q, np.float64)
     n_raw = min(len(q), len(trial.time))
     q = q[:n_raw]
