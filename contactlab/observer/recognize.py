@@ -222,11 +222,14 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
     (:func:`contactlab.payload.fit_payload`) are fitted on the samples the MAP path puts
     in free space, and the trial is observed again with the force drift they explain
     removed; and so on while the free space found grows (it grows when the first
-    passes read a drift as contact), at most :data:`PAYLOAD_PASSES` passes.  A pass is
-    kept only when its most probable path's log-likelihood exceeds the last kept one's
+    passes read a drift as contact), at most :data:`PAYLOAD_PASSES` passes.  The last
+    pass is kept only when its most probable path's log-likelihood exceeds the first's
     by more than the payload's six parameters cost by BIC, ``3 log n`` (``n`` points):
     the same models explaining the corrected force better (a payload that changes
-    within the trial, an object picked up, is fitted by no one ``w``).  Other trials,
+    within the trial, an object picked up, is fitted by no one ``w``); else the first.
+    (The passes between are not compared: one fitted on the little free space a drift
+    left the first pass can be worse than the first, and the next, on the free space it
+    found, better.)  Other trials,
     and every trial with ``payload=False``, are observed once."""
     run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                         None)
@@ -243,6 +246,7 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
     q = q[:n_raw]
     force = sensor_force(trial, q)
     fs_raw = float(trial.rate_hz)
+    first, first_ll = replace(run, data=None, observer=None), _path_ll(run)
     fitted_on, status = None, None
     for _ in range(PAYLOAD_PASSES - 1):
         mask = free_mask(run.result.map_path, run.index, free, n_raw, fs_raw=fs_raw)
@@ -251,29 +255,26 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
             break
         fitted = fit_payload(q, force, mask, fs=fs_raw)
         if fitted is None:
-            status = (f"free space too short ({mask.sum() / fs_raw:.2f} s after the margins; "
-                      f"{MIN_FREE_S:g} s needed)") if fitted_on is None else None
-            break
-        kept_ll = _path_ll(run)
-        run = replace(run, data=None, observer=None)   # not held through the next pass
-        new = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
-                            fitted)
-        gain, cost = _path_ll(new) - kept_ll, 3.0 * np.log(max(len(run.index), 2))
-        if not gain > cost:
-            # the payload does not explain the data better: the kept pass, with its
-            # streams conditioned again and its observer as it was set up
-            del new
             if fitted_on is None:
-                status = (f"not kept: the corrected force's path gains {gain:.1f} nats, "
-                          f"BIC asks {cost:.1f}")
-            kw, data, _, _ = observer_setup(trial, graph, models, observer_kw, reduce, path,
-                                            payload=run.payload)
-            run = replace(run, data=data, observer=Observer(graph, models, **kw))
+                status = (f"free space too short ({mask.sum() / fs_raw:.2f} s after the "
+                          f"margins; {MIN_FREE_S:g} s needed)")
             break
-        run, fitted_on = new, mask
-    if run.payload is not None:
-        status = "applied"
-    return replace(run, payload_status=status)
+        del run                  # the last pass's streams: not held through the next
+        run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
+                            fitted)
+        fitted_on = mask
+    if run.payload is None:
+        return replace(run, payload_status=status)
+    gain, cost = _path_ll(run) - first_ll, 3.0 * np.log(max(len(run.index), 2))
+    if gain > cost:
+        return replace(run, payload_status="applied")
+    # the payload does not explain the data better: the first pass, with its streams
+    # conditioned again and its observer as it was set up
+    del run
+    kw, data, _, _ = observer_setup(trial, graph, models, observer_kw, reduce, path)
+    return replace(first, data=data, observer=Observer(graph, models, **kw),
+                   payload_status=f"not kept: the corrected force's path gains {gain:.1f} "
+                                  f"nats, BIC asks {cost:.1f}")
 
 
 def payload_line(payload: dict | None, status: str | None) -> str | None:
