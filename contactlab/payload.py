@@ -93,13 +93,18 @@ class Payload:
                 "free_s": float(self.free_s), "turn_deg": float(self.turn_deg)}
 
     def text(self) -> str:
-        """One line: the weight and offset with their sds, the free space and the turn."""
+        """One line: the base-frame force and the sensor offset with each one's largest
+        per-axis sd, the free space and the turn; where the turn was too small to tell
+        them apart (an sd above half the vector's size), only their sum is known."""
         def vec(v, sd):
-            return ("[" + ", ".join(f"{a:.2f}" for a in v) + f"] +- {float(np.max(sd)):.2f} N")
-        return (f"payload weight {vec(self.weight_n, self.weight_sd_n)} (base frame), sensor "
-                f"offset {vec(self.offset_n, self.offset_sd_n)} (sensor axes), fitted on "
+            return "[" + ", ".join(f"{a:.2f}" for a in v) + f"] N (max sd {np.max(sd):.2f})"
+        line = (f"payload: constant base-frame force {vec(self.weight_n, self.weight_sd_n)}, "
+                f"sensor offset {vec(self.offset_n, self.offset_sd_n)} in its axes; fitted on "
                 f"{self.free_s:.1f} s of free space while the tool turned "
                 f"{self.turn_deg:.0f} deg")
+        if np.max(self.weight_sd_n) > 0.5 * np.linalg.norm(self.weight_n):
+            line += " (too little to tell them apart: only their sum, the tare, is known)"
+        return line
 
 
 def fit_payload(q: np.ndarray, force: np.ndarray, mask: np.ndarray, *, fs: float

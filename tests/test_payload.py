@@ -157,6 +157,8 @@ def test_recognition_removes_a_turning_payloads_drift(tmp_path):
     assert r.exit_code == 0, r.output
     (tid, trial), = one_json_object(r.stdout)["trials"].items()
     assert trial["accuracy"] > 0.95 and trial["payload_status"] == "applied"
+    check = trial["payload_check"]
+    assert check["passes"] >= 2 and check["gain_nats"] > check["bic_nats"] > 0
     weight = np.array(trial["payload"]["weight_base_n"])
     np.testing.assert_allclose(weight, [0.0, 0.0, -0.45 * G], atol=0.6)
     assert trial["payload"]["turn_deg"] > 12
@@ -164,11 +166,12 @@ def test_recognition_removes_a_turning_payloads_drift(tmp_path):
     # the text output says what was fitted; --no-payload recognises once, as recorded
     r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "-q",
                 "--no-write")
-    assert r.exit_code == 0 and "  payload weight [" in r.stdout and "(base frame)" in r.stdout
+    assert r.exit_code == 0 and "  payload: constant base-frame force [" in r.stdout
+    assert "tell them apart" not in r.stdout                 # a 16 deg turn separates them
     r = run_cli("recognize", test, "--graph", "free-contact", "--models", models, "--json",
                 "-q", "--no-write", "--no-payload")
     (_, alone), = one_json_object(r.stdout)["trials"].items()
-    assert alone["payload"] is None and alone["payload_status"] is None
+    assert alone["payload"] is None and alone["payload_status"].startswith("disabled")
     assert alone["accuracy"] < trial["accuracy"] - 0.05
 
     graph, _, built = bind_models("free-contact", models)
@@ -242,4 +245,12 @@ def test_why_a_payload_is_not_corrected_is_said(tmp_path):
         run = observe_trial(a.trial(a.trial_ids[0]), graph, built)
     assert run.payload is None and run.payload_status.startswith("free space too short")
     assert payload_line(None, run.payload_status).startswith("payload not corrected: free")
-    assert payload_line(None, "no orientation") is None
+    assert payload_line(None, "disabled (--no-payload)") is None
+    # a recording without an orientation, on a graph that reads force in free space: said
+    plain = tmp_path / "plain.h5"
+    r = run_cli("import", tmp_path / "test.csv", "--out", plain, "-q", "--columns",
+                "time=t;wrench=fx,fy,fz,tx,ty,tz;position=x,y,z;labels=state")
+    assert r.exit_code == 0, r.output
+    with open_archive(plain) as a:
+        run = observe_trial(a.trial(a.trial_ids[0]), graph, built)
+    assert run.payload is None and run.payload_status.startswith("no orientation")

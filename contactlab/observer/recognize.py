@@ -77,6 +77,8 @@ class TrialRecognition:
     payload: Payload | None = None
     #: why it was or was not corrected (:attr:`ObservedTrial.payload_status`)
     payload_status: str | None = None
+    #: :attr:`ObservedTrial.payload_check`
+    payload_check: dict | None = None
 
 
 def merge_path(path) -> list[tuple[str, int]]:
@@ -189,7 +191,7 @@ def recognize_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "
     times = np.asarray(trial.time, np.float64)[run.index]
     fit = path_fit(graph, run.models, run.data, run.result.map_path, n=len(run.index))
     return TrialRecognition(trial.id, run.result, times, truth, run.fs, fit, run.payload,
-                            run.payload_status)
+                            run.payload_status, run.payload_check)
 
 
 @dataclass(frozen=True)
@@ -205,10 +207,12 @@ class ObservedTrial:
     models: dict
     observer: Observer
     payload: Payload | None
-    #: why the payload was or was not corrected (None when not asked): ``applied``, ``no
-    #: orientation``, ``no free-space node ...``, ``free space too short ...``, ``not
-    #: kept ...``
+    #: why the payload was or was not corrected (None for a graph with no free-space node
+    #: on the contact signals): ``applied``, ``disabled ...``, ``no orientation ...``,
+    #: ``free space too short ...``, ``not kept ...``
     payload_status: str | None = None
+    #: the last pass against the first: ``{"passes", "gain_nats", "bic_nats"}`` (or None)
+    payload_check: dict | None = None
 
 
 def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "none",
@@ -233,21 +237,22 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
     and every trial with ``payload=False``, are observed once."""
     run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                         None)
-    if not payload:
+    free = _free_nodes(graph, models)
+    if not free:                 # nothing to correct: no free space read on a force
         return run
+    if not payload:
+        return replace(run, payload_status="disabled (--no-payload)")
     q = getattr(trial, "orientation", None)
     if q is None:
-        return replace(run, payload_status="no orientation")
-    free = _free_nodes(graph, models)
-    if not free:
-        return replace(run, payload_status="no free-space node on the contact signals")
+        return replace(run, payload_status="no orientation (import the tool's orientation "
+                                           "to correct a turning tool's payload)")
     q = np.asarray(q, np.float64)
     n_raw = min(len(q), len(trial.time))
     q = q[:n_raw]
     force = sensor_force(trial, q)
     fs_raw = float(trial.rate_hz)
     first, first_ll = replace(run, data=None, observer=None), _path_ll(run)
-    fitted_on, status = None, None
+    fitted_on, status, passes = None, None, 1
     for _ in range(PAYLOAD_PASSES - 1):
         mask = free_mask(run.result.map_path, run.index, free, n_raw, fs_raw=fs_raw)
         if fitted_on is not None and (mask & ~fitted_on).sum() \
@@ -262,31 +267,32 @@ def observe_trial(trial, graph: FeatureGraph, models: dict, *, reduce: str = "no
         del run                  # the last pass's streams: not held through the next
         run = _observe_once(trial, graph, models, reduce, action, observer_kw, chunk, path,
                             fitted)
-        fitted_on = mask
+        fitted_on, passes = mask, passes + 1
     if run.payload is None:
         return replace(run, payload_status=status)
     gain, cost = _path_ll(run) - first_ll, 3.0 * np.log(max(len(run.index), 2))
+    check = {"passes": passes, "gain_nats": float(gain), "bic_nats": float(cost)}
     if gain > cost:
-        return replace(run, payload_status="applied")
+        return replace(run, payload_status="applied", payload_check=check)
     # the payload does not explain the data better: the first pass, with its streams
     # conditioned again and its observer as it was set up
     del run
     kw, data, _, _ = observer_setup(trial, graph, models, observer_kw, reduce, path)
     return replace(first, data=data, observer=Observer(graph, models, **kw),
                    payload_status=f"not kept: the corrected force's path gains {gain:.1f} "
-                                  f"nats, BIC asks {cost:.1f}")
+                                  f"nats, BIC asks {cost:.1f}", payload_check=check)
 
 
 def payload_line(payload: dict | None, status: str | None) -> str | None:
     """One text line on a trial's payload correction (``to_dict`` of the fit and the
-    status of :func:`observe_trial`); None where there is nothing to say (the correction
-    not asked for, or a trial without an orientation)."""
+    status of :func:`observe_trial`); None where there is nothing to say (a graph with
+    no free-space node on the contact signals, or the correction turned off)."""
     if payload is not None:
         fit = Payload(*(np.asarray(payload[k]) for k in ("weight_base_n", "offset_sensor_n",
                                                           "weight_sd_n", "offset_sd_n")),
                       payload["free_s"], payload["turn_deg"])
         return fit.text()
-    if status is None or status == "no orientation":
+    if status is None or status.startswith("disabled"):
         return None
     return f"payload not corrected: {status}"
 
@@ -543,7 +549,7 @@ class RecognizeStage(Stage):
                  "n_changes": count_changes(r.events),
                  "accuracy": None, "accuracy_online": None, "fit": rec.fit.to_dict(),
                  "payload": rec.payload.to_dict() if rec.payload is not None else None,
-                 "payload_status": rec.payload_status}
+                 "payload_status": rec.payload_status, "payload_check": rec.payload_check}
         if no_accuracy:
             entry["no_accuracy"] = no_accuracy
         extra = {"confusion": np.zeros((K, K), np.int64),
