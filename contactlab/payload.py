@@ -92,6 +92,13 @@ class Payload:
                 "offset_sd_n": [float(v) for v in self.offset_sd_n],
                 "free_s": float(self.free_s), "turn_deg": float(self.turn_deg)}
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "Payload":
+        """The fit back from :meth:`to_dict`."""
+        return cls(*(np.asarray(d[k], np.float64) for k in ("weight_base_n", "offset_sensor_n",
+                                                            "weight_sd_n", "offset_sd_n")),
+                   float(d["free_s"]), float(d["turn_deg"]))
+
     def text(self) -> str:
         """One line: the base-frame force and the sensor offset with each one's largest
         per-axis sd, the free space and the turn; where the turn was too small to tell

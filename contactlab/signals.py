@@ -329,7 +329,7 @@ def _base_force(trial, wrench: Signal, path, payload=None) -> np.ndarray:
     that does not turn, or a wrench already in the base frame).  ``payload``
     (:class:`~contactlab.payload.Payload`, a trial with its orientation): its
     correction is subtracted from the base-frame force, before the lowpass."""
-    q = sensor_orientation(trial)
+    q = _sensor_orientation(trial)
     if q is None and payload is None:
         return wrench.y[:, :3]
     from contactlab.archive.importer import rotate_vectors
@@ -346,7 +346,7 @@ def _base_force(trial, wrench: Signal, path, payload=None) -> np.ndarray:
     return condition_array(f, "wrench", fs=float(trial.rate_hz)).y[: len(wrench.y)]
 
 
-def sensor_orientation(trial) -> np.ndarray | None:
+def _sensor_orientation(trial) -> np.ndarray | None:
     """The tool's orientation (n, 4) when ``trial`` carries it and its wrench is as
     measured (in the sensor's axes): what turns the force into the base frame; else None."""
     q = getattr(trial, "orientation", None)
@@ -356,10 +356,10 @@ def sensor_orientation(trial) -> np.ndarray | None:
 
 
 def _base_wrench(trial, raw: np.ndarray) -> np.ndarray:
-    """The raw wrench (n, 6) in the base frame's axes where :func:`sensor_orientation`
+    """The raw wrench (n, 6) in the base frame's axes where :func:`_sensor_orientation`
     gives an orientation (force and torque each rotated,
     :func:`~contactlab.archive.importer.rotate_wrench`); else as it is."""
-    q = sensor_orientation(trial)
+    q = _sensor_orientation(trial)
     if q is None:
         return raw
     from contactlab.archive.importer import rotate_wrench

@@ -254,3 +254,12 @@ def test_why_a_payload_is_not_corrected_is_said(tmp_path):
     with open_archive(plain) as a:
         run = observe_trial(a.trial(a.trial_ids[0]), graph, built)
     assert run.payload is None and run.payload_status.startswith("no orientation")
+
+
+def test_a_fit_survives_its_json_form():
+    q = _turning(1000, 30.0)
+    f = _sensor_force(q, np.zeros((1000, 3)), np.array([0.0, 0.0, -4.0]), np.zeros(3))
+    p = fit_payload(q, f, np.ones(1000, bool), fs=200.0)
+    back = Payload.from_dict(p.to_dict())
+    np.testing.assert_array_equal(back.correction(q), p.correction(q))
+    assert back.text() == p.text()

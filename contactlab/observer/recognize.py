@@ -288,10 +288,7 @@ def payload_line(payload: dict | None, status: str | None) -> str | None:
     status of :func:`observe_trial`); None where there is nothing to say (a graph with
     no free-space node on the contact signals, or the correction turned off)."""
     if payload is not None:
-        fit = Payload(*(np.asarray(payload[k]) for k in ("weight_base_n", "offset_sensor_n",
-                                                          "weight_sd_n", "offset_sd_n")),
-                      payload["free_s"], payload["turn_deg"])
-        return fit.text()
+        return Payload.from_dict(payload).text()
     if status is None or status.startswith("disabled"):
         return None
     return f"payload not corrected: {status}"
