@@ -39,6 +39,12 @@ from contactlab.constraints.archive import MODELS
 @click.option("--force-noise", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="N", help="Force measurement noise (N, sd per axis, raw rate).  "
                                 "[default: estimated from each trial's data]")
+@click.option("--compliance/--rigid", default=True, show_default=True,
+              help="Estimate each plane's and edge's compliance (its penetration following "
+                   "the pressing force, m/N) with its frame, and with --block a frame that "
+                   "turns, and widen the angle sd by their uncertainty "
+                   "(contactlab.constraints.compliance; beyond the thesis); or fit the rigid "
+                   "constraint form as the thesis wrote it.")
 @click.option("--no-friction", is_flag=True,
               help="Skip the friction compensation filter (8.29).")
 @click.option("--trial", "trials", multiple=True, help="Only this trial (repeatable).")
@@ -47,7 +53,7 @@ from contactlab.constraints.archive import MODELS
 @quiet_option
 @checks_archive(values=False, walk_trials=False)   # run_stage checks each trial
 def estimate(archives, model, segments, block, sequential, motion, position_noise,
-             force_noise, no_friction, trials, workers, scheduler, as_json, quiet):
+             force_noise, compliance, no_friction, trials, workers, scheduler, as_json, quiet):
     """Estimate the constraint frame and degree of every segment of each ARCHIVE.
 
     Force (wrench[:, :3]), position and velocity are lowpassed and decimated
@@ -55,7 +61,8 @@ def estimate(archives, model, segments, block, sequential, motion, position_nois
     (8.21-8.28, log-likelihood criterion) after the friction filter (8.29),
     with the degree of constraint chosen by the highest log-likelihood over
     0..3 (8.2).  Pieces with too little motion or force to decide are reported
-    as undetermined.  Units are normalised by the measurement noise (8.7-8.9),
+    as undetermined.  A plane's or edge's compliance is estimated with its
+    frame (--rigid: not).  Units are normalised by the measurement noise (8.7-8.9),
     which is estimated from each trial's own data (the spread of second
     differences, never below the quantisation step) unless given.  The
     summary counts undetermined pieces as undecided and reports angle errors
@@ -69,6 +76,7 @@ def estimate(archives, model, segments, block, sequential, motion, position_nois
       contactlab estimate runs.h5 --block 25 --independent
       contactlab estimate runs.h5 --position-noise 1e-5 --force-noise 0.01
       contactlab estimate runs.h5 --motion velocity --no-friction
+      contactlab estimate runs.h5 --block 25 --rigid
 
     The polygon models (--model polygon-B, ...) need a planar archive: position
     columns x, y, theta and wrench columns fx, fy, tz ('contactlab import'
@@ -80,7 +88,7 @@ def estimate(archives, model, segments, block, sequential, motion, position_nois
     stage = EstimateStage(model=model, segments=segments, block=block,
                           friction=not no_friction, motion=motion,
                           position_sd=position_noise, force_sd=force_noise,
-                          sequential=sequential)
+                          sequential=sequential, compliance=compliance)
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
                           scheduler=scheduler, quiet=quiet)
     if as_json:
@@ -97,7 +105,14 @@ def _echo_cartesian(archive, summary):
                 click.echo(f"{head}: {r.get('status')} {r.get('reason', '')}".rstrip())
                 continue
             nrm = "; ".join("(" + ", ".join(f"{v:+.3f}" for v in n) + ")" for n in r["normals"])
-            extra = f", error {r['angle_error_deg']:.2f} deg" if "angle_error_deg" in r else ""
+            extra = ""
+            if "compliance_m_per_n" in r:
+                extra += (f", compliance {r['compliance_m_per_n'] * 1e3:.3f} +- "
+                          f"{r['compliance_sd_m_per_n'] * 1e3:.3f} mm/N")
+            if "turn_deg" in r:
+                extra += f", turned {r['turn_deg']:.2f} deg"
+            if "angle_error_deg" in r:
+                extra += f", error {r['angle_error_deg']:.2f} deg"
             click.echo(f"{head}: degree {r['degree']} normals [{nrm}] "
                        f"sd {r['angle_sd_deg']:.2f} deg{extra}")
     s = summary["summary"]

@@ -47,15 +47,15 @@ def test_degenerate_inputs():
 
 
 def test_estimate_blocks_widen_their_sd_on_a_compliant_contact(tmp_path):
-    """On synthetic contacts with a compliant surface, pressing 0.2-2 N, the widened sd of
-    the sequential blocks covers the error far more often than the noise-only sd, and is
-    never below it."""
+    """On synthetic contacts with a compliant surface, pressing 0.2-2 N, fitted by the
+    rigid form, the widened sd of the sequential blocks covers the error far more often
+    than the noise-only sd, and is never below it."""
     from contactlab.constraints.archive import estimate_archive
     from contactlab.synthetic import contact_trials, write_archive
 
     path = tmp_path / "c.h5"
     write_archive(contact_trials(4, seed=21, stiffness=2000.0, press_n=(0.2, 2.0)), path)
-    out = estimate_archive(str(path), block=25, write=False)
+    out = estimate_archive(str(path), block=25, write=False, compliance=False)
     rows = [r for t in out["trials"].values() for r in t["segments"]
             if r.get("angle_error_deg") is not None and "angle_sd_noise_deg" in r]
     assert len(rows) > 40

@@ -31,6 +31,7 @@ import numpy as np
 from contactlab.archive.results import TrialResults
 from contactlab.constraints.alignment import angular_error_deg
 from contactlab.constraints.cartesian import CartesianConstraint, min_samples
+from contactlab.constraints.compliance import CompliantConstraint
 from contactlab.errors import DataError, UsageError
 from contactlab.signals import cutoff_for, default_signal
 from contactlab.stages import Stage, TrialOutcome, run_stage
@@ -115,13 +116,14 @@ class EstimateStage(Stage):
                  block: int | None = None, friction: bool = True, motion: str = "position",
                  write: bool = True, estimator: CartesianConstraint | None = None,
                  position_sd: float | None = None, force_sd: float | None = None,
-                 sequential: bool = True):
+                 sequential: bool = True, compliance: bool = True):
         if model not in MODELS:
             raise UsageError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
         if block is not None and block < min_samples(3):
             raise UsageError(f"block must be >= {min_samples(3)} samples; got {block}")
         self.model, self.segments, self.block, self.write = model, segments, block, write
         self.sequential = bool(sequential)
+        self.compliance = bool(compliance)
         self.estimator = estimator or CartesianConstraint(friction=friction, motion=motion)
         # noise levels: given, or estimated per trial unless an estimator was given
         self.fixed_noise = estimator is not None
@@ -133,12 +135,16 @@ class EstimateStage(Stage):
         if self.model == "cartesian":
             if not self.fixed_noise:
                 est = _with_noise(est, trial, self.position_sd, self.force_sd)
+            if self.compliance:
+                est = CompliantConstraint(est)
             rows, (datasets, source) = _estimate_trial(trial, est, self.segments, self.block,
                                                        sequential=self.sequential)
         else:
             rows, (datasets, source) = _estimate_trial_polygon(
                 trial, self.model[len("polygon-"):], self.segments, self.block)
         params = est.get_params() if self.model == "cartesian" else {}
+        if self.model == "cartesian":
+            params["compliance"] = self.compliance
         results = TrialResults(
             datasets,
             attrs={"model": self.model, "segments": source,
@@ -164,7 +170,7 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
                      estimator: CartesianConstraint | None = None,
                      position_sd: float | None = None, force_sd: float | None = None,
                      sequential: bool = True, workers: int = 1,
-                     scheduler: str | None = None) -> dict:
+                     scheduler: str | None = None, compliance: bool = True) -> dict:
     """Estimate the constraint of every segment of every trial of archive ``path``.
 
     ``segments``: "truth", "auto", a results stage name, or None (truth when the
@@ -178,11 +184,14 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
     whose accuracies are then used as they are.
     Writes ``results/estimate`` of all trials in one atomic step when
     ``write`` (:func:`contactlab.stages.run_stage`; ``workers`` / ``scheduler``
-    as there).  Returns ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
+    as there).  ``compliance``: estimate each plane's and edge's compliance and a
+    turning frame with it (:mod:`contactlab.constraints.compliance`); False fits the
+    rigid constraint form as the thesis wrote it.  Returns ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
     """
     stage = EstimateStage(model=model, segments=segments, block=block, friction=friction,
                           motion=motion, write=write, estimator=estimator,
-                          position_sd=position_sd, force_sd=force_sd, sequential=sequential)
+                          position_sd=position_sd, force_sd=force_sd, sequential=sequential,
+                          compliance=compliance)
     return run_stage(stage, [path], trials=trials, workers=workers, scheduler=scheduler,
                      quiet=quiet)[Path(path)]
 
@@ -247,11 +256,18 @@ def _estimate_trial(trial, est, segments, block, *, sequential=True):
             row.update(status="too short", degree=None, normals=[], log_likelihoods=None)
             rows.append(row)
             continue
-        fit = est.estimate(position[used], force[used], None if velocity is None else velocity[used])
+        kw = {}
+        if len(used) != len(idx) and isinstance(est, CompliantConstraint):
+            kw["at"] = (len(used) - 0.5 * len(idx)) / len(used)   # the block's middle
+        fit = est.estimate(position[used], force[used],
+                           None if velocity is None else velocity[used], **kw)
         row.update(status=fit.status_, reason=fit.reason_, degree=fit.degree_,
                    normals=fit.normals_.T.tolist(),
                    log_likelihoods=fit.log_likelihoods_.tolist(),
                    angle_sd_deg=fit.angle_sd_deg_)
+        for key in ("compliance_m_per_n", "compliance_sd_m_per_n", "turn_deg"):
+            if key in fit.parameters:
+                row[key] = float(fit.parameters[key])
         ll[i] = fit.log_likelihoods_
         sd[i] = fit.angle_sd_deg_
         if fit.degree_ is not None and fit.determined_:
@@ -289,6 +305,7 @@ def _with_block_spread(est, pieces, rows, deg, normals, sd, position, force, vel
     from contactlab.constraints.dispersion import between_block_variance
 
     k = 3
+    rigid = est.estimator if isinstance(est, CompliantConstraint) else est
     out = sd.copy()
     alone: list = []            # (degree, normals, sd) of each block fitted alone
     for idx, used, _ in pieces:
@@ -296,7 +313,8 @@ def _with_block_spread(est, pieces, rows, deg, normals, sd, position, force, vel
             alone.append(None)
             continue
         w = used[-WINDOW_BLOCKS * len(idx):]
-        f = est.estimate(position[w], force[w], None if velocity is None else velocity[w])
+        # the spread of the rigid fits: two blocks are too few to tell a compliance
+        f = rigid.estimate(position[w], force[w], None if velocity is None else velocity[w])
         ok = f.degree_ is not None and f.determined_ and 0 < f.degree_ < k
         alone.append((f.degree_, f.normals_, f.angle_sd_deg_) if ok else None)
     first = 0
