@@ -13,6 +13,7 @@ diagnostic and the recursive form.
 - :mod:`.exploration`  is there information in every direction? (9.1.2)
 - :mod:`.recursive`    information matrices updated sample by sample
 - :mod:`.dispersion`   the spread of frames between blocks beyond their noise
+- :mod:`.compliance`   a compliant contact's penetration and a turning frame, with the frame
 - :mod:`.archive`      per-segment estimation of archive trials (``contactlab estimate``)
 
 Example::
