@@ -115,7 +115,7 @@ def test_estimate_reports_compliance_and_covers_disturbed_blocks(tmp_path):
     from contactlab.synthetic import contact_trials, write_archive
 
     path = tmp_path / "d.h5"
-    write_archive(contact_trials(3, seed=31, stiffness=2000.0, press_n=(0.2, 2.0),
+    write_archive(contact_trials(2, seed=31, stiffness=2000.0, press_n=(0.2, 2.0),
                                  friction=(0.0, 0.3), drift_deg=2.0), path)
     cover = {}
     for compliance in (True, False):
