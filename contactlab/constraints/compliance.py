@@ -158,8 +158,10 @@ class CompliantConstraint:
     determined plane or edge (free space, a corner, an undetermined frame), or whose
     corrected refit is undetermined, is the rigid fit.
 
-    ``compliance_`` (:class:`Compliance` or None) is set on the returned fit's
-    ``parameters`` as ``compliance_m_per_n`` / ``compliance_sd_m_per_n``.
+    The returned fit's ``parameters`` carry ``compliance_m_per_n`` and
+    ``compliance_sd_m_per_n`` (and ``turn_deg`` when :meth:`estimate` turned the frame;
+    then ``normals_`` and ``free_`` are the turned frame's, the other attributes the
+    samples' average frame's).
     """
 
     def __init__(self, estimator, *, passes: int = 2):
