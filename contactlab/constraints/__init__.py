@@ -18,9 +18,12 @@ diagnostic and the recursive form.
 
 Example::
 
-    from contactlab.constraints import CartesianConstraint
+    from contactlab.constraints import CartesianConstraint, CompliantConstraint
     fit = CartesianConstraint(friction=True).estimate(position, force)   # (n, 3) SI
     fit.degree_, fit.normals_, fit.angle_sd_deg_, fit.log_likelihoods_
+    # a compliant contact: the penetration's compliance estimated with the frame
+    fit = CompliantConstraint(CartesianConstraint(friction=True)).estimate(position, force)
+    fit.parameters["compliance_m_per_n"]
 """
 
 from contactlab.constraints.alignment import (angular_error_deg, alignment_deviation,
@@ -29,6 +32,7 @@ from contactlab.constraints.alignment import (angular_error_deg, alignment_devia
 from contactlab.constraints.cartesian import (FORCE_SD, POSITION_SD, VELOCITY_SD, BlockFits,
                                               CartesianConstraint, CartesianStiffness,
                                               ConstraintFit, StiffnessFit, min_samples)
+from contactlab.constraints.compliance import Compliance, CompliantConstraint, fit_compliance
 from contactlab.constraints.degree import (AlignmentDegreeTest, alignment_statistic,
                                            decide_degree)
 from contactlab.constraints.direction import (alignment_penalty, decide_direction,
@@ -40,10 +44,10 @@ from contactlab.constraints.scaling import Scaling, reciprocal_scaling
 
 __all__ = [
     "AlignmentDegreeTest", "BlockFits", "CartesianConstraint", "CartesianStiffness",
-    "ConstraintFit", "Exploration", "FORCE_SD", "POSITION_SD", "RecursiveConstraint", "Scaling",
+    "Compliance", "CompliantConstraint", "ConstraintFit", "Exploration", "FORCE_SD", "POSITION_SD", "RecursiveConstraint", "Scaling",
     "StiffnessFit", "VELOCITY_SD", "alignment_deviation", "alignment_penalty",
     "alignment_statistic", "angular_error_deg", "decide_degree",
     "decide_direction", "direction_cosines", "direction_log_likelihood", "equivalent_angle_deg",
-    "exploration", "friction_filter", "joint_projection", "lognormal_summary", "min_samples",
+    "exploration", "fit_compliance", "friction_filter", "joint_projection", "lognormal_summary", "min_samples",
     "prior_rate", "reciprocal_scaling",
 ]
