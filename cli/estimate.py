@@ -42,7 +42,11 @@ from contactlab.constraints.archive import MODELS
 @click.option("--compliance/--rigid", default=True, show_default=True,
               help="Estimate each plane's and edge's compliance (its penetration following "
                    "the pressing force, m/N) with its frame, and with --block a frame that "
-                   "turns, and widen the angle sd by their uncertainty "
+                   "turns (printed as 'turned', from the segment's average frame to the "
+                   "block's), and widen the angle sd by their uncertainty; the compliance is "
+                   "positive where the position gives way against the measured force (a "
+                   "sensor reading the surface's reaction on the tool), negative for a sensor "
+                   "reading the force the tool applies "
                    "(contactlab.constraints.compliance; beyond the thesis); or fit the rigid "
                    "constraint form as the thesis wrote it.")
 @click.option("--no-friction", is_flag=True,

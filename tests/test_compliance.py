@@ -130,3 +130,20 @@ def test_estimate_reports_compliance_and_covers_disturbed_blocks(tmp_path):
         cover[compliance] = float(np.mean(err <= 2 * sd))
         assert all(("compliance_m_per_n" in r) == compliance for r in rows)
     assert cover[True] >= 0.85 and cover[True] > cover[False] + 0.1
+
+
+def test_a_turn_is_followed_only_over_enough_samples_and_within_its_linear_range():
+    """No turn from fewer than TURN_MIN_SAMPLES samples, nor one larger than TURN_MAX_DEG
+    (a plane turning 30 deg in a run: half of it would be 15 deg at the end)."""
+    from contactlab.constraints.compliance import TURN_MAX_DEG, TURN_MIN_SAMPLES
+
+    comp = CompliantConstraint(CartesianConstraint(position_sd=0.1e-3, force_sd=0.02))
+    for seed in (0, 2, 5):
+        tr = contact_trial(seed=seed, degree=1, drift_deg=6.0)
+        assert "turn_deg" in comp.estimate(tr.position, tr.force, at=1.0).parameters
+        short = comp.estimate(tr.position[:TURN_MIN_SAMPLES - 1], tr.force[:TURN_MIN_SAMPLES - 1],
+                              at=1.0)
+        assert "turn_deg" not in short.parameters
+        big = contact_trial(seed=seed, degree=1, drift_deg=30.0)
+        fit = comp.estimate(big.position, big.force, at=1.0)
+        assert fit.parameters.get("turn_deg", 0.0) <= TURN_MAX_DEG

@@ -39,7 +39,8 @@ import math
 
 import numpy as np
 
-__all__ = ["Compliance", "fit_compliance", "CompliantConstraint", "TURN_LEVEL"]
+__all__ = ["Compliance", "fit_compliance", "CompliantConstraint", "TURN_LEVEL",
+           "TURN_MIN_SAMPLES", "TURN_MAX_DEG"]
 
 #: the rates' test level: a frame is turned on to a block when its tilt rates are
 #: significant at this level.  A false turn costs little (the frame moves by its rate's
@@ -47,6 +48,15 @@ __all__ = ["Compliance", "fit_compliance", "CompliantConstraint", "TURN_LEVEL"]
 #: synthetic contacts creeping 2 deg a run (seeds 1-5), 5 % covered more blocks than 1 %
 #: on every row (edges of seed 4: 88 against 79 %) and the same on rigid contacts
 TURN_LEVEL = 0.05
+
+#: the fewest samples a turn is followed from (0.4 s at 250 Hz): a rate fitted over a
+#: shorter stretch, extrapolated to its block, turned a real snap-fit's frame by 73 deg
+TURN_MIN_SAMPLES = 100
+
+#: the largest turn followed (deg): the regression's small-rotation form holds to a few
+#: degrees; a larger fitted turn is a misfit of the creep's straight line, not a creep (on
+#: a real snap fit's blocks the fitted turns reached tens of degrees)
+TURN_MAX_DEG = 5.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,8 +202,9 @@ class CompliantConstraint:
         """Fit (n, k) ``position``, ``force`` (and ``velocity``).  ``at`` in [0, 1]: the
         frame wanted at that share of the samples' time (a block's middle in a
         segment's samples so far); when the frame turns measurably (:meth:`Compliance.
-        turning`), the fitted frame (the samples' average) is turned on to it at the
-        rate found, and its standard error gains the rate's."""
+        turning`, over at least :data:`TURN_MIN_SAMPLES` samples, by at most
+        :data:`TURN_MAX_DEG`), the fitted frame (the samples' average) is turned on to it
+        at the rate found, and its standard error gains the rate's."""
         est = self.estimator
         rigid = est.estimate(position, force, velocity)
         x = np.asarray(position, dtype=np.float64)
@@ -219,10 +230,11 @@ class CompliantConstraint:
         params = {**fit.parameters, "compliance_m_per_n": comp.c,
                   "compliance_sd_m_per_n": comp.sd}
         changes = {}
-        if at is not None and comp.turning():
-            tau = 2.0 * float(at) - 1.0               # the regression's centred time
-            q = k - m
-            tilt = -comp.rate.reshape(m, q) * tau     # regression coefficients are -tilts
+        q = k - m
+        tau = 2.0 * float(at) - 1.0 if at is not None else 0.0   # the regression's time
+        tilt = -comp.rate.reshape(m, q) * tau         # regression coefficients are -tilts
+        if (at is not None and len(x) >= TURN_MIN_SAMPLES and comp.turning()
+                and np.degrees(np.linalg.norm(tilt)) <= TURN_MAX_DEG):
             N = fit.normals_ + fit.free_ @ tilt.T
             N, _ = np.linalg.qr(N)
             N = N * np.sign(np.sum(N * fit.normals_, axis=0))
