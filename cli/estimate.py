@@ -123,6 +123,16 @@ def _echo_cartesian(archive, summary):
     click.echo(f"{s['pieces']} pieces: {s['decided']} decided, {s['undetermined']} "
                f"undetermined, {s['too_short']} too short; results written to {archive} "
                f"(results/estimate)")
+    if s.get("degree_correct") is not None:            # the archive has the true degrees
+        per = []
+        for m, e in s["per_true_degree"].items():
+            text = f"degree {m}: {e['right']} right, {e['wrong']} wrong, {e['undecided']} undecided"
+            if "angle_within_2sd" in e:
+                text += (f", median angle error {e['median_angle_error_deg']:.2f} deg, "
+                         f"{100 * e['angle_within_2sd']:.0f} % within 2 sd")
+            per.append(text)
+        click.echo(f"against the truth: degree right on {100 * s['degree_correct']:.1f} % of "
+                   f"pieces; " + "; ".join(per))
 
 
 def _echo_polygon(archive, summary):

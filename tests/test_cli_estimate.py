@@ -60,12 +60,20 @@ def test_blocks_and_text_output(archive):
     assert "pieces" in res.stdout and "cartesian-004" in res.stdout
     res = run_cli("estimate", archive, "--block", "25", "--trial", "cartesian-004", "--json",
                   "--quiet")
-    rows = one_json_object(res.stdout)["trials"]["cartesian-004"]["segments"]
+    out = one_json_object(res.stdout)
+    rows = out["trials"]["cartesian-004"]["segments"]
     assert len(rows) == 16 and all(r["n"] == 25 for r in rows)
     for r in rows:      # decided (degree and normals) or explicitly undetermined
         assert r["status"] in ("ok", "undetermined")
         assert (r["degree"] is None) == (r["status"] == "undetermined")
         assert len(r["log_likelihoods"]) == 4
+    # the text's summary against the truth: the counts of the JSON summary, wrong ones too
+    text = run_cli("estimate", archive, "--block", "25", "--trial", "cartesian-004",
+                   "--quiet").stdout.splitlines()[-1]
+    s = out["summary"]
+    assert text.startswith(f"against the truth: degree right on {100 * s['degree_correct']:.1f} %")
+    for m, e in s["per_true_degree"].items():
+        assert f"degree {m}: {e['right']} right, {e['wrong']} wrong" in text
 
 
 def test_auto_segments(archive):
