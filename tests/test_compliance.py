@@ -17,7 +17,8 @@ def _plane(c: float, *, n: int = 2000, seed: int = 0, noise_m: float = 1e-5):
     t = np.arange(n) / 1000.0
     R = np.linalg.qr(rng.standard_normal((3, 3)))[0]
     N, T = R[:, :1], R[:, 1:]
-    s = np.column_stack([4e-3 * np.sin(2 * np.pi * 0.7 * t), 3e-3 * np.sin(2 * np.pi * 1.1 * t + 1)])
+    s = np.column_stack([4e-3 * np.sin(2 * np.pi * 0.7 * t),
+                         3e-3 * np.sin(2 * np.pi * 1.1 * t + 1)])
     g = 1.25 + 0.5 * s[:, 0] / 4e-3 + 0.2 * np.sin(2 * np.pi * 0.4 * t)
     force = g[:, None] * N.T + rng.normal(0, 0.01, (n, 3))
     position = s @ T.T - c * g[:, None] * N.T + rng.normal(0, noise_m, (n, 3))

@@ -44,10 +44,10 @@ from contactlab.constraints.scaling import Scaling, reciprocal_scaling
 
 __all__ = [
     "AlignmentDegreeTest", "BlockFits", "CartesianConstraint", "CartesianStiffness",
-    "Compliance", "CompliantConstraint", "ConstraintFit", "Exploration", "FORCE_SD", "POSITION_SD", "RecursiveConstraint", "Scaling",
-    "StiffnessFit", "VELOCITY_SD", "alignment_deviation", "alignment_penalty",
-    "alignment_statistic", "angular_error_deg", "decide_degree",
-    "decide_direction", "direction_cosines", "direction_log_likelihood", "equivalent_angle_deg",
-    "exploration", "fit_compliance", "friction_filter", "joint_projection", "lognormal_summary", "min_samples",
-    "prior_rate", "reciprocal_scaling",
+    "Compliance", "CompliantConstraint", "ConstraintFit", "Exploration", "FORCE_SD",
+    "POSITION_SD", "RecursiveConstraint", "Scaling", "StiffnessFit", "VELOCITY_SD",
+    "alignment_deviation", "alignment_penalty", "alignment_statistic", "angular_error_deg",
+    "decide_degree", "decide_direction", "direction_cosines", "direction_log_likelihood",
+    "equivalent_angle_deg", "exploration", "fit_compliance", "friction_filter",
+    "joint_projection", "lognormal_summary", "min_samples", "prior_rate", "reciprocal_scaling",
 ]

@@ -186,7 +186,8 @@ def estimate_archive(path, *, model: str = "cartesian", segments: str | None = N
     ``write`` (:func:`contactlab.stages.run_stage`; ``workers`` / ``scheduler``
     as there).  ``compliance``: estimate each plane's and edge's compliance and a
     turning frame with it (:mod:`contactlab.constraints.compliance`); False fits the
-    rigid constraint form as the thesis wrote it.  Returns ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
+    rigid constraint form as the thesis wrote it.
+    Returns ``{"trials": {id: {"segments": [...]}}, "summary": {...}}``.
     """
     stage = EstimateStage(model=model, segments=segments, block=block, friction=friction,
                           motion=motion, write=write, estimator=estimator,

@@ -27,8 +27,9 @@ step with the motion; when it does not vary, ``c`` is undetermined and harmless 
 correction is then a constant offset).  The positions corrected to the rigid surface,
 ``x_t + c f_t``, are fitted again by the constraint form as written, and the frame's
 standard error gains the share of ``c``'s uncertainty, ``Sigma_ac Sigma_cc^-1 Sigma_ca``
-(the tilts' marginal covariance less their covariance with ``c`` known).  The residuals'
-variance counts their correlation through the AR(1) factor ``(1 + rho) / (1 - rho)``.
+(the tilts' marginal covariance less their covariance with ``c`` known).  The
+coefficients' covariance is the sandwich with the residuals' long-run covariance
+(:func:`.frames.long_run_covariance`, as the constraint fit's own "hac" standard error).
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ import dataclasses
 import math
 
 import numpy as np
+
+from contactlab.constraints.frames import long_run_covariance
 
 __all__ = ["Compliance", "fit_compliance", "CompliantConstraint", "TURN_LEVEL",
            "TURN_MIN_SAMPLES", "TURN_MAX_DEG"]
@@ -87,21 +90,14 @@ class Compliance:
     @property
     def tilt_sd_deg(self) -> float:
         """The largest standard error (deg) ``c``'s uncertainty adds to a tilt."""
-        if self.tilt_cov.size == 0:
-            return 0.0
-        return float(np.degrees(np.sqrt(max(0.0, np.linalg.eigvalsh(self.tilt_cov).max()))))
+        return _largest_sd_deg(self.tilt_cov)
 
 
-def _ar1_factor(e: np.ndarray) -> float:
-    """``(1 + rho) / (1 - rho)`` of the lag-1 autocorrelation of each column of ``e``
-    (n, m) pooled, rho clipped to [0, 0.95]."""
-    e = e - e.mean(axis=0)
-    den = float(np.sum(e * e))
-    if den <= 0 or len(e) < 3:
-        return 1.0
-    rho = float(np.sum(e[1:] * e[:-1]) / den)
-    rho = min(max(rho, 0.0), 0.95)
-    return (1.0 + rho) / (1.0 - rho)
+def _largest_sd_deg(cov: np.ndarray) -> float:
+    """The largest standard deviation (deg) of a covariance of small rotations (rad^2)."""
+    if cov.size == 0:
+        return 0.0
+    return float(np.degrees(np.sqrt(max(0.0, np.linalg.eigvalsh(cov).max()))))
 
 
 def fit_compliance(position, force, normals, free, *, force_sd=0.0) -> Compliance | None:
@@ -153,8 +149,11 @@ def fit_compliance(position, force, normals, free, *, force_sd=0.0) -> Complianc
         return None
     beta = np.linalg.solve(G, As.T @ b) / s
     e = (b - A @ beta).reshape(n, m)
-    s2 = float(np.sum(e * e)) / (n * m - p) * _ar1_factor(e)
-    cov = s2 * np.linalg.inv(G) / np.outer(s, s)
+    # the sandwich with the scores' long-run covariance: slow disturbances make
+    # neighbouring samples alike
+    omega, _ = long_run_covariance(np.einsum("tjp,tj->tp", X / s, e))
+    Ginv = np.linalg.inv(G)
+    cov = Ginv @ (n * omega) @ Ginv / np.outer(s, s)
     t = slice(0, m * q)
     cac = cov[t, -1]
     extra = np.outer(cac, cac) / cov[-1, -1] if cov[-1, -1] > 0 else np.zeros((m * q, m * q))
@@ -230,19 +229,18 @@ class CompliantConstraint:
         params = {**fit.parameters, "compliance_m_per_n": comp.c,
                   "compliance_sd_m_per_n": comp.sd}
         changes = {}
-        q = k - m
         tau = 2.0 * float(at) - 1.0 if at is not None else 0.0   # the regression's time
-        tilt = -comp.rate.reshape(m, q) * tau         # regression coefficients are -tilts
-        if (at is not None and len(x) >= TURN_MIN_SAMPLES and comp.turning()
-                and np.degrees(np.linalg.norm(tilt)) <= TURN_MAX_DEG):
+        tilt = -comp.rate.reshape(m, k - m) * tau     # regression coefficients are -tilts
+        turn_deg = float(np.degrees(np.linalg.norm(tilt)))
+        if at is not None and len(x) >= TURN_MIN_SAMPLES and comp.turning() \
+                and turn_deg <= TURN_MAX_DEG:
             N = fit.normals_ + fit.free_ @ tilt.T
             N, _ = np.linalg.qr(N)
             N = N * np.sign(np.sum(N * fit.normals_, axis=0))
             full, _ = np.linalg.qr(np.concatenate([N, fit.free_], axis=1))
             free = full[:, m:] * np.sign(np.sum(full[:, m:] * fit.free_, axis=0))
             changes.update(normals_=N, free_=free)
-            rc = comp.rate_cov * tau * tau
-            var += float(np.degrees(np.sqrt(max(0.0, np.linalg.eigvalsh(rc).max())))) ** 2
-            params["turn_deg"] = float(np.degrees(np.linalg.norm(tilt)))
+            var += _largest_sd_deg(comp.rate_cov * tau * tau) ** 2
+            params["turn_deg"] = turn_deg
         return dataclasses.replace(fit, angle_sd_deg_=float(np.sqrt(var)), parameters=params,
                                    log_likelihoods_=rigid.log_likelihoods_, **changes)
