@@ -39,6 +39,7 @@ Besides the wrench, each trial keeps ``rdt_sequence``, ``ft_sequence`` and
 from __future__ import annotations
 
 import math
+import select
 import socket
 import struct
 import time as _time
@@ -225,7 +226,6 @@ class NetFTTrial:
         buffer: list[bytes] = []
         offsets: list[int] = []
         while last < n_target - 1:
-            asked = _time.monotonic()
             try:
                 packet = sock.recv(RECORD.size + 64)
             except socket.timeout:
@@ -243,10 +243,6 @@ class NetFTTrial:
             except ConnectionRefusedError:
                 raise self._error(f"{self._where} refused the RDT request "
                                   "(no Net F/T listening there)") from None
-            # the receive buffer was empty (this packet was waited for): the reader is caught
-            # up, so the packets counted so far are all the box has sent -- the only moment
-            # the count measures the box's rate and not a slow consumer's lag
-            caught_up = _time.monotonic() - asked > 0.5 / src.rate_hz
             if len(packet) != RECORD.size:
                 raise self._error(f"malformed RDT packet from {self._where}: {len(packet)} "
                                   f"bytes, expected {RECORD.size}")
@@ -271,8 +267,12 @@ class NetFTTrial:
             last = offset
             buffer.append(packet)
             offsets.append(offset)
-            if (not rate_checked and caught_up
-                    and _time.monotonic() - wall0 >= RATE_CHECK_S):
+            # judged only when the receive buffer is empty after this packet: the reader is
+            # then caught up, so the packets counted are all the box has sent -- the only
+            # moment the count measures the box's rate and not a slow consumer's lag (how
+            # long a recv waited is no sign of it: a loaded machine delays a ready recv too)
+            if (not rate_checked and _time.monotonic() - wall0 >= RATE_CHECK_S
+                    and not select.select([sock], [], [], 0)[0]):
                 rate_checked = True
                 self._check_rate(last, _time.monotonic() - wall0)
             if len(buffer) >= CHUNK_RECORDS:
