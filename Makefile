@@ -132,9 +132,10 @@ coverage: $(COV_STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
-## Every thesis experiment that is implemented.
+## Every thesis experiment that is implemented, in the portable numerics environment
+## (contactlab/portable.py: the same numbers on any x86-64 processor).
 reproduce: $(STAMP)
-	$(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
+	env $$($(BIN)/python -m contactlab.portable) $(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache docs/_build

@@ -2,21 +2,24 @@
 
 The fast pages (a few seconds to half a minute each) are rerun with the seed they were made with and
 every number and text of their ``results.json`` is compared with the committed one; a
-page made by older code fails here until it is regenerated (``contactlab reproduce NAME
---out reports --seed S``).  Wall-clock times and the page's own path are not results.
-A refactor that leaves results unchanged passes.
+page made by older code fails here until it is regenerated (``make reproduce``, or
+``contactlab reproduce NAME --out reports --seed S`` in the portable numerics
+environment).  Wall-clock times and the page's own path are not results.  A refactor
+that leaves results unchanged passes.  Both run in :mod:`contactlab.portable`'s
+environment, so the same code gives the same numbers on any x86-64 processor.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from contactlab.cli import main
+from contactlab.portable import environment
 
 REPO = Path(__file__).resolve().parents[1]
 FAST = ("ph-demo", "impact-envelope", "impact-spectrogram", "ar-fit", "hf-models",
@@ -52,9 +55,10 @@ def _same(a, b) -> bool:
 def test_committed_page_matches_the_code(name, tmp_path):
     committed = json.loads((REPO / "reports" / name / "results.json").read_text())
     seed = committed.get("seed", 1)
-    r = CliRunner().invoke(main, ["reproduce", name, "--out", str(tmp_path), "--seed",
-                                  str(seed), "-q"])
-    assert r.exit_code == 0, r.output
+    r = subprocess.run([sys.executable, "-m", "contactlab", "reproduce", name, "--out",
+                        str(tmp_path), "--seed", str(seed), "-q"], env=environment(),
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
     fresh = json.loads((tmp_path / name / "results.json").read_text())
     a, b = _flat(committed), _flat(fresh)
     stale = sorted(k for k in set(a) | set(b) if not _same(a.get(k), b.get(k)))
