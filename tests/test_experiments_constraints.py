@@ -139,3 +139,68 @@ def test_run_writes_page_and_summary(tmp_path, module, kw):
     on_disk = json.loads((tmp_path / "results.json").read_text())
     assert on_disk["experiment"] == summary["experiment"]
     assert "Where ours differ" in (tmp_path / "index.html").read_text()
+
+
+def test_strided_blocks_stay_in_one_run_at_their_stride(groups):
+    from contactlab.acquire.cartesian_groups import consecutive_blocks, strided_blocks
+    gd = groups["plane"]
+    a = consecutive_blocks(gd, n_blocks=50, block=25, rng=np.random.default_rng(4))
+    b = strided_blocks(gd, n_blocks=50, block=25, stride=1, rng=np.random.default_rng(4))
+    np.testing.assert_array_equal(a, b)
+    idx = strided_blocks(gd, n_blocks=200, block=25, stride=3, rng=np.random.default_rng(5))
+    assert np.all(np.diff(idx, axis=1) == 3)
+    assert np.all(gd.run[idx] == gd.run[idx[:, :1]])         # never across two runs
+    with pytest.raises(ValueError, match="no run"):
+        strided_blocks(gd, n_blocks=1, block=25, stride=5, rng=np.random.default_rng(0))
+
+
+def test_free_exploration_is_the_least_rms_excursion_along_the_free_directions():
+    from contactlab.acquire.cartesian_groups import GroupData, free_exploration
+    # a plane tilted about x; 25 samples once round an ellipse of half-axes a, b in its free
+    # directions: the centred columns are orthogonal with sums of squares 25 a^2 / 2 and
+    # 25 b^2 / 2, so the least rms excursion is b / sqrt(2) (closed form)
+    t = math.radians(10.0)
+    n = np.array([0.0, -math.sin(t), math.cos(t)])
+    u, w = np.array([1.0, 0.0, 0.0]), np.cross(n, [1.0, 0.0, 0.0])
+    th = 2 * np.pi * np.arange(25) / 25
+    a, b, sd = 2e-3, 3e-4, 1e-5
+    pos = 0.01 + np.outer(a * np.cos(th), u) + np.outer(b * np.sin(th), w) + 0.2 * n
+    gd = GroupData("plane", pos, np.zeros_like(pos), np.zeros_like(pos), n[:, None],
+                   np.zeros(25, int), np.ones(25, int))
+    got = free_exploration(gd, np.arange(25)[None], position_sd=sd)
+    assert got[0] == pytest.approx(b / math.sqrt(2) / sd, rel=1e-9)
+    corner = GroupData("corner", pos, pos, pos, np.eye(3), np.zeros(25, int), np.ones(25, int))
+    assert np.isnan(free_exploration(corner, np.arange(25)[None], position_sd=sd)).all()
+
+
+@pytest.fixture(scope="module")
+def longer_groups():
+    """Test and training groups of 0.8 s runs (200 samples: blocks spread up to 0.77 s)."""
+    return ce.load_groups(seed=6, duration_s=0.8), ce.load_groups(seed=7, duration_s=0.8)
+
+
+def test_the_degree_test_follows_what_a_block_explores(longer_groups):
+    # the measured cause of the 0.1 s blocks' confusions: the longer a block's samples are
+    # spread over its run, the more it explores and the more blocks are decided right
+    sp = cd.span_test(longer_groups[0], seed=6, n_blocks=80, block=25)
+    strides = [r["stride"] for r in sp["by_stride"]]
+    assert strides == [1, 2, 4, 8]            # 16 does not fit a 200-sample run
+    first, last = sp["by_stride"][0], sp["by_stride"][-1]
+    for i in (1, 2):                          # plane and line
+        assert last["median_exploration_sd"][i] > 10 * first["median_exploration_sd"][i]
+        assert last["correct_by_class"][i] >= first["correct_by_class"][i] + 0.2
+    rich = [r for r in sp["by_exploration"] if r["from_sd"] >= 30.0 and r["plane"]["blocks"]]
+    poor = sp["by_exploration"][0]
+    assert rich and all(r["plane"]["correct"] > poor["plane"]["correct"] for r in rich)
+
+
+def test_the_direction_test_follows_what_a_block_explores(longer_groups):
+    sp = cdir.span_curves(*longer_groups, seed=6, n_nominal=4, blocks=25)
+    for case in ("one contact", "two contacts"):
+        rows = [r for r in sp if r["case"] == case]
+        assert [r["stride"] for r in rows] == [1, 2, 4, 8]
+        first, last = rows[0], rows[-1]
+        assert last["median_exploration_sd"] > 10 * first["median_exploration_sd"]
+        # 100 decisions a point: at 5 deg the spread blocks are right at least 0.2 more often
+        assert last["correct"][0] >= first["correct"][0] + 0.2
+        assert min(last["correct"]) >= 0.95

@@ -21,7 +21,7 @@ from contactlab.progress import progress
 from contactlab.signals import factor_for
 
 __all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups",
-           "load_group_pair", "consecutive_blocks",
+           "load_group_pair", "consecutive_blocks", "strided_blocks", "free_exploration",
            "random_blocks", "reported_normals"]
 
 SPEC = "cartesian"
@@ -139,10 +139,39 @@ def load_group_pair(*, seed: int, quiet: bool = True,
 
 def consecutive_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
     """Indices (n_blocks, block) of runs of consecutive samples inside one run."""
-    ok = np.flatnonzero(np.r_[gd.run[block - 1:] == gd.run[:len(gd.run) - block + 1],
-                              np.zeros(block - 1, dtype=bool)])
+    return strided_blocks(gd, n_blocks=n_blocks, block=block, stride=1, rng=rng)
+
+
+def strided_blocks(gd: GroupData, *, n_blocks: int, block: int, stride: int,
+                   rng) -> np.ndarray:
+    """Indices (n_blocks, block) of every ``stride``-th sample inside one run: ``block``
+    samples that span ``(block - 1) * stride + 1`` samples of the run (``stride`` 1:
+    consecutive samples)."""
+    span = (block - 1) * stride + 1
+    if span > len(gd.run):
+        raise ValueError(f"{block} samples every {stride} span {span}, longer than the group")
+    ok = np.flatnonzero(np.r_[gd.run[span - 1:] == gd.run[:len(gd.run) - span + 1],
+                              np.zeros(span - 1, dtype=bool)])
+    if not ok.size:
+        raise ValueError(f"no run of group {gd.name} holds {span} samples")
     starts = rng.choice(ok, size=n_blocks, replace=True)
-    return starts[:, None] + np.arange(block)[None]
+    return starts[:, None] + stride * np.arange(block)[None]
+
+
+def free_exploration(gd: GroupData, index: np.ndarray, *, position_sd: float) -> np.ndarray:
+    """Per block (rows of ``index``), the smallest rms excursion of its positions along the
+    group's true free directions, in units of the position noise ``position_sd``: how well
+    the block explores the least-explored free direction (nan where the group has no free
+    direction, or none constrained)."""
+    m = gd.degree
+    if m in (0, gd.normals.shape[0]):
+        return np.full(len(index), np.nan)
+    q, _ = np.linalg.qr(np.c_[gd.normals, np.eye(gd.normals.shape[0])])
+    free = q[:, m:gd.normals.shape[0]]
+    p = gd.position[index]
+    p = p - p.mean(axis=1, keepdims=True)
+    sv = np.linalg.svd(p @ free, compute_uv=False)[:, -1]
+    return sv / np.sqrt(index.shape[1]) / position_sd
 
 
 def random_blocks(gd: GroupData, *, n_blocks: int, block: int, rng) -> np.ndarray:
