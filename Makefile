@@ -73,9 +73,10 @@ demo: $(STAMP)
 	@echo "says which state can follow which."
 	@echo "demo report: reports/demo/index.html (experiments: $(DEMO)/reports/index.html)"
 
-## Run the test suite.
+## Run the test suite, in the portable numerics environment (contactlab/portable.py): the
+## simulator's outcomes that tests assert come out the same on any x86-64 processor.
 test: $(STAMP)
-	$(BIN)/python -m pytest -n auto --dist loadscope
+	env $$($(BIN)/python -m contactlab.portable) $(BIN)/python -m pytest -n auto --dist loadscope
 
 ## Build the documentation site into docs/_build/html/index.html (Sphinx, numpydoc,
 ## the verbs' help, the file formats, the API from the docstrings, and the examples,

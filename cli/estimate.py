@@ -21,8 +21,11 @@ from contactlab.constraints.archive import MODELS
                    "(7.2.1), or the boundaries_s of a results stage.  [default: truth when "
                    "the trial has it, else auto]")
 @click.option("--block", type=click.IntRange(min=7), default=None, metavar="N",
-              help="Estimate consecutive blocks of N samples (250 Hz) inside each segment "
-                   "(the thesis's degree test uses 25).")
+              help="Estimate consecutive blocks of N samples of the conditioned signals "
+                   "inside each segment, at the rate nearest 250 Hz an integer decimation "
+                   "reaches (250 Hz from 1000 or 500 Hz; a 200 Hz wrist recording keeps "
+                   "200 Hz, so a block is N / 200 s; the thesis's degree test uses 25 at "
+                   "250 Hz, 0.1 s).")
 @click.option("--sequential/--independent", default=True, show_default=True,
               help="With --block: decide each block with every sample of its segment up "
                    "to the block's end (the running estimate; the default, the more "
@@ -61,7 +64,8 @@ def estimate(archives, model, segments, block, sequential, motion, position_nois
     """Estimate the constraint frame and degree of every segment of each ARCHIVE.
 
     Force (wrench[:, :3]), position and velocity are lowpassed and decimated
-    to 250 Hz (7.1); each segment gets the constraint-form estimator
+    to 250 Hz (7.1; other rates to the rate nearest 250 Hz an integer factor
+    reaches); each segment gets the constraint-form estimator
     (8.21-8.28, log-likelihood criterion) after the friction filter (8.29),
     with the degree of constraint chosen by the highest log-likelihood over
     0..3 (8.2).  Pieces with too little motion or force to decide are reported
