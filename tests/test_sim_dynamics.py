@@ -200,3 +200,20 @@ def test_cached_texture_phases_match_the_exact_evaluation_along_a_path():
         rotated += tcache[0, 3] > 0
         np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-12 * np.max(np.abs(want)) + 1e-15)
     assert rotated > len(s1) * (1 - 2.0 / TEXTURE_RESYNC_STEPS) - 10  # the rotation path ran
+
+
+def test_scaled_friction_scales_only_the_coulomb_coefficients():
+    from contactlab.sim.materials import MATERIALS, scaled_friction
+
+    wood = MATERIALS["rough_wood"]
+    m = scaled_friction("rough_wood", 0.25)
+    assert (m.mu_static, m.mu_kinetic) == pytest.approx((0.25 * wood.mu_static,
+                                                         0.25 * wood.mu_kinetic))
+    # the relative variation along the surface, the elasticity and the relief are kept
+    assert m.mu_variation == wood.mu_variation
+    assert m.hertz_constant() == wood.hertz_constant()
+    assert (m.roughness_rms, m.restitution) == (wood.roughness_rms, wood.restitution)
+    assert m.name == "rough_wood-friction-x0.25" and MATERIALS["rough_wood"] is wood
+    assert scaled_friction(m, 0.0).mu_static == 0.0
+    with pytest.raises(ValueError, match="factor"):
+        scaled_friction("rough_wood", -1.0)

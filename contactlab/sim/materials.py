@@ -94,7 +94,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -218,6 +218,17 @@ MATERIALS: dict[str, Material] = {
         roughness_rms=0.05e-6, wavelength_min=20e-6, wavelength_max=2e-3,
         restitution=0.8),
 }
+
+
+def scaled_friction(material: str | Material, factor: float) -> Material:
+    """``material`` with both Coulomb coefficients times ``factor`` (>= 0; their relative
+    variation along the surface kept), named ``"<name>-friction-x<factor>"``: for
+    experiments that vary the friction and nothing else."""
+    m = get_material(material)
+    if not factor >= 0.0:
+        raise ValueError(f"friction factor must be >= 0, not {factor!r}")
+    return replace(m, name=f"{m.name}-friction-x{factor:g}", mu_static=factor * m.mu_static,
+                   mu_kinetic=factor * m.mu_kinetic)
 
 
 def get_material(name: str | Material) -> Material:
