@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SEED   ?= 1
 
-.PHONY: all env demo test docs stress fuzz coverage bench reproduce clean
+.PHONY: all env demo test docs stress fuzz coverage bench reproduce fresh clean
 
 all: test
 
@@ -132,6 +132,11 @@ coverage: $(COV_STAMP)
 ## Benchmarks against the standard peers (ratios printed, same run).
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
+
+## Every committed experiment page against what the current code computes (the fast ones
+## are in make test too), in the portable numerics environment.
+fresh: $(STAMP)
+	env CONTACTLAB_FRESH_ALL=1 $$($(BIN)/python -m contactlab.portable) $(BIN)/python -m pytest -n auto tests/test_pages_fresh.py
 
 ## Every thesis experiment that is implemented, in the portable numerics environment
 ## (contactlab/portable.py: the same numbers on any x86-64 processor).

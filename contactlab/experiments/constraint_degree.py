@@ -422,30 +422,31 @@ def _span_section(page: ReportPage, summary: dict) -> None:
                         "exploration (right).")
 
 
+def _share_axis(ax, xlabel: str, title: str) -> None:
+    """A log x axis of the share decided right, with the thesis's .97."""
+    ax.set_xscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("share decided right")
+    ax.set_title(title, fontsize=9)
+    ax.axhline(0.97, color="0.5", ls=":", label="thesis .97")
+    ax.legend(fontsize=7)
+
+
 def _fig_span(sp: dict):
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     span = [r["span_s"] for r in sp["by_stride"]]
     for i, name in enumerate(("free", "plane", "line", "corner")):
         axes[0].plot(span, [r["correct_by_class"][i] for r in sp["by_stride"]], "o-",
                      label=f"{i} constraints ({name})")
-    axes[0].set_xscale("log")
-    axes[0].set_xlabel("time a 25-sample block spans (s)")
-    axes[0].set_ylabel("share decided right")
-    axes[0].set_title("Against the block's span", fontsize=9)
-    axes[0].axhline(0.97, color="0.5", ls=":", label="thesis .97")
-    axes[0].legend(fontsize=7)
+    _share_axis(axes[0], "time a 25-sample block spans (s)", "Against the block's span")
     mids = [np.sqrt(max(r["from_sd"], 0.3) * (r["to_sd"] or 3 * r["from_sd"]))
             for r in sp["by_exploration"]]
     for name in ("plane", "line"):
         pts = [(m, r[name]["correct"]) for m, r in zip(mids, sp["by_exploration"], strict=True)
                if r[name]["correct"] is not None]
         axes[1].plot(*zip(*pts, strict=True), "o-", label=name)
-    axes[1].set_xscale("log")
-    axes[1].set_xlabel("exploration of the least-explored free direction (position sd)")
-    axes[1].set_ylabel("share decided right")
-    axes[1].set_title("Against the block's exploration", fontsize=9)
-    axes[1].axhline(0.97, color="0.5", ls=":", label="thesis .97")
-    axes[1].legend(fontsize=7)
+    _share_axis(axes[1], "exploration of the least-explored free direction (position sd)",
+                "Against the block's exploration")
     fig.tight_layout()
     return fig
 
