@@ -33,7 +33,7 @@ SLOW = ("maze", "guarded-move", "datasets", "guarded-move-actions", "stroke-segm
 PAGES = FAST + (SLOW if os.environ.get("CONTACTLAB_FRESH_ALL") else ())
 #: wall-clock times and rates, and the page's own path: not results
 NOT_RESULTS = ("wall_time_s", "html", "pdf", "seconds", "elapsed_s", "blocks_per_s_likelihood",
-               "estimate_ms_median", "hmm_decode_s")
+               "estimate_ms_median", "hmm_decode_s", "runtime_s", "per_trial_s")
 
 
 def _flat(d, prefix=""):
