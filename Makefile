@@ -74,9 +74,10 @@ demo: $(STAMP)
 	@echo "demo report: reports/demo/index.html (experiments: $(DEMO)/reports/index.html)"
 
 ## Run the test suite, in the portable numerics environment (contactlab/portable.py): the
-## simulator's outcomes that tests assert come out the same on any x86-64 processor.
+## simulator's outcomes that tests assert come out the same on x86-64 Linux machines with
+## AVX2 and FMA, of any make.
 test: $(STAMP)
-	env $$($(BIN)/python -m contactlab.portable) $(BIN)/python -m pytest -n auto --dist loadscope
+	$(BIN)/python -m contactlab.portable $(BIN)/python -m pytest -n auto --dist loadscope
 
 ## Build the documentation site into docs/_build/html/index.html (Sphinx, numpydoc,
 ## the verbs' help, the file formats, the API from the docstrings, and the examples,
@@ -136,12 +137,12 @@ bench: $(STAMP)
 ## Every committed experiment page against what the current code computes (the fast ones
 ## are in make test too), in the portable numerics environment.
 fresh: $(STAMP)
-	env CONTACTLAB_FRESH_ALL=1 $$($(BIN)/python -m contactlab.portable) $(BIN)/python -m pytest -n auto tests/test_pages_fresh.py
+	CONTACTLAB_FRESH_ALL=1 $(BIN)/python -m contactlab.portable $(BIN)/python -m pytest -n auto tests/test_pages_fresh.py
 
 ## Every thesis experiment that is implemented, in the portable numerics environment
-## (contactlab/portable.py: the same numbers on any x86-64 processor).
+## (contactlab/portable.py: the same numbers on x86-64 Linux machines with AVX2 and FMA).
 reproduce: $(STAMP)
-	env $$($(BIN)/python -m contactlab.portable) $(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
+	$(BIN)/python -m contactlab.portable $(BIN)/contactlab reproduce --all --out reports --seed $(SEED)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache docs/_build

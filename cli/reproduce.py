@@ -30,9 +30,11 @@ def reproduce(names, run_all, list_only, out, seed, workers, scheduler, as_json,
     {"experiments": {NAME: summary}}.
 
     The pages committed under reports/ are made in the portable numerics
-    environment (make reproduce; contactlab/portable.py), which gives the same
-    numbers on any x86-64 processor; run as it is, a result that hangs on a
-    near tie (a decision, a contact run) can differ by processor.
+    environment (make reproduce, or python -m contactlab.portable contactlab
+    reproduce ...; contactlab/portable.py), which gives the same numbers on
+    x86-64 Linux machines with AVX2 and FMA of any make; run as it is, a
+    result that hangs on a near tie (a decision, a contact run) can differ by
+    processor.
 
     \b
     Examples:

@@ -3,10 +3,10 @@
 The fast pages (a few seconds to half a minute each; every page with ``make fresh``) are rerun with the seed they were made with and
 every number and text of their ``results.json`` is compared with the committed one; a
 page made by older code fails here until it is regenerated (``make reproduce``, or
-``contactlab reproduce NAME --out reports --seed S`` in the portable numerics
-environment).  Wall-clock times and the page's own path are not results.  A refactor
+``python -m contactlab.portable contactlab reproduce NAME --out reports --seed S``).  Wall-clock times and the page's own path are not results.  A refactor
 that leaves results unchanged passes.  Both run in :mod:`contactlab.portable`'s
-environment, so the same code gives the same numbers on any x86-64 processor.
+environment, so the same code gives the same numbers on x86-64 Linux machines with AVX2
+and FMA, of any make.
 """
 
 from __future__ import annotations
@@ -69,5 +69,25 @@ def test_committed_page_matches_the_code(name, tmp_path):
     a, b = _flat(committed), _flat(fresh)
     stale = sorted(k for k in set(a) | set(b) if not _same(a.get(k), b.get(k)))
     assert not stale, (f"reports/{name} is older than the code ({len(stale)} results differ, "
-                       f"e.g. {stale[:3]}): regenerate it with 'contactlab reproduce {name} "
-                       f"--out reports --seed {seed}'")
+                       f"e.g. {stale[:3]}): regenerate it with 'python -m contactlab.portable "
+                       f"contactlab reproduce {name} --out reports --seed {seed}'")
+
+
+def test_the_portable_environment_takes_effect():
+    r = subprocess.run([sys.executable, "-m", "contactlab.portable", "--check"],
+                       env=environment(), capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    # without it, numba compiles for the host and the check says so
+    from contactlab.portable import ENV
+
+    native = {k: v for k, v in os.environ.items() if k not in ENV}
+    r = subprocess.run([sys.executable, "-m", "contactlab.portable", "--check"],
+                       env=native, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and "numba compiles for the host" in r.stderr
+    # the launcher runs nothing when the environment does not take effect
+    broken = {**native, "PYTHONPATH": os.pathsep.join(sys.path)}
+    r = subprocess.run([sys.executable, "-c", (
+        "import sys, contactlab.portable as p; p.ENV['NUMBA_CPU_NAME'] = 'znver4'; "
+        "sys.exit(p._main([sys.executable, '-c', 'print(1)']))")],
+        env=broken, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "did not take effect" in r.stderr and r.stdout == ""

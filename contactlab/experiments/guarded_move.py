@@ -594,14 +594,14 @@ def _sweep_text(sweep: list[dict]) -> str:
     return (
         "The friction varied (table 'Friction varied'): with the surfaces' friction times "
         f"{lo['scale']:g} the finger slides in {100 * lo['sliding_share']:.0f} % of the "
-        f"contact (x{hi['scale']:g}: {100 * hi['sliding_share']:.0f} %), and 9.1.1's graph "
-        f"marks {lo['correct']}/{lo['trials']} runs correct ({lo['final']} ending on 3; "
-        f"x{hi['scale']:g}: {hi['correct']}, {hi['final']}). "
+        f"contact, against {100 * hi['sliding_share']:.0f} % at x{hi['scale']:g}, and "
+        f"9.1.1's graph marks {lo['correct']}/{lo['trials']} runs correct and "
+        f"{lo['final']}/{lo['trials']} ending on 3, against {hi['correct']}/{hi['trials']} "
+        f"and {hi['final']}/{hi['trials']} at x{hi['scale']:g}. "
         + ("The count does not follow the friction: a finger that slides more loses to "
-           "the distractors just as often. What they take is the contact's first samples, "
-           "whose "
-           "motion runs one way along the surface and fits a two-constraint frame as well "
-           "as the floor's one; sticking adds to it but is not needed for it."
+           "the distractors just as often, so sticking is not what decides it (a finger "
+           "that never sticks was not simulated). The distractors' lead at the contact's "
+           "first samples (the scores above) stands as the measured reason."
            if max(r["correct"] for r in sweep) - min(r["correct"] for r in sweep) <= 2 else
            "The count follows the friction: the sticking finger is what the distractors "
            "take."))
