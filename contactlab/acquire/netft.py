@@ -28,9 +28,11 @@ attributes count what was lost:
   (``status_bits`` is the OR of those words; see the manual's status table).
 
 The 32-bit sequence numbers wrap around; differences are taken modulo 2**32.
-After one second of streaming the sequence numbers are checked against the
-wall clock, and a rate more than 10 % away from ``rate_hz`` stops the trial
-with an error (the archive's time base would be wrong otherwise).
+The sequence numbers are checked against the wall clock over one second between two
+packets the reader was waiting for (so a consumer that falls behind and catches up, or a
+box that stops, is not taken for a wrong rate), and a rate more than 10 % away from
+``rate_hz`` stops the trial with an error (the archive's time base would be wrong
+otherwise).
 
 Besides the wrench, each trial keeps ``rdt_sequence``, ``ft_sequence`` and
 ``status`` per kept record: :meth:`NetFTTrial.extra_datasets`.
@@ -63,7 +65,8 @@ assert RECORD_DTYPE.itemsize == RECORD.size == 36
 
 #: Records per chunk handed to the archive writer (0.1 s at 1 kHz).
 CHUNK_RECORDS = 100
-#: Wall-clock span after which the sequence-number rate is checked, s.
+#: Wall-clock span between the two caught-up packets the sequence-number rate is judged
+#: over, s.
 RATE_CHECK_S = 1.0
 RATE_CHECK_TOLERANCE = 0.10
 #: Kernel receive buffer asked for, bytes (a few seconds of records at 7 kHz).
@@ -225,7 +228,9 @@ class NetFTTrial:
         rate_checked = False
         buffer: list[bytes] = []
         offsets: list[int] = []
+        anchor = None       # (offset, time) of the first packet the reader was waiting for
         while last < n_target - 1:
+            asked = _time.monotonic()
             try:
                 packet = sock.recv(RECORD.size + 64)
             except socket.timeout:
@@ -267,14 +272,20 @@ class NetFTTrial:
             last = offset
             buffer.append(packet)
             offsets.append(offset)
-            # judged only when the receive buffer is empty after this packet: the reader is
-            # then caught up, so the packets counted are all the box has sent -- the only
-            # moment the count measures the box's rate and not a slow consumer's lag (how
-            # long a recv waited is no sign of it: a loaded machine delays a ready recv too)
-            if (not rate_checked and _time.monotonic() - wall0 >= RATE_CHECK_S
-                    and not select.select([sock], [], [], 0)[0]):
-                rate_checked = True
-                self._check_rate(last, _time.monotonic() - wall0)
+            # the rate is judged between two packets that each arrived while the reader
+            # waited for it -- the recv waited, and the receive buffer is empty after it --
+            # so each came just as the box sent it, and the count between them measures the
+            # box and not a slow consumer's lag.  Either sign alone misleads: a loaded
+            # machine delays a ready recv too, and the buffer also empties on the last
+            # packets of a box that has stopped sending.
+            if not rate_checked and _time.monotonic() - asked > 0.5 / src.rate_hz \
+                    and not select.select([sock], [], [], 0)[0]:
+                now = _time.monotonic()
+                if anchor is None:
+                    anchor = (last, now)
+                elif now - anchor[1] >= RATE_CHECK_S:
+                    rate_checked = True
+                    self._check_rate(last - anchor[0], now - anchor[1])
             if len(buffer) >= CHUNK_RECORDS:
                 yield self._decode(buffer, offsets)
                 buffer, offsets = [], []
@@ -285,8 +296,8 @@ class NetFTTrial:
             if span > 0 and last > 0:
                 self._measured_rate_hz = last / span
 
-    def _check_rate(self, last_offset: int, wall_span: float) -> None:
-        measured = last_offset / wall_span
+    def _check_rate(self, n_offsets: int, wall_span: float) -> None:
+        measured = n_offsets / wall_span
         self._measured_rate_hz = measured
         rate = self.source.rate_hz
         if abs(measured / rate - 1.0) > RATE_CHECK_TOLERANCE:
