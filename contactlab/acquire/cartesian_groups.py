@@ -21,10 +21,15 @@ from contactlab.progress import progress
 from contactlab.signals import factor_for
 
 __all__ = ["SPEC", "GROUPS", "GroupData", "true_normals", "load_groups",
-           "load_group_pair", "consecutive_blocks", "strided_blocks", "free_exploration",
+           "load_group_pair", "consecutive_blocks", "strided_blocks", "fitting_strides",
+           "free_exploration", "RATE_HZ", "STRIDES",
            "random_blocks", "reported_normals"]
 
 SPEC = "cartesian"
+#: the groups' sample rate (8.1: "sampled at 250 Hz"), Hz
+RATE_HZ = 250.0
+#: strides of the blocks spread over a run (:func:`strided_blocks`): 0.1-1.5 s for 25
+STRIDES = (1, 2, 4, 8, 16)
 GROUPS = ("free", "plane", "line", "corner")
 
 
@@ -156,6 +161,14 @@ def strided_blocks(gd: GroupData, *, n_blocks: int, block: int, stride: int,
         raise ValueError(f"no run of group {gd.name} holds {span} samples")
     starts = rng.choice(ok, size=n_blocks, replace=True)
     return starts[:, None] + stride * np.arange(block)[None]
+
+
+def fitting_strides(groups, block: int, strides=STRIDES) -> list[int]:
+    """The ``strides`` whose ``block`` samples (:func:`strided_blocks`) fit inside the
+    longest run of every group of ``groups`` (one :class:`GroupData` or several)."""
+    gds = [groups] if isinstance(groups, GroupData) else list(groups)
+    longest = min(int(np.bincount(gd.run).max()) for gd in gds)
+    return [s for s in strides if (block - 1) * s + 1 <= longest]
 
 
 def free_exploration(gd: GroupData, index: np.ndarray, *, position_sd: float) -> np.ndarray:

@@ -44,19 +44,16 @@ from contactlab.constraints import (FORCE_SD, POSITION_SD, VELOCITY_SD,  # noqa:
                                     CartesianStiffness, RecursiveConstraint,
                                     alignment_statistic, decide_degree)
 from contactlab.acquire.cartesian_groups import (  # noqa: E402
-    GROUPS, GroupData, consecutive_blocks, free_exploration, load_group_pair, random_blocks,
-    strided_blocks)
+    GROUPS, RATE_HZ, GroupData, consecutive_blocks, fitting_strides, free_exploration,
+    load_group_pair, random_blocks, strided_blocks)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.metrics import confusion_matrix  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
 N_BLOCKS = 400                   # 8.2: "four hundred blocks of 25 points"
 BLOCK = 25                       # 8.2: 25 points = 0.1 s at 250 Hz
-RATE_HZ = 250.0                  # 8.1: "sampled at 250 Hz"
 FRICTION = True                  # the friction filter 8.29, as in the better rows of 8.1
 
-#: the cause experiment: 25 samples every STRIDES-th sample of one run, spanning 0.1-1.5 s
-STRIDES = (1, 2, 4, 8, 16)
 #: bins of a block's exploration of its least-explored free direction (position sds)
 EXPLORATION_BINS = (0.0, 1.0, 3.0, 10.0, 30.0, 100.0, np.inf)
 
@@ -118,9 +115,8 @@ def span_test(groups: dict[str, GroupData], *, seed: int, n_blocks: int, block: 
     whose span no run holds are left out.  Its own random stream, so the tests above are
     unchanged."""
     rng = np.random.default_rng([seed, 82])
-    longest = min(int(np.bincount(groups[g].run).max()) for g in GROUPS)
     by_stride, explore, correct, true = [], [], [], []
-    for stride in (s for s in STRIDES if (block - 1) * s + 1 <= longest):
+    for stride in fitting_strides([groups[g] for g in GROUPS], block):
         index = {g: strided_blocks(groups[g], n_blocks=n_blocks, block=block, stride=stride,
                                    rng=rng) for g in GROUPS}
         p, f, v, y = block_arrays(groups, index)

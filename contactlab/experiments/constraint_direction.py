@@ -40,7 +40,8 @@ import numpy as np  # noqa: E402
 from contactlab.constraints import (POSITION_SD, CartesianConstraint,  # noqa: E402
                                     decide_direction, prior_rate)
 from contactlab.acquire.cartesian_groups import (  # noqa: E402
-    GroupData, free_exploration, load_group_pair, random_blocks, strided_blocks)
+    RATE_HZ, GroupData, fitting_strides, free_exploration, load_group_pair, random_blocks,
+    strided_blocks)
 from contactlab.fileio import write_text_atomic  # noqa: E402
 from contactlab.report.page import ReportPage  # noqa: E402
 
@@ -49,7 +50,6 @@ DECISION_N = 25                  # 8.3: "Twenty-five measurements were used for 
 ESTIMATION_N = 100               # 8.3: "One hundred samples were used in the estimation"
 ANGLES_DEG = (1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 45.0)
 N_NOMINAL = 20                   # independent nominal estimates per angle
-RATE_HZ = 250.0                  # 8.1: "sampled at 250 Hz"
 BLOCKS_PER_NOMINAL = 25          # decisions per nominal estimate (500 per point)
 FRICTION = True
 THESIS = {"one_contact_at_20deg": "> 98 % correct", "at_5deg": "> 90 % correct",
@@ -107,9 +107,8 @@ def decisions(test: GroupData, train: GroupData, *, axis: str, angle_deg: float,
     return np.concatenate(out)
 
 
-#: the cause experiment: decision blocks of every STRIDES-th sample (0.1-1.5 s of a run),
-#: at SPAN_ANGLES_DEG, for the one-contact and the two-contact (about y) cases
-STRIDES = (1, 2, 4, 8, 16)
+#: the cause experiment: decision blocks spread over a run (cartesian_groups.STRIDES), at
+#: these angles, for the one-contact and the two-contact (about y) cases
 SPAN_ANGLES_DEG = (5.0, 20.0)
 
 
@@ -123,8 +122,7 @@ def span_curves(test: dict, train: dict, *, seed: int, n_nominal: int = N_NOMINA
     rng = np.random.default_rng([seed, 83])
     out = []
     for label, g, axis in CASES[:2]:
-        longest = int(np.bincount(test[g].run).max())
-        for stride in (s for s in STRIDES if (DECISION_N - 1) * s + 1 <= longest):
+        for stride in fitting_strides(test[g], DECISION_N):
             ex: list = []
             m = [decisions(test[g], train[g], axis=axis, angle_deg=a, kind="consecutive",
                            rng=rng, n_nominal=n_nominal, blocks=blocks, stride=stride,

@@ -144,8 +144,7 @@ def friction_sweep(graph: FeatureGraph, models, *, seed: int, tmp: Path,
     finger slides (the simulator's labels) and the counts of :func:`score_path`."""
     import dataclasses
 
-    from contactlab.acquire.record import record
-    from contactlab.acquire.sim import SimSource
+    from contactlab.acquire.simulated import record_spec
     from contactlab.acquire.spec import load_spec
     from contactlab.sim.materials import scaled_friction
 
@@ -155,16 +154,19 @@ def friction_sweep(graph: FeatureGraph, models, *, seed: int, tmp: Path,
         groups = tuple(dataclasses.replace(g, environment={
             **g.environment, "material": scaled_friction(g.environment["material"], k)})
             for g in spec.groups)
-        path = tmp / f"test-friction-{k:g}.h5"
-        record(SimSource(dataclasses.replace(spec, groups=groups)), out=path,
-               n_trials=spec.n_trials, seed=seed + 1, force=True,
-               title=f"{SPEC}, friction x{k:g}", quiet=True, log=lambda m: None)
-        res = recognize_runs(path, graph, models)
-        rows.append({"scale": k, "sliding_share": sliding_share(path),
-                     **{c: _count(res, c) for c in ("strict", "correct", "final",
-                                                     "distractor")},
-                     "trials": len(res["trials"])})
+        path = record_spec(SPEC, tmp / f"test-friction-{k:g}.h5", seed=seed + 1,
+                           title=f"{SPEC}, friction x{k:g}",
+                           spec=dataclasses.replace(spec, groups=groups))
+        rows.append(sweep_row(k, path, recognize_runs(path, graph, models)))
     return rows
+
+
+def sweep_row(scale: float, archive, res: dict) -> dict:
+    """One row of :func:`friction_sweep`: the friction factor, the contact's sliding share
+    in ``archive`` and the counts of its recognition ``res``."""
+    return {"scale": scale, "sliding_share": sliding_share(archive),
+            **{c: _count(res, c) for c in ("strict", "correct", "final", "distractor")},
+            "trials": len(res["trials"])}
 
 
 def sliding_share(archive) -> float:
@@ -236,11 +238,8 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
                                                          gm.trained))
             facts = signal_facts(seed)
             t0 = time.perf_counter()
-            sweep = [{"scale": 1.0, "sliding_share": sliding_share(test),
-                      **{c: _count(res, c) for c in ("strict", "correct", "final",
-                                                      "distractor")},
-                      "trials": len(res["trials"])}]
-            sweep += friction_sweep(graph, gm, seed=seed, tmp=tmp)
+            sweep = [sweep_row(1.0, test, res)] + friction_sweep(graph, gm, seed=seed,
+                                                                  tmp=tmp)
             secs["friction varied"] = time.perf_counter() - t0
         with plt.rc_context({"figure.max_open_warning": 0}):
             return _report(res, rot, gm, (signals, signals_ss), still, rates, secs, graph,
