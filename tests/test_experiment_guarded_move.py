@@ -126,3 +126,19 @@ def test_a_graph_states_one_position_accuracy():
     with pytest.raises(DataError) as err:
         fit_kinematic_models(parse_graph(doc, source=str(path)), {}, source="x.h5")
     assert "models.CYZ.position_sd" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_surface_is_held_against_the_distractors_when_the_friction_is_low(tmp_path):
+    """The guarded-move page's cause experiment in small: 9.1.1's graph trained and tested
+    on runs whose surfaces have a tenth of their friction holds the surface (every run
+    ends on 3, none visits a distractor); the same draws with the handbook friction end
+    on a distractor (the trade of Z's friction-laden free directions against a
+    distractor's extra normal)."""
+    from contactlab.experiments.guarded_move import friction_sweep
+
+    low, handbook = friction_sweep(guarded_graph(), seed=4, tmp=tmp_path, scales=(0.1, 1.0),
+                                   n_trials=4)
+    assert low["scale"] == 0.1 and handbook["scale"] == 1.0 and low["trials"] == 4
+    assert low["final"] == 4 and low["distractor"] == 0
+    assert handbook["final"] == 0 and handbook["distractor"] == 4
+    assert low["sliding_share"] > handbook["sliding_share"]

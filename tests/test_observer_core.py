@@ -298,6 +298,30 @@ def test_pruning_keeps_mass_and_gap(p_prune):
             assert np.exp(without_last - logsumexp(ll)).sum() < p_prune
 
 
+@pytest.mark.parametrize("gap", [35.0, 60.0])
+def test_p_prune_one_drops_paths_by_the_gap_alone(gap):
+    """P_prune = 1 keeps every path within the gap: a share of exp(-30) of the mass is
+    not a reason to drop a path when the gap is wider than 30 nats."""
+    from contactlab.observer.events import keep_set
+
+    pll = np.array([0.0, -10.0, -30.0, -50.0, -70.0])
+    n = len(pll)
+    keep = np.empty(n, np.int64)
+    nk = keep_set(pll, np.zeros(n, np.int64), n, 1.0, gap, -1, False, np.empty(n, np.int64),
+                  np.empty(n), keep)
+    assert keep[:nk].tolist() == [i for i in range(n) if pll[i] >= -gap]
+    truth = [("A", 0), ("B", 300), ("C", 650), ("A", 900), ("B", 1200)]
+    res = observe(Observer(graph(["A", "B", "C"]), ar_models(), p_prune=1.0, gap=gap,
+                           sides="both"), simulate(truth, 1500, 6), chunk=256)
+    behind = 0
+    for e in res.events:
+        ll = e.candidates_loglik
+        inside = np.flatnonzero(ll >= ll.max() - gap)
+        assert np.array_equal(np.sort(e.kept), inside)
+        behind += int(np.sum(ll[e.kept] < ll.max() - 28.0))
+    assert behind > 0          # paths a 1e-12 share of the mass would have dropped, kept
+
+
 def test_action_dependent_edges_gate_transitions():
     """A -> B exists only while 'move' is commanded (9.1.3)."""
     y = simulate([("A", 0), ("B", 500)], 1000, 9)

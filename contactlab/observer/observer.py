@@ -579,7 +579,7 @@ class Observer:
         self._core = Core(specs=specs, node_kinds=self._node_kinds, side_a=self._side_a,
                           side_b=self._side_b, side_src=self._side_src,
                           threshold=self.threshold, gap=self.gap,
-                          p_keep=self.p_prune * (1 - 1e-12), max_paths=self.max_paths,
+                          p_keep=self._p_keep(), max_paths=self.max_paths,
                           succ=succ, n_succ=n_succ, log_t=log_t, tmax=self._tmax,
                           survivors=self.survivors)
         self._buf = {"*": RowBuffer(col, t0=0)}
@@ -1041,6 +1041,13 @@ class Observer:
             self._inc[rows, cols] = ll
             self._xi[rows, cols] = self._xi_of(st, self._u_model[cols])
 
+    def _p_keep(self) -> float:
+        """The mass the pruning keeps: ``P_prune`` just under itself (a share summed in
+        floating point may never reach it exactly), or 1 for ``P_prune = 1``: then no
+        path is dropped by its share, only by ``gap`` (a share of 1 - 1e-12 would drop
+        every path some 28 nats below the best whatever the gap)."""
+        return 1.0 if self.p_prune >= 1.0 else self.p_prune * (1 - 1e-12)
+
     def _prune(self, ta: int, alarms: list, spawned: list, merged: list) -> np.ndarray | None:
         """Rank paths, keep mass P_prune, drop those ``gap`` below the best; record events.
         Returns the mask of the units kept (None: all)."""
@@ -1048,7 +1055,7 @@ class Observer:
         n = len(ll)
         keep = np.empty(n, np.int64)
         nk = keep_set(ll, self._path_arrays()[0], n,
-                      self.p_prune * (1 - 1e-12), self.gap,
+                      self._p_keep(), self.gap,
                       -1 if self.max_paths is None else self.max_paths, self.survivors,
                       np.empty(n, np.int64), np.empty(n), keep)
         keep = keep[:nk]
