@@ -621,6 +621,11 @@ def _sweep_text(sweep: list[dict]) -> str:
            "The count does not follow the friction: the friction is not what decides it."))
 
 
+def _visits(res: dict, node: str) -> int:
+    """Runs of ``res`` whose merged final MAP path enters ``node``."""
+    return sum(any(n == node for n, _ in e["merged_path"]) for e in res["trials"].values())
+
+
 def _coefficients() -> str:
     """The spec's surfaces with their Coulomb coefficients, in words."""
     from contactlab.acquire.spec import load_spec
@@ -927,7 +932,8 @@ def _rotation_differences(res, rot) -> list[str]:
             f"Feature 4 rotated {d:g} deg from feature 3: {_count(r, 'final')} of "
             f"{len(r['trials'])} runs end on 3 (the runs end on {', '.join(last)}; "
             f"{_count(r, 'correct')} correct by our stricter rule), "
-            f"{_count(r, 'distractor')} visit the rotated feature; the last change between "
+            f"{_visits(r, '4')} visit the rotated feature (4) and {_visits(r, '5')} the "
+            "YZ distractor (5); the last change between "
             f"contact nodes came {', '.join('-' if x is None else str(x) for x in dec)} "
             f"measurements after the first contact node (thesis: {THESIS['rotated'][d]}). "
             "With estimated frames both Z hypotheses fit the same data once their estimates "
