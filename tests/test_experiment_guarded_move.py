@@ -142,3 +142,6 @@ def test_the_surface_is_held_against_the_distractors_when_the_friction_is_low(tm
     assert low["final"] == 4 and low["distractor"] == 0
     assert handbook["final"] == 0 and handbook["distractor"] == 4
     assert low["sliding_share"] > handbook["sliding_share"]
+    # the thesis's own remedies (9.1.2's stuck nodes, 8.29's compensation) hold the surface
+    # at either friction (4 training runs: one run may go astray)
+    assert low["stick_slip"]["final"] >= 3 and handbook["stick_slip"]["final"] >= 3
