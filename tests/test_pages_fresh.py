@@ -1,10 +1,11 @@
 """The committed experiment pages say what the current code computes.
 
-The fast pages (a few seconds to half a minute each; every page with ``make fresh``) are rerun with the seed they were made with and
-every number and text of their ``results.json`` is compared with the committed one; a
-page made by older code fails here until it is regenerated (``make reproduce``, or
-``python -m contactlab.portable contactlab reproduce NAME --out reports --seed S``).  Wall-clock times and the page's own path are not results.  A refactor
-that leaves results unchanged passes.  Both run in :mod:`contactlab.portable`'s
+The fast pages (a few seconds to half a minute each; every page with ``make fresh``) are
+rerun with the seed they were made with and every number and text of their
+``results.json`` is compared with the committed one; a page made by older code fails here
+until it is regenerated (``make reproduce``, or ``python -m contactlab.portable contactlab
+reproduce NAME --out reports --seed S``).  Wall-clock times and the page's own path are
+not results.  A refactor that leaves results unchanged passes.  Both run in :mod:`contactlab.portable`'s
 environment, so the same code gives the same numbers on x86-64 Linux machines with AVX2
 and FMA, of any make.
 """

@@ -136,9 +136,9 @@ def run(*, out_dir: Path, seed: int, quiet: bool = False) -> dict:
             gap = recognize_archive(test, graph=gauss, models=gm_gauss, threshold=THRESHOLD,
                                     change_size=CHANGE_SIZE, p_prune=1.0, write=False)
             h = change_priors(change_dwell(gauss, gm_gauss), gm_gauss.fs) or {}
-            gap["change_price_nats"] = {
-                n: float(np.log(p / max(1, len(gauss.successors(gauss.node_names.index(n)))
-                                           - 1))) for n, p in h.items()}
+            others = {n: sum(j != i for j in gauss.successors(i))
+                      for i, n in enumerate(gauss.node_names)}
+            gap["change_price_nats"] = {n: float(np.log(p / others[n])) for n, p in h.items()}
             check["test_cf_gap_gauss"] = gap
             pbar.update(1)
             tr_pts, te_pts = labelled_points(train, STATES), labelled_points(test, STATES)

@@ -156,9 +156,8 @@ def keep_set(pll, pnode, n_paths, p_keep, gap, max_paths, survivors, order, w,
              keep):  # pragma: no cover - compiled
     """The pruning (6.4, 9.1.1): rank the ``n_paths`` paths by log-likelihood ``pll``
     (stable, largest first), keep the most probable until their share of the mass
-    reaches ``p_keep`` (``p_keep >= 1``: every path; a share summed in floating point
-    reaches any ``p_keep`` below 1 with paths some 28-37 nats below the best left out), then only those within ``gap`` of the best and at most
-    ``max_paths`` (negative: no limit); with ``survivors``, also the best path ending in
+    reaches ``p_keep`` (``p_keep >= 1``: no mass rule), then only those within ``gap`` of
+    the best and at most ``max_paths`` (negative: no limit); with ``survivors``, also the best path ending in
     each node (``pnode``) the kept ones leave out.  Writes the kept paths, in increasing
     order, to ``keep`` and returns their count (``order``, ``w``: scratch of
     ``n_paths``)."""
