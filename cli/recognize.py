@@ -81,7 +81,7 @@ from contactlab.cli.inputs import checks_archive
 @parallel_options("trials")
 @json_option
 @quiet_option
-@checks_archive
+@checks_archive(values=False)   # the layout up front; each trial's values where it runs
 def recognize(archives, graph_file, models_file, action, threshold, change_size, p_prune, gap,
               sides, transitions, transient_max, payload, label_map, trials, explain, no_write,
               csv_out, force, workers, scheduler, as_json, quiet):
@@ -184,7 +184,7 @@ def recognize(archives, graph_file, models_file, action, threshold, change_size,
         _explain(stage, archives, explain, csv_out, as_json)
         return
     summaries = run_stage(stage, archives, trials=list(trials) or None, workers=workers,
-                          scheduler=scheduler, quiet=quiet, check_trials=False)  # checked
+                          scheduler=scheduler, quiet=quiet)
     runs = {path: summary.pop("_runs", []) for path, summary in summaries.items()}
     if csv_out is not None:
         from contactlab.export import export_recognition
@@ -240,6 +240,7 @@ def _echo(archive, summary):
 def _explain(stage, archives, trial_id: str, csv_out, as_json: bool) -> None:
     """``--explain TRIAL``: :func:`contactlab.observer.explain.explain_trial` on one trial."""
     from contactlab.archive import open_archive
+    from contactlab.archive.validate import raise_problems, trial_problems
     from contactlab.cli.common import echo_json
     from contactlab.observer.explain import explain_trial, format_explanation
 
@@ -252,6 +253,7 @@ def _explain(stage, archives, trial_id: str, csv_out, as_json: bool) -> None:
             raise click.BadParameter(f"no trial {trial_id!r} in {archives[0]}",
                                      param_hint="'--explain'")
         trial = arch.trial(trial_id)
+        raise_problems(archives[0], trial_problems(trial))
         label_map, _ = stage._trial_label_map(trial)
         ex = explain_trial(trial, stage.graph, stage.built, reduce=stage.models.reduce,
                            action=stage.action, observer_kw=stage.observer_kw,

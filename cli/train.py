@@ -10,7 +10,7 @@ import click
 from contactlab import defaults as D
 
 from contactlab.cli.common import archive_argument, count, echo_json, json_option, quiet_option
-from contactlab.cli.inputs import checks_archive
+from contactlab.cli.inputs import check_inputs, checks_archive
 
 
 @click.command()
@@ -54,7 +54,7 @@ from contactlab.cli.inputs import checks_archive
 @click.option("--force", is_flag=True, help="Overwrite --out (and --graph-out) if they exist.")
 @json_option
 @quiet_option
-@checks_archive
+@checks_archive(values=False, walk_trials=False)   # the trials: where they are read
 def train(archive, labels, out, signal, order, mean, block, classes, trials, graph_file,
           label_map, reduce, em, graph_out, force, as_json, quiet):
     """Train one temporal model per class of ARCHIVE and write them to --out.
@@ -125,6 +125,7 @@ def train(archive, labels, out, signal, order, mean, block, classes, trials, gra
                      force=force, as_json=as_json, quiet=quiet, label_map=label_map,
                      graph_out=graph_out if em else None)
         return
+    check_inputs([archive], trials)
     if label_map is not None:
         raise click.UsageError("--label-map needs --graph")
     if reduce is not None:

@@ -82,6 +82,24 @@ def test_compression_test_agrees_with_hdf5s_own_filters(tmp_path, kind):
     assert writer.compresses(data) == (kind != "noise")
 
 
+def test_compression_is_judged_on_chunks_spread_over_the_whole(tmp_path):
+    """A recording that rests (and deflates) at its start, middle and end but is noise
+    everywhere else is judged as HDF5 stores the whole of it."""
+    rng = np.random.default_rng(4)
+    rows, n_chunks = 1024, 64
+    data = np.round(rng.standard_normal((rows * n_chunks, 4)), 6)
+    for c in (0, 31, 32, 63):                          # at rest: a constant pose
+        data[c * rows:(c + 1) * rows] = 0.25
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        ds = f.create_dataset("d", data=data, chunks=(rows, 4), **writer.COMPRESSION)
+        ratio = ds.id.get_storage_size() / data.nbytes
+    assert ratio > writer.COMPRESS_BELOW
+    assert not writer.compresses(writer.probe_rows(data, rows))
+    ends = np.concatenate([data[:rows], data[(n_chunks * rows - rows) // 2:][:rows],
+                           data[-rows:]])
+    assert writer.compresses(ends)                     # first, middle and last alone
+
+
 def test_appending_in_chunks_equals_one_big_write(tmp_path):
     one, many = tmp_path / "one.h5", tmp_path / "many.h5"
     write_archive(one, trials=("t",), n=2600, chunks=1)

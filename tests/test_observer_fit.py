@@ -86,3 +86,21 @@ def test_one_model_far_off_is_a_misfit_though_the_path_overall_is_not():
                    [("still", 0), ("moving", 300)])
     assert fit.overall < MISFIT < fit.by_model["F"]
     assert fit.misfit and fit.worst == "F"
+
+
+@pytest.mark.parametrize("which", ["F", "M"])
+def test_the_chi_square_alone_is_the_one_the_observer_scores(which):
+    """``chi2`` (what the fit reads) against the closed form and against ``run``'s second
+    output, the chi-square beside each sample's log-likelihood."""
+    rng = np.random.default_rng(5)
+    sigma = 1e-3
+    m = _models(sigma)[which]
+    x = rng.uniform(-0.012, 0.012, (300, 3))
+    if which == "F":
+        closed = np.sum(x ** 2, axis=1) / sigma ** 2
+    else:                       # the uniform band (-0.01, 0.01) plus the noise: 2nd moment
+        closed = np.sum(x ** 2, axis=1) / (0.02 ** 2 / 12 + sigma ** 2)
+    np.testing.assert_allclose(m.chi2(x), closed, rtol=1e-12)
+    ll, chi = m.run({}, x, t0=0, starts=np.array([0]))
+    np.testing.assert_array_equal(m.chi2(x), chi[:, 0])
+    assert np.all(np.isfinite(ll))

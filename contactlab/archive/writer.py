@@ -60,8 +60,9 @@ from contactlab.journal import JournaledFile, journal_path_for, rollback
 CHUNK_ROWS = 1024
 #: gzip (deflate) is readable by every HDF5 tool, unlike lzf.
 COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
-#: A numeric dataset is compressed only if :data:`COMPRESSION` stores its first, middle
-#: and last chunks (:func:`probe_rows`) in at most this fraction of their bytes.
+#: A numeric dataset is compressed only if :data:`COMPRESSION` stores
+#: :data:`PROBE_CHUNKS` chunks spread over it (:func:`probe_rows`) in at most this
+#: fraction of their bytes.
 #: Inflating costs about 3 ns a byte, as long as reading the bytes from a disk at
 #: 300 MB/s; data that deflate barely shrinks read 10-20x faster stored as they are:
 #: noisy floats printed to six digits, as most CSV recordings are (0.8-0.85 of their
@@ -69,6 +70,8 @@ COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 #: and orientation inflated in 0.15 s, read raw in 0.02 s), for at most 1.7x the room.
 #: Quantised strains (about 0.16), time bases and labels (0.01-0.2) stay compressed.
 COMPRESS_BELOW = 0.6
+#: How many chunks :func:`probe_rows` takes (about 1 ms of deflate each).
+PROBE_CHUNKS = 16
 #: Uncompressed chunks carry HDF5's Fletcher-32 checksum, so a damaged chunk is still
 #: an error on reading, as a damaged deflate stream is (0.2 ms per 640 kB to check).
 CHECKSUM = {"fletcher32": True}
@@ -139,15 +142,17 @@ def create_dataset(group: h5py.Group, name: str, data: np.ndarray, *,
                                 chunks=chunks, **filters)
 
 
-def probe_rows(data: np.ndarray, rows: int) -> np.ndarray:
-    """The rows :func:`create_dataset` judges compression on: its first, middle and last
-    ``rows`` (a recording's first chunk is often the robot at rest, which deflates far
-    better than the rest of it)."""
+def probe_rows(data: np.ndarray, rows: int, chunks: int = PROBE_CHUNKS) -> np.ndarray:
+    """The rows :func:`create_dataset` judges compression on: ``chunks`` blocks of
+    ``rows`` spread evenly from the first to the last (a recording's first chunk is often
+    the robot at rest, which deflates far better than the rest of it, and single
+    chunks of a pose vary from 0.54 to 0.77 of their bytes along an hour of HIRO
+    recordings, so three judged it 0.59 against 0.68 for the whole)."""
     n = len(data)
-    if n <= 3 * rows:
+    if n <= chunks * rows:
         return data
-    mid = (n - rows) // 2
-    return np.concatenate([data[:rows], data[mid:mid + rows], data[n - rows:]])
+    starts = np.linspace(0, n - rows, chunks).astype(np.int64)
+    return np.concatenate([data[a:a + rows] for a in starts])
 
 
 def compresses(block: np.ndarray) -> bool:
@@ -596,7 +601,8 @@ class TrialWriter:
             if len(arr) != rows:
                 raise self._error(f"{len(arr)} rows, but time has {rows}", name)
         if "orientation" in arrays and len(arrays["orientation"]):
-            norm = np.linalg.norm(arrays["orientation"], axis=1)
+            o = arrays["orientation"]
+            norm = np.sqrt(np.einsum("ij,ij->i", o, o))
             if np.any(np.abs(norm - 1.0) > spec.UNIT_NORM_TOLERANCE):
                 raise self._error("rows must be unit quaternions (normalise them first)",
                                   "orientation")

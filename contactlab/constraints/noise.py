@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 __all__ = ["raw_noise_sd", "lowpass_noise_gain", "conditioned_noise_sd"]
@@ -54,13 +55,35 @@ def raw_noise_sd(y) -> np.ndarray:
     a = a[:, None] if a.ndim == 1 else a
     if len(a) < 5:
         return np.full(a.shape[1], np.nan)
-    d2 = np.diff(a, n=2, axis=0)
-    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
-    s = mad / (_MAD_NORMAL * math.sqrt(6.0))
-    steps = np.abs(np.diff(a, axis=0))
-    quant = np.where(steps > 0, steps, np.inf).min(axis=0)
-    quant = np.where(np.isfinite(quant), quant, 0.0)        # a constant column: no step
-    return np.maximum(s, quant / math.sqrt(12.0))
+    mad, quant = _mad_and_step(np.ascontiguousarray(a.T))
+    return np.maximum(mad / (_MAD_NORMAL * math.sqrt(6.0)), quant / math.sqrt(12.0))
+
+
+@numba.njit(cache=True)
+def _mad_and_step(cols):  # pragma: no cover - compiled
+    """Per row of ``cols`` (k, N): the median absolute deviation of its second
+    difference (taken as numpy's ``diff(n=2)``, a difference of differences) and its
+    smallest non-zero step (0 for a constant row)."""
+    k, n = cols.shape
+    mad = np.empty(k)
+    quant = np.empty(k)
+    d1 = np.empty(n - 1)
+    d2 = np.empty(n - 2)
+    for j in range(k):
+        step = np.inf
+        for i in range(n - 1):
+            d1[i] = cols[j, i + 1] - cols[j, i]
+            s = abs(d1[i])
+            if 0.0 < s < step:
+                step = s
+        for i in range(n - 2):
+            d2[i] = d1[i + 1] - d1[i]
+        m = np.median(d2)
+        for i in range(n - 2):
+            d2[i] = abs(d2[i] - m)
+        mad[j] = np.median(d2)
+        quant[j] = step if np.isfinite(step) else 0.0
+    return mad, quant
 
 
 def lowpass_noise_gain(*, fs: float, cutoff_hz: float | None, order: int = 2) -> float:

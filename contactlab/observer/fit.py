@@ -124,8 +124,9 @@ def path_fit(graph, models: dict, data: dict, map_path, n: int | None = None) ->
             starts = np.array([a0])
             state = m.init_state(starts, x.shape[1])
             if isinstance(state, dict) and not state:   # stateless: every instance alike
-                if mname not in whole:
-                    whole[mname] = _chi(m.run(state, x[:n], t0=lag, starts=starts)[1])
+                if mname not in whole:             # chi2: the chi-square alone, if cheaper
+                    whole[mname] = (m.chi2(x[lag:n]) if hasattr(m, "chi2") else
+                                    _chi(m.run(state, x[:n], t0=lag, starts=starts)[1]))
                 chi = whole[mname][a0 - lag:b - lag]
             else:
                 chi = _chi(m.run(state, x[a0 - lag:b], t0=a0, starts=starts)[1])

@@ -449,6 +449,7 @@ def _read_labelled(path, trials, label_map, plan: _Plan, *, quiet, order, mean, 
                    reduce) -> _LabelledData:
     """Each labelled trial's signals cut into the runs of each label (:func:`train_graph`)."""
     from contactlab.archive import open_archive
+    from contactlab.archive.validate import raise_problems, trial_problems
     from contactlab.progress import progress
 
     acc = _new_labelled(plan)
@@ -456,6 +457,7 @@ def _read_labelled(path, trials, label_map, plan: _Plan, *, quiet, order, mean, 
         ids = arch.select(trials)
         for tid in progress(ids, desc="train", quiet=quiet, unit="trial"):
             trial = arch.trial(tid)
+            raise_problems(path, trial_problems(trial))   # the arrays checked stay cached
             if trial.labels is None:
                 continue
             acc.raw_labels.update(str(n) for n in (trial.label_names or []))

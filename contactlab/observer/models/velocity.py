@@ -81,6 +81,10 @@ class FixedVelocity(FeatureModel):
     def run(self, state, x, *, t0, starts):
         return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p, len(starts))
 
+    def chi2(self, x) -> np.ndarray:
+        """The chi-square of each sample of ``x`` (n, C), as :meth:`run` gives it."""
+        return _chi_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p)
+
     def core_spec(self, channels):
         return _core_spec(self, FixedVelocity, channels)
 
@@ -161,6 +165,10 @@ class MovingVelocity(FeatureModel):
     def run(self, state, x, *, t0, starts):
         return _run_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p, len(starts))
 
+    def chi2(self, x) -> np.ndarray:
+        """The chi-square of each sample of ``x`` (n, C), as :meth:`run` gives it."""
+        return _chi_kernel(np.ascontiguousarray(x, dtype=np.float64), self._p)
+
     def core_spec(self, channels):
         return _core_spec(self, MovingVelocity, channels)
 
@@ -223,27 +231,44 @@ def _logpdf_array(x, low, high, sigma):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def velocity_chi(p, x):  # pragma: no cover - compiled
+    """The chi-square of one velocity sample ``x`` (C components) under :func:`velocity_step`'s
+    parameters ``p``: F ``|x|^2 / sigma^2``, M ``|x - centre|^2 / (width^2/12 + sigma^2)``."""
+    chi = 0.0
+    if p[0] == 0.0:
+        for c in range(x.shape[0]):
+            z = x[c] / p[1]
+            chi += z * z
+        return chi
+    for c in range(x.shape[0]):
+        d = x[c] - p[5]
+        chi += d * d
+    return chi / p[4]
+
+
+@numba.njit(cache=True)
 def velocity_step(p, x):  # pragma: no cover - compiled
     """Score one velocity sample ``x`` (C components): ``(log-likelihood, chi-square)``.
     ``p``: moving (0 F, 1 M), sigma, low, high, the second moment and the centre.  F:
-    ``-|x|^2 / (2 sigma^2) - C (log sigma + log(2 pi) / 2)`` with chi-square ``|x|^2 / sigma^2``;
-    M: the components' :func:`_logpdf`, chi-square ``|x - centre|^2 / (width^2/12 + sigma^2)``."""
+    ``-|x|^2 / (2 sigma^2) - C (log sigma + log(2 pi) / 2)``; M: the components'
+    :func:`_logpdf`; the chi-square :func:`velocity_chi`'s."""
     C = x.shape[0]
-    sigma = p[1]
-    ll = 0.0
-    chi = 0.0
+    chi = velocity_chi(p, x)
     if p[0] == 0.0:
-        for c in range(C):
-            z = x[c] / sigma
-            chi += z * z
-        ll = -0.5 * chi - C * (math.log(sigma) + 0.5 * LOG_2PI)
-    else:
-        for c in range(C):
-            ll += _logpdf(x[c], p[2], p[3], sigma)
-            d = x[c] - p[5]
-            chi += d * d
-        chi /= p[4]
+        return -0.5 * chi - C * (math.log(p[1]) + 0.5 * LOG_2PI), chi
+    ll = 0.0
+    for c in range(C):
+        ll += _logpdf(x[c], p[2], p[3], p[1])
     return ll, chi
+
+
+@numba.njit(cache=True)
+def _chi_kernel(x, p):  # pragma: no cover - compiled
+    """:func:`velocity_chi` of each sample of ``x`` (n, C)."""
+    out = np.empty(x.shape[0])
+    for t in range(x.shape[0]):
+        out[t] = velocity_chi(p, x[t])
+    return out
 
 
 @numba.njit(cache=True)
