@@ -2,8 +2,9 @@
 
 The fast pages (a few seconds to half a minute each; every page with ``make fresh``) are
 rerun with the seed they were made with and every number and text of their
-``results.json`` is compared with the committed one; a page made by older code fails here
-until it is regenerated (``make reproduce``, or ``python -m contactlab.portable contactlab
+``results.json`` is compared with the committed one, and the words of their page (its
+HTML with every number masked: the numbers are the results') with the committed page's; a
+page made by older code fails here until it is regenerated (``make reproduce``, or ``python -m contactlab.portable contactlab
 reproduce NAME --out reports --seed S``).  Wall-clock times and the page's own path are
 not results.  A refactor that leaves results unchanged passes.  Both run in :mod:`contactlab.portable`'s
 environment, so the same code gives the same numbers on x86-64 Linux machines with AVX2
@@ -12,9 +13,11 @@ and FMA, of any make.
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -51,6 +54,15 @@ def _flat(d, prefix=""):
     return out
 
 
+#: a number in a page's text: compared through results.json, where wall-clock times are not
+_NUMBER = re.compile(r"[-+]?\d+(?:[.,]\d+)*(?:[eE][-+]?\d+)?")
+
+
+def _words(html: str) -> list[str]:
+    """A page's lines (one tag a line) with every number masked."""
+    return _NUMBER.sub("#", html.replace("><", ">\n<")).splitlines()
+
+
 def _same(a, b) -> bool:
     if isinstance(a, float) and isinstance(b, float):
         return (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=1e-7,
@@ -69,9 +81,27 @@ def test_committed_page_matches_the_code(name, tmp_path):
     fresh = json.loads((tmp_path / name / "results.json").read_text())
     a, b = _flat(committed), _flat(fresh)
     stale = sorted(k for k in set(a) | set(b) if not _same(a.get(k), b.get(k)))
+    again = (f"regenerate it with 'python -m contactlab.portable contactlab reproduce {name} "
+             f"--out reports --seed {seed}'")
     assert not stale, (f"reports/{name} is older than the code ({len(stale)} results differ, "
-                       f"e.g. {stale[:3]}): regenerate it with 'python -m contactlab.portable "
-                       f"contactlab reproduce {name} --out reports --seed {seed}'")
+                       f"e.g. {stale[:3]}): {again}")
+    changed = _changed_words((REPO / "reports" / name / "index.html").read_text("utf-8"),
+                             (tmp_path / name / "index.html").read_text("utf-8"))
+    assert not changed, (f"reports/{name}/index.html says other words than the code writes "
+                         f"now ({len(changed)} lines, e.g. {changed[:2]}): {again}")
+
+
+def _changed_words(old: str, new: str) -> list[str]:
+    """The lines whose words differ between two pages (numbers masked)."""
+    return [d for d in difflib.unified_diff(_words(old), _words(new), lineterm="", n=0)
+            if d[:1] in "+-" and d[:3] not in ("+++", "---")]
+
+
+def test_a_page_with_other_words_is_stale_but_other_timings_are_not():
+    page = "<p>Accuracy 0.657; the test ran 8377 blocks/s.</p><td>28.07 s</td>"
+    assert _changed_words(page, page.replace("8377", "9564").replace("28.07", "0.26")) == []
+    assert _changed_words(page, page.replace("Accuracy", "Precision"))
+    assert _changed_words(page, page.replace("</td>", "</td><td>missed</td>"))
 
 
 def test_the_portable_environment_takes_effect():
