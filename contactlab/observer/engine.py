@@ -772,7 +772,7 @@ class Core:
                                _cap(nP + nC, len(ev[2])))
         new_slots = max(nC - int(c[C_FREE]), 0)          # the freed slots are taken first
         if int(c[C_SLOTS]) + new_slots > hist.width:
-            hist.widen(int(c[C_SLOTS]) + new_slots)
+            hist.widen(_cap(int(c[C_SLOTS]) + new_slots, 0))
 
     def _compact_segs(self) -> None:
         """Keep only the segments the active paths' histories reach, renumbered."""
