@@ -100,6 +100,20 @@ def test_the_corner_window_follows_the_walls_friction():
         assert A.corner_ends(4, trials=(0,), wall_material="polished_aluminium") == ["YZ wall"]
 
 
+def test_a_bounce_shorter_than_a_conditioned_sample_is_contact_a_longer_one_is_not():
+    c = np.ones((1000, 3), bool)
+    c[100:103, 0] = False            # 3 ms at 1000 Hz: under one 4-ms sample of 7.1
+    c[200:300:4, 0] = False          # a 1-ms chatter, 25 times
+    c[500:504, 1] = False            # 4 ms: a sample's worth, a separation
+    c[:, 2] = False
+    c[990:, 2] = True                # touched only at the end: no gap between contacts
+    share = A.touched_share(c, 4)
+    assert share[0] == 1.0
+    assert share[1] == pytest.approx(0.996)
+    assert share[2] == pytest.approx(0.01)
+    assert A.touched_share(c, 1)[0] == pytest.approx(1 - 28 / 1000)   # sample by sample
+
+
 def _free_move(adc_bits: int):
     _, sen, _ = build_hardware({"adc_bits": adc_bits})
     ctrl = sim.PositionController(moves=(sim.Move((0.0, 0.018, 0.018), 0.5, 0.4),))
