@@ -10,9 +10,12 @@ first (segment, estimate) check up front the archive outside its trials and
 that the trials asked for exist (``values=False, walk_trials=False``), and
 leave each trial's checks to the stage, which runs them where the trial runs
 (:func:`contactlab.stages.run_stage`): the checks are shared among the
-workers and the measurements are decompressed once.  Commands that read another input before the stage
-runs (models, graphs) check everything up front, so a bad archive is named
-before anything else is read.
+workers and the measurements are decompressed once.  ``recognize`` reads its
+models and graph first: it checks the whole layout up front (``values=False``),
+so a malformed archive is named before the models are read, and each trial's
+values where the trial runs, so an hour's measurements are read once, not twice;
+``train --graph`` checks each trial's values where it reads the trial.  ``label``
+and the other commands check everything up front.
 """
 
 from __future__ import annotations
