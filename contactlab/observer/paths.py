@@ -222,9 +222,12 @@ class _EventView(Sequence):
 class RowBuffer:
     """Rows indexed by global sample number, appended at the end, trimmed at the front.
 
-    Capacity grows geometrically; trimming moves the kept rows to the front
-    only when the dead prefix is at least half the storage, so appends and
-    trims are amortised O(rows).  ``width`` may grow (new columns are zero).
+    Capacity grows to twice the live rows plus the rows appended (geometric for small
+    appends; a large one, an observer's chunk of 4096 samples over a few live rows, is
+    given little more than its own room); when the end is reached and the live rows
+    are at most half the storage, they move to the front (cost ``n``, after at least
+    ``n`` rows were appended since the last move), so appends and trims are amortised
+    O(rows).  ``width`` may grow (new columns are zero).
     """
 
     def __init__(self, width: int, *, t0: int = 0, dtype=np.float64, capacity: int = 1024):
@@ -246,13 +249,13 @@ class RowBuffer:
         if (width is None or width <= have) and self.off + n + rows <= cap:
             return
         width = have if width is None else max(width, have)
-        need = self.off + n + rows
-        if width == have and n + rows <= cap // 2:
-            # the live rows and the new ones fit in the front half: move them there
+        if width == have and n + rows <= cap and 2 * n <= cap:
+            # the live rows and the new ones fit once moved to the front: move them there
             self.a[:n] = self.a[self.off:self.off + n]
             self.off = 0
             return
-        cap = max(self.a.shape[0], 2 * (n + rows), 1024) if need > self.a.shape[0] else self.a.shape[0]
+        if n + rows > cap or (width == have and 2 * n > cap):   # no room, or too much to move
+            cap = max(cap, 2 * n + rows, 1024)
         new = np.zeros((cap, width), dtype=self.a.dtype)
         new[:n, :self.width] = self.a[self.off:self.off + n]
         self.a, self.off = new, 0
