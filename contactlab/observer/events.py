@@ -157,10 +157,10 @@ def keep_set(pll, pnode, n_paths, p_keep, gap, max_paths, survivors, order, w,
     """The pruning (6.4, 9.1.1): rank the ``n_paths`` paths by log-likelihood ``pll``
     (stable, largest first), keep the most probable until their share of the mass
     reaches ``p_keep`` (``p_keep >= 1``: no mass rule), then only those within ``gap`` of
-    the best and at most ``max_paths`` (negative: no limit); with ``survivors``, also the best path ending in
-    each node (``pnode``) the kept ones leave out.  Writes the kept paths, in increasing
-    order, to ``keep`` and returns their count (``order``, ``w``: scratch of
-    ``n_paths``)."""
+    the best and at most ``max_paths`` (negative: no limit); with ``survivors``, also the
+    best path ending in each node (``pnode``) the kept ones leave out.  Writes the kept
+    paths, in increasing order, to ``keep`` and returns their count (``order``, ``w``:
+    scratch of ``n_paths``)."""
     for i in range(n_paths):
         x = pll[i]
         j = i
